@@ -1,0 +1,1 @@
+"""LTLf, MONA and DFAs. Pure logic: numpy at most, never torch."""

@@ -1,0 +1,227 @@
+"""The DFA type: a complete transition table over an alphabet's letters.
+
+`table[s, i]` is the state reached from state s on letter i (see `alphabet.py` for letter
+numbering). A table makes running, products and minimisation array operations, and the guards
+people read are derived from it (`guards.py`), never the other way round.
+
+Traces are non-empty, so the empty word is a don't-care: `minimize_nonempty` picks whichever
+acceptance of the initial state gives fewer states.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Iterator, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tleaf_cli.logic.alphabet import Alphabet
+from tleaf_cli.logic.guards import Guard, cnf_holds, guard_for
+
+
+@dataclass(frozen=True, eq=False)
+class DFA:
+    """A complete deterministic automaton; states are 0..num_states-1."""
+
+    alphabet: Alphabet
+    table: np.ndarray  # int32 [num_states, alphabet.size]
+    initial: int
+    accepting: np.ndarray  # bool [num_states]
+
+    def __post_init__(self) -> None:
+        table = np.ascontiguousarray(self.table, dtype=np.int32)
+        accepting = np.asarray(self.accepting, dtype=bool)
+        n = table.shape[0]
+        if table.ndim != 2 or table.shape[1] != self.alphabet.size:
+            raise ValueError(f"table must be [states, {self.alphabet.size}], got {table.shape}")
+        if accepting.shape != (n,) or not 0 <= self.initial < n:
+            raise ValueError("accepting/initial do not match the table")
+        if n and (table.min() < 0 or table.max() >= n):
+            raise ValueError("table points outside the states")
+        object.__setattr__(self, "table", table)
+        object.__setattr__(self, "accepting", accepting)
+
+    @property
+    def atoms(self) -> tuple[str, ...]:
+        return self.alphabet.atoms
+
+    @property
+    def num_states(self) -> int:
+        return int(self.table.shape[0])
+
+    # ------------------------------------------------------------------ running
+    def run(self, letters: Sequence[int] | np.ndarray) -> int:
+        """The state reached from the initial state on letter indices."""
+        s = self.initial
+        for i in letters:
+            s = int(self.table[s, i])
+        return s
+
+    def accepts(self, trace: Sequence[Collection[str]]) -> bool:
+        """Whether the non-empty trace (a sequence of sets of true atoms) is accepted."""
+        if len(trace) == 0:
+            raise ValueError("traces are non-empty")
+        return bool(self.accepting[self.run([self.alphabet.index(x) for x in trace])])
+
+    # ------------------------------------------------------------ construction
+    @classmethod
+    def from_guards(
+        cls,
+        alphabet: Alphabet,
+        num_states: int,
+        initial: int,
+        accepting: Collection[int],
+        edges: Sequence[tuple[int, int, Sequence[Sequence[int]]]],
+    ) -> DFA:
+        """Rebuild the table from (src, dst, cnf) edges; they must cover each letter exactly once."""
+        table = np.full((num_states, alphabet.size), -1, dtype=np.int32)
+        for src, dst, cnf in edges:
+            hit = cnf_holds(cnf, alphabet)
+            row = table[src]
+            if (row[hit] >= 0).any():
+                raise ValueError(f"state {src}: guards overlap (the DFA is not deterministic)")
+            row[hit] = dst
+        holes = np.argwhere(table < 0)
+        if len(holes):
+            s, i = holes[0]
+            letter = sorted(alphabet.letter(int(i)))
+            raise ValueError(f"state {s}: no edge for letter {letter} (the DFA is not complete)")
+        acc = np.zeros(num_states, dtype=bool)
+        acc[list(accepting)] = True
+        return cls(alphabet, table, initial, acc)
+
+    # ---------------------------------------------------------------- algebra
+    def complement(self) -> DFA:
+        return DFA(self.alphabet, self.table, self.initial, ~self.accepting).minimize()
+
+    def product(self, other: DFA, mode: str = "and") -> DFA:
+        """Synchronous product over the union of both alphabets' atoms; `mode` and/or/xor."""
+        combine = {"and": np.logical_and, "or": np.logical_or, "xor": np.logical_xor}[mode]
+        if self.alphabet.kind != other.alphabet.kind:
+            raise ValueError("cannot combine DFAs over a powerset and a one-hot alphabet")
+        union = Alphabet(tuple(sorted(set(self.atoms) | set(other.atoms))), self.alphabet.kind)
+        ta = self.table[:, self.alphabet.lift(union)]
+        tb = other.table[:, other.alphabet.lift(union)]
+        nb = other.num_states
+        ids = np.full(self.num_states * nb, -1, dtype=np.int64)
+        start = self.initial * nb + other.initial
+        ids[start] = 0
+        order = [start]
+        rows = []
+        frontier = np.array([start], dtype=np.int64)
+        while len(frontier):
+            nxt = ta[frontier // nb].astype(np.int64) * nb + tb[frontier % nb]
+            rows.append(nxt)
+            fresh = np.unique(nxt[ids[nxt] < 0])
+            ids[fresh] = np.arange(len(order), len(order) + len(fresh))
+            order.extend(fresh.tolist())
+            frontier = fresh
+        pairs = np.array(order, dtype=np.int64)
+        table = ids[np.vstack(rows)]
+        accepting = combine(self.accepting[pairs // nb], other.accepting[pairs % nb])
+        return DFA(union, table, 0, accepting).minimize()
+
+    def intersect(self, other: DFA) -> DFA:
+        return self.product(other, "and")
+
+    def equivalent(self, other: DFA) -> bool:
+        """Same language (the empty word included) over the union of their atoms."""
+        return not self.product(other, "xor").accepting.any()
+
+    # ----------------------------------------------------------- minimisation
+    def minimize(self) -> DFA:
+        """The minimal DFA of the same language, states numbered in breadth-first order.
+
+        Moore's partition refinement on the reachable part; two DFAs of one language over one
+        alphabet come out identical (same table), so equality of tables decides equivalence.
+        """
+        reach = self._reachable()
+        remap = np.full(self.num_states, -1, dtype=np.int64)
+        remap[reach] = np.arange(len(reach))
+        table = remap[self.table[reach]]
+        accepting = self.accepting[reach]
+        cls = accepting.astype(np.int64)
+        count = len(np.unique(cls))
+        while True:
+            signature = np.column_stack([cls, cls[table]])
+            _, new = np.unique(signature, axis=0, return_inverse=True)
+            new = new.reshape(-1)
+            new_count = int(new.max()) + 1
+            cls = new
+            if new_count == count:
+                break
+            count = new_count
+        rep = np.zeros(count, dtype=np.int64)
+        rep[cls] = np.arange(len(cls))
+        quotient = cls[table[rep]]
+        return _renumber_bfs(self.alphabet, quotient, int(cls[remap[self.initial]]),
+                             accepting[rep])
+
+    def minimize_nonempty(self) -> DFA:
+        """Minimal DFA for the non-empty traces of this language.
+
+        The initial state gets a fresh copy (so its acceptance only decides the empty word), then
+        both choices are minimised and the smaller kept; on a tie, the empty word is rejected.
+        """
+        n = self.num_states
+        table = np.vstack([self.table, self.table[self.initial][None, :]])
+        variants = []
+        for accept_empty in (False, True):
+            acc = np.append(self.accepting, accept_empty)
+            variants.append(DFA(self.alphabet, table, n, acc).minimize())
+        return min(variants, key=lambda d: d.num_states)
+
+    def _reachable(self) -> np.ndarray:
+        seen = np.zeros(self.num_states, dtype=bool)
+        seen[self.initial] = True
+        frontier = np.array([self.initial])
+        while len(frontier):
+            nxt = np.unique(self.table[frontier])
+            frontier = nxt[~seen[nxt]]
+            seen[frontier] = True
+        return np.flatnonzero(seen)
+
+    # ---------------------------------------------------------------- edges
+    def edges(self) -> Iterator[tuple[int, int, np.ndarray]]:
+        """(src, dst, letters) for every pair of states joined by at least one letter."""
+        for src in range(self.num_states):
+            row = self.table[src]
+            for dst in np.unique(row):
+                yield src, int(dst), row == dst
+
+    def guarded_edges(self) -> list[tuple[int, int, Guard]]:
+        """(src, dst, guard) in (src, dst) order."""
+        return [(s, d, guard_for(mask, self.alphabet)) for s, d, mask in self.edges()]
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, DFA):
+            return NotImplemented
+        return (
+            self.alphabet == other.alphabet
+            and self.initial == other.initial
+            and np.array_equal(self.table, other.table)
+            and np.array_equal(self.accepting, other.accepting)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def _renumber_bfs(alphabet: Alphabet, table: np.ndarray, initial: int,
+                  accepting: np.ndarray) -> DFA:
+    """Renumber states in breadth-first order from `initial`, successors in letter order."""
+    order = [initial]
+    pos = {initial: 0}
+    head = 0
+    while head < len(order):
+        row = table[order[head]]
+        head += 1
+        succ, first = np.unique(row, return_index=True)
+        for s in succ[np.argsort(first)]:
+            s = int(s)
+            if s not in pos:
+                pos[s] = len(order)
+                order.append(s)
+    perm = np.array(order, dtype=np.int64)
+    inverse = np.empty(len(table), dtype=np.int64)
+    inverse[perm] = np.arange(len(perm))
+    return DFA(alphabet, inverse[table[perm]], 0, accepting[perm])
