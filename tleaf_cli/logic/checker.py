@@ -25,7 +25,10 @@ class PackedDFAs:
         widths = np.concatenate([np.full(d.num_states, d.alphabet.size) for d in dfas])
         self.row_start = np.concatenate([[0], np.cumsum(widths)[:-1]]).astype(np.int64)
         self.flat = np.concatenate(
-            [(d.table.astype(np.int64) + base).ravel() for d, base in zip(dfas, state_base)]
+            [
+                (d.table.astype(np.int64) + base).ravel()
+                for d, base in zip(dfas, state_base, strict=True)
+            ]
         )
         self.initial = state_base + np.array([d.initial for d in dfas], dtype=np.int64)
         self.accepting = np.concatenate([d.accepting for d in dfas])

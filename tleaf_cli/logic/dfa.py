@@ -73,7 +73,7 @@ class DFA:
         accepting: Collection[int],
         edges: Sequence[tuple[int, int, Sequence[Sequence[int]]]],
     ) -> DFA:
-        """Rebuild the table from (src, dst, cnf) edges; they must cover each letter exactly once."""
+        """Rebuild the table from (src, dst, cnf) edges, which must cover each letter once."""
         table = np.full((num_states, alphabet.size), -1, dtype=np.int32)
         for src, dst, cnf in edges:
             hit = cnf_holds(cnf, alphabet)
@@ -154,8 +154,7 @@ class DFA:
         rep = np.zeros(count, dtype=np.int64)
         rep[cls] = np.arange(len(cls))
         quotient = cls[table[rep]]
-        return _renumber_bfs(self.alphabet, quotient, int(cls[remap[self.initial]]),
-                             accepting[rep])
+        return _renumber_bfs(self.alphabet, quotient, int(cls[remap[self.initial]]), accepting[rep])
 
     def minimize_nonempty(self) -> DFA:
         """Minimal DFA for the non-empty traces of this language.
@@ -206,8 +205,9 @@ class DFA:
     __hash__ = None  # type: ignore[assignment]
 
 
-def _renumber_bfs(alphabet: Alphabet, table: np.ndarray, initial: int,
-                  accepting: np.ndarray) -> DFA:
+def _renumber_bfs(
+    alphabet: Alphabet, table: np.ndarray, initial: int, accepting: np.ndarray
+) -> DFA:
     """Renumber states in breadth-first order from `initial`, successors in letter order."""
     order = [initial]
     pos = {initial: 0}

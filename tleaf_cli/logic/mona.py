@@ -137,7 +137,8 @@ def automaton_to_dfa(mona: MonaAutomaton, alphabet: Alphabet) -> DFA:
                 value[r, col[var]] = 1.0 if ch == "1" else 0.0
     truth = alphabet.truth().astype(np.float32)  # [letters, atoms]
     # mismatches = sum_k care_k * (truth_k xor value_k)
-    mismatches = care @ truth.T + (care * value).sum(1, keepdims=True) - 2 * (care * value) @ truth.T
+    fixed_true = care * value
+    mismatches = care @ truth.T + fixed_true.sum(1, keepdims=True) - 2 * fixed_true @ truth.T
     matches = mismatches < 0.5
     table = np.full((mona.num_states, alphabet.size), -1, dtype=np.int32)
     for r, (src, _, dst) in enumerate(mona.transitions):
