@@ -52,8 +52,8 @@ def guard_for(letters: np.ndarray, alphabet: Alphabet) -> Guard:
     n = len(alphabet.atoms)
     dnf, _ = _isop(letters, letters, n)
     off, _ = _isop(~letters, ~letters, n)
-    cnf = tuple(sorted(tuple(sorted((-lit for lit in cube), key=abs)) for cube in off))
-    dnf = sorted(tuple(sorted(cube, key=abs)) for cube in dnf)
+    cnf = tuple(sorted((tuple(sorted((-lit for lit in c), key=abs)) for c in off), key=_by_atom))
+    dnf = sorted((tuple(sorted(cube, key=abs)) for cube in dnf), key=_by_atom)
     as_dnf = _render(dnf, alphabet.atoms, inner=" & ", outer=" | ")
     as_cnf = _render(cnf, alphabet.atoms, inner=" | ", outer=" & ")
     return Guard(as_cnf if len(as_cnf) < len(as_dnf) else as_dnf, cnf)
@@ -80,6 +80,11 @@ def _one_hot_guard(letters: np.ndarray, atoms: tuple[str, ...]) -> Guard:
         return Guard(" | ".join(atoms[k] for k in on), (tuple(k + 1 for k in on),))
     off = [k for k in range(len(atoms)) if not letters[k + 1]]
     return Guard(" & ".join(f"!{atoms[k]}" for k in off), tuple((-(k + 1),) for k in off))
+
+
+def _by_atom(term: Clause) -> tuple[tuple[int, bool], ...]:
+    """Order terms by their atoms, then positive before negative: [[1], [-2, 3]]."""
+    return tuple((abs(lit), lit < 0) for lit in term)
 
 
 def _isop(lower: np.ndarray, upper: np.ndarray, nvars: int) -> tuple[list[Clause], np.ndarray]:

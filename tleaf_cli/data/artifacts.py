@@ -1,0 +1,138 @@
+"""Parquet artifacts with provenance, written atomically.
+
+Every artifact carries `tleaf.kind`, `tleaf.schema`, `tleaf.version`, `tleaf.params` (JSON of the
+options used) and `tleaf.inputs` (JSON list of {path, sha256}) as Parquet key-value metadata, so a
+file says how it was made. A write goes to a temporary file beside the target and is renamed over
+it, so a crash never leaves half an artifact.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from tleaf_cli import __version__
+from tleaf_cli.errors import UsageError
+
+PREFIX = "tleaf."
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """What an artifact's metadata says about it."""
+
+    kind: str
+    schema: int
+    version: str
+    params: dict[str, Any]
+    inputs: list[dict[str, str]]
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def describe_inputs(paths: Iterable[str | os.PathLike]) -> list[dict[str, str]]:
+    return [{"path": str(p), "sha256": file_sha256(p)} for p in paths]
+
+
+def atomic_path(target: str | os.PathLike):
+    """A temporary path in the target's directory; rename it over the target when done."""
+    target = Path(target)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    os.close(fd)
+    return Path(tmp)
+
+
+def write_text_atomic(target: str | os.PathLike, text: str) -> None:
+    tmp = atomic_path(target)
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, target)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def write_artifact(
+    table: pa.Table,
+    path: str | os.PathLike,
+    *,
+    kind: str,
+    schema: int,
+    params: dict[str, Any],
+    inputs: list[dict[str, str]],
+) -> None:
+    """Write `table` to `path` with provenance metadata, atomically."""
+    meta = dict(table.schema.metadata or {})
+    meta.update(
+        {
+            f"{PREFIX}kind".encode(): kind.encode(),
+            f"{PREFIX}schema".encode(): str(schema).encode(),
+            f"{PREFIX}version".encode(): __version__.encode(),
+            f"{PREFIX}params".encode(): json.dumps(params, sort_keys=True, default=str).encode(),
+            f"{PREFIX}inputs".encode(): json.dumps(inputs).encode(),
+        }
+    )
+    tmp = atomic_path(path)
+    try:
+        pq.write_table(table.replace_schema_metadata(meta), tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def read_provenance(path: str | os.PathLike) -> Provenance:
+    """Provenance of a tleaf artifact; UsageError when the file is not one."""
+    try:
+        meta = pq.read_schema(path).metadata or {}
+    except FileNotFoundError:
+        raise UsageError(f"{path}: no such file") from None
+    except (pa.ArrowException, OSError) as e:
+        raise UsageError(f"{path}: not a Parquet file ({_first_line(e)})") from None
+    get = {k.decode(): v.decode() for k, v in meta.items() if k.startswith(PREFIX.encode())}
+    if f"{PREFIX}kind" not in get:
+        raise UsageError(f"{path}: a Parquet file without tleaf metadata (not a tleaf artifact)")
+    try:
+        return Provenance(
+            kind=get[f"{PREFIX}kind"],
+            schema=int(get.get(f"{PREFIX}schema", "0")),
+            version=get.get(f"{PREFIX}version", "?"),
+            params=json.loads(get.get(f"{PREFIX}params", "{}")),
+            inputs=json.loads(get.get(f"{PREFIX}inputs", "[]")),
+        )
+    except ValueError:
+        raise UsageError(f"{path}: damaged tleaf metadata") from None
+
+
+def read_artifact(path: str | os.PathLike, kind: str, schema: int) -> tuple[pa.Table, Provenance]:
+    """Read an artifact of the expected kind and schema, or UsageError saying what it is."""
+    prov = read_provenance(path)
+    if prov.kind != kind:
+        raise UsageError(f"{path}: a '{prov.kind}' artifact, expected '{kind}'")
+    if prov.schema != schema:
+        raise UsageError(
+            f"{path}: {kind} schema {prov.schema}, this tleaf reads schema {schema}; "
+            "re-create it with this version"
+        )
+    try:
+        return pq.read_table(path), prov
+    except (pa.ArrowException, OSError) as e:
+        raise UsageError(f"{path}: unreadable ({_first_line(e)})") from None
+
+
+def _first_line(e: BaseException) -> str:
+    return (str(e).strip().splitlines() or [e.__class__.__name__])[0]

@@ -1,0 +1,211 @@
+"""The `compile-dfa` stage: formula sources in, `dfas.parquet` rows out.
+
+Every formula is parsed here first (cheap, and syntax errors need no MONA); identical formulas are
+compiled once; the rest go to joblib workers in input order, so `--jobs N` writes the same file
+as `--jobs 1`. A joblib.Memory cache keyed on the parsed formula, the alphabet and the versions of
+everything that shapes the output means a formula compiled before costs no MONA call.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import metadata
+from pathlib import Path
+
+from joblib import Memory, Parallel, delayed
+
+from tleaf_cli import __version__
+from tleaf_cli.data.artifacts import describe_inputs, write_artifact
+from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
+from tleaf_cli.data.formula_files import FormulaSource, read_formulas
+from tleaf_cli.data.graphs import write_graph_files
+from tleaf_cli.errors import UsageError
+from tleaf_cli.logic import alphabet as alphabet_mod
+from tleaf_cli.logic import dfa as dfa_mod
+from tleaf_cli.logic import guards as guards_mod
+from tleaf_cli.logic import mona as mona_mod
+from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind, LetterError
+from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
+from tleaf_cli.logic.mona import (
+    MonaError,
+    automaton_to_dfa,
+    mona_binary,
+    mona_program,
+    mona_version,
+    parse_output,
+    run_mona,
+)
+
+DEFAULT_TIMEOUT = 30.0
+
+
+def default_cache_dir() -> Path:
+    """$TLEAF_CACHE_DIR, else $XDG_CACHE_HOME/tleaf, else ~/.cache/tleaf."""
+    if os.environ.get("TLEAF_CACHE_DIR"):
+        return Path(os.environ["TLEAF_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "tleaf"
+
+
+@dataclass(frozen=True)
+class CompileSettings:
+    alphabet: AlphabetKind = "powerset"
+    timeout: float = DEFAULT_TIMEOUT
+    cache_dir: Path | None = field(default_factory=default_cache_dir)
+    jobs: int = 1
+
+
+@dataclass
+class CompileReport:
+    """What a compile run did: the rows, and figures for its summary line."""
+
+    rows: list[dict]
+    failures: list[tuple[str, str]]  # (input path, located message) for stderr, input order
+    unique: int = 0
+    cache_hits: int = 0
+    seconds: float = 0.0
+
+    @property
+    def compiled(self) -> int:
+        return sum(r["error"] is None for r in self.rows)
+
+
+def compile_sources(
+    sources: Sequence[FormulaSource],
+    settings: CompileSettings,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> CompileReport:
+    """Compile formulas to rows (input order). `on_progress(done, total)` after each formula."""
+    start = time.perf_counter()
+    versions = _versions()
+    rows: list[dict | None] = [None] * len(sources)
+    tasks: dict[str, list[int]] = {}  # canonical formula -> rows waiting for it
+    for i, src in enumerate(sources):
+        if src.problem is not None:
+            rows[i] = make_row(src.formula_id, src.text, None, src.located(src.problem))
+            continue
+        try:
+            formula = parse(src.text)
+            Alphabet(atoms(formula), settings.alphabet)
+        except FormulaSyntaxError as e:
+            error = src.located(e.message, e.column)
+            rows[i] = make_row(src.formula_id, src.text, None, error)
+            continue
+        except LetterError as e:
+            rows[i] = make_row(src.formula_id, src.text, None, src.located(str(e)))
+            continue
+        tasks.setdefault(str(formula), []).append(i)
+
+    canon = list(tasks)
+    cache_dir = str(settings.cache_dir) if settings.cache_dir else None
+    calls = (
+        delayed(_compile_task)(text, settings.alphabet, settings.timeout, cache_dir, versions)
+        for text in canon
+    )
+    if settings.jobs == 1 or len(canon) < 2:
+        results = (call[0](*call[1], **call[2]) for call in calls)
+    else:
+        results = Parallel(n_jobs=settings.jobs, return_as="generator")(calls)
+    hits = 0
+    for k, (payload, error, hit) in enumerate(results):
+        hits += hit
+        for i in tasks[canon[k]]:
+            src = sources[i]
+            located = None if error is None else src.located(error)
+            rows[i] = make_row(src.formula_id, src.text, payload, located)
+        if on_progress:
+            on_progress(k + 1, len(canon))
+
+    failures = [
+        (src.path, row["error"])
+        for src, row in zip(sources, rows, strict=True)
+        if row is not None and row["error"] is not None
+    ]
+    return CompileReport(
+        rows=[r for r in rows if r is not None],
+        failures=failures,
+        unique=len(canon),
+        cache_hits=hits,
+        seconds=time.perf_counter() - start,
+    )
+
+
+def compile_file(
+    source: str | Path,
+    out: str | Path,
+    settings: CompileSettings,
+    graphs_dir: str | Path | None = None,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> CompileReport:
+    """Read, compile, write `dfas.parquet` (and graph files); UsageError if the call is unusable."""
+    try:
+        mona_binary()  # fail before anything is written when MONA is missing
+    except MonaError as e:
+        raise UsageError(str(e)) from None
+    sources = read_formulas(source)
+    report = compile_sources(sources, settings, on_progress)
+    if not sources:
+        report.failures.append((str(source), "no formulas (empty file, or only comments)"))
+    params = {"alphabet": settings.alphabet, "timeout": settings.timeout}
+    write_artifact(
+        rows_to_table(report.rows),
+        out,
+        kind=KIND,
+        schema=SCHEMA_VERSION,
+        params=params,
+        inputs=describe_inputs([source]),
+    )
+    if graphs_dir is not None:
+        write_graph_files(report.rows, graphs_dir)
+    return report
+
+
+def _compile_task(
+    text: str,
+    alphabet: AlphabetKind,
+    timeout: float,
+    cache_dir: str | None,
+    versions: tuple[str, ...],
+) -> tuple[dict | None, str | None, bool]:
+    """(payload, error, cache hit) for one canonical formula; runs in a worker."""
+    try:
+        if cache_dir is None:
+            return _compile_payload(text, alphabet, timeout, versions), None, False
+        cached = _memorized(cache_dir)
+        hit = cached.check_call_in_cache(text, alphabet, timeout, versions)
+        return cached(text, alphabet, timeout, versions), None, hit
+    except MonaError as e:
+        return None, str(e), False
+
+
+def _compile_payload(
+    text: str, alphabet: AlphabetKind, timeout: float, versions: tuple[str, ...]
+) -> dict:
+    formula = parse(text)
+    letters = Alphabet(atoms(formula), alphabet)
+    dfa = automaton_to_dfa(parse_output(run_mona(mona_program(formula), timeout)), letters)
+    return dfa_payload(dfa)
+
+
+@cache
+def _memorized(cache_dir: str):
+    memory = Memory(location=cache_dir, verbose=0)
+    return memory.cache(_compile_payload, ignore=["timeout"])
+
+
+@cache
+def _versions() -> tuple[str, ...]:
+    """Everything that shapes a compiled DFA: tool versions and tleaf's logic code."""
+    code = hashlib.sha256()
+    for module in (alphabet_mod, dfa_mod, guards_mod, mona_mod):
+        code.update(Path(module.__file__).read_bytes())
+    try:
+        mona = mona_version()
+    except (MonaError, OSError):
+        raise UsageError(f"mona not usable; {mona_mod.INSTALL_HINT}") from None
+    return (__version__, metadata.version("ltlf2dfa"), mona, code.hexdigest()[:16])

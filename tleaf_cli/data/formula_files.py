@@ -1,0 +1,112 @@
+"""Formula inputs: `.ltl` text files and Parquet tables with `formula_id, formula`.
+
+`.ltl` (DESIGN.md): UTF-8, one formula per line, `#` starts a comment, blank lines skipped, an
+optional `name:` prefix (`[A-Za-z0-9_.-]+`) names the formula, otherwise its id is `L<line>`.
+A line that is wrong in itself (bad name, repeated name) still yields an entry, with `problem`
+set, so the stage reports it in its row and carries on with the others.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from tleaf_cli.errors import UsageError
+
+_NAMED = re.compile(r"^\s*([^\s:][^:]*?)\s*:(.*)$")
+_VALID_NAME = re.compile(r"[A-Za-z0-9_.-]+")
+
+
+@dataclass(frozen=True)
+class FormulaSource:
+    """One formula as read: its id, its text, where it came from, and any problem with it."""
+
+    formula_id: str
+    text: str
+    path: str
+    location: str  # "line 3" (.ltl) or "row 4" (Parquet, 0-based)
+    offset: int = 0  # columns before the formula text on its line (a `name:` prefix)
+    problem: str | None = None
+
+    def located(self, message: str, column: int | None = None) -> str:
+        """`message` prefixed with where it happened: line/row, and column when known."""
+        if column is None:
+            return f"{self.location}: {message}"
+        return f"{self.location}, column {self.offset + column}: {message}"
+
+
+def read_formulas(path: str | Path) -> list[FormulaSource]:
+    """Formulas from a `.ltl` file or a Parquet table; UsageError when the file is unusable."""
+    path = Path(path)
+    if not path.exists():
+        raise UsageError(f"{path}: no such file")
+    if path.suffix == ".parquet":
+        return _read_parquet(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as e:
+        raise UsageError(f"{path}: not UTF-8 text (byte {e.start})") from None
+    except OSError as e:
+        raise UsageError(f"{path}: cannot read ({e.strerror})") from None
+    return parse_ltl_text(text, str(path))
+
+
+def parse_ltl_text(text: str, name: str = "<text>") -> list[FormulaSource]:
+    out: list[FormulaSource] = []
+    first_seen: dict[str, int] = {}
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.split("#", 1)[0].strip()
+        if not line:
+            continue
+        fid, body, problem = f"L{lineno}", line, None
+        m = _NAMED.match(line)
+        if m:
+            label, body = m.group(1), m.group(2).strip()
+            if not body:
+                problem = "empty formula after the name"
+            if not _VALID_NAME.fullmatch(label):
+                problem = f"invalid formula name '{label}' (allowed: letters, digits, _ . -)"
+            elif label in first_seen:
+                problem = f"name '{label}' already used on line {first_seen[label]}"
+            else:
+                fid = label
+        if fid in first_seen and problem is None:
+            problem = f"id '{fid}' already used on line {first_seen[fid]}"
+            fid = f"L{lineno}"
+        first_seen.setdefault(fid, lineno)
+        offset = raw.find(body) if body else 0
+        out.append(FormulaSource(fid, body, name, f"line {lineno}", offset, problem))
+    return out
+
+
+def _read_parquet(path: Path) -> list[FormulaSource]:
+    try:
+        table = pq.read_table(path)
+    except (pa.ArrowException, OSError) as e:
+        raise UsageError(f"{path}: not a readable Parquet file ({e})") from None
+    missing = {"formula_id", "formula"} - set(table.column_names)
+    if missing:
+        raise UsageError(
+            f"{path}: expected columns formula_id and formula, missing {', '.join(sorted(missing))}"
+        )
+    ids = table.column("formula_id").to_pylist()
+    texts = table.column("formula").to_pylist()
+    out: list[FormulaSource] = []
+    first_seen: dict[str, int] = {}
+    for row, (fid, text) in enumerate(zip(ids, texts, strict=True)):
+        problem = None
+        if fid is None or str(fid) == "":
+            fid, problem = f"row{row}", "formula_id is empty"
+        fid = str(fid)
+        if not isinstance(text, str):
+            text, problem = "", problem or "formula is not a string"
+        if fid in first_seen and problem is None:
+            problem = f"formula_id '{fid}' already used on row {first_seen[fid]}"
+            fid = f"{fid}@row{row}"
+        first_seen.setdefault(fid, row)
+        out.append(FormulaSource(fid, text.strip(), str(path), f"row {row}", 0, problem))
+    return out

@@ -1,0 +1,87 @@
+"""`tleaf inspect`: any artifact's provenance and first rows; one DFA's states and edges."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pyarrow.parquet as pq
+
+from tleaf_cli import ui
+from tleaf_cli.data.artifacts import read_provenance
+from tleaf_cli.data.dfa_table import KIND as DFA_KIND
+from tleaf_cli.data.dfa_table import read_dfas
+from tleaf_cli.data.graphs import render_dot, row_to_dot
+
+CELL_CHARS = 60
+
+
+def show_artifact(path: Path, limit: int = 10) -> None:
+    """Kind, schema, version, params, inputs, columns and the first `limit` rows."""
+    prov = read_provenance(path)
+    parquet = pq.ParquetFile(path)
+    n_rows = parquet.metadata.num_rows
+    ui.text(f"{path}: {prov.kind} artifact, schema {prov.schema}, tleaf {prov.version}")
+    ui.text(f"rows: {n_rows}")
+    ui.text(f"params: {json.dumps(prov.params, sort_keys=True)}")
+    for item in prov.inputs:
+        ui.text(f"input: {item.get('path')} (sha256 {str(item.get('sha256'))[:12]}…)")
+    schema = parquet.schema_arrow
+    ui.text("columns: " + ", ".join(f"{f.name} {f.type}" for f in schema))
+    head = next(parquet.iter_batches(batch_size=max(limit, 1)), None)
+    rows = head.to_pylist()[:limit] if head is not None else []
+    if prov.kind == DFA_KIND:
+        rows = [_dfa_brief(r) for r in rows]
+    if rows:
+        columns = list(rows[0])
+        ui.table(f"first {len(rows)} rows", columns, [[_cell(r[c]) for c in columns] for r in rows])
+    if prov.kind == DFA_KIND and n_rows:
+        compiled = pq.read_table(path, columns=["error"]).column("error").null_count
+        ui.text(f"compiled: {compiled} of {n_rows}; failed: {n_rows - compiled}")
+
+
+def show_dfa(path: Path, formula_id: str, dot: bool = False, draw: Path | None = None) -> None:
+    """One DFA: states (initial/accepting) and guarded edges; or its DOT text / a drawing."""
+    table = read_dfas(path)
+    row = table.row(formula_id)
+    if row["error"] is not None:
+        ui.text(f"{formula_id}: {row['formula']}")
+        ui.text(f"did not compile: {row['error']}")
+        return
+    if dot:
+        ui.text(row_to_dot(row).rstrip("\n"))
+        return
+    if draw is not None:
+        render_dot(row_to_dot(row), draw)
+        ui.summary(f"drew {formula_id} to {draw}")
+        return
+    ui.text(f"{formula_id}: {row['formula']}")
+    ui.text(f"atoms: {' '.join(row['atoms']) or '(none)'}   alphabet: {row['alphabet']}")
+    accepting = set(row["accepting"])
+    states = [
+        [str(s), "yes" if s == row["initial"] else "", "yes" if s in accepting else ""]
+        for s in range(row["num_states"])
+    ]
+    ui.table(f"{row['num_states']} states", ["state", "initial", "accepting"], states)
+    edges = [[str(e["src"]), str(e["dst"]), e["guard"], json.dumps(e["cnf"])] for e in row["edges"]]
+    ui.table(f"{len(edges)} edges", ["src", "dst", "guard", "cnf"], edges)
+
+
+def _dfa_brief(row: dict) -> dict:
+    """A dfas.parquet row with edges summarised, so the table stays readable."""
+    return {
+        "formula_id": row["formula_id"],
+        "formula": row["formula"],
+        "atoms": None if row["atoms"] is None else " ".join(row["atoms"]),
+        "states": row["num_states"],
+        "accepting": row["accepting"],
+        "edges": None if row["edges"] is None else len(row["edges"]),
+        "error": row["error"],
+    }
+
+
+def _cell(value) -> str:
+    if value is None:
+        return "—"
+    text = value if isinstance(value, str) else json.dumps(value)
+    return text if len(text) <= CELL_CHARS else text[: CELL_CHARS - 1] + "…"
