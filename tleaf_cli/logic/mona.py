@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import re
+import resource
 import shutil
 import subprocess
 import tempfile
@@ -27,6 +28,7 @@ from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
 
 INSTALL_HINT = "install it with: apt-get install -y mona  (Debian/Ubuntu package 'mona')"
+DEFAULT_MEMORY_MB = 4096
 
 
 class MonaError(RuntimeError):
@@ -71,9 +73,18 @@ def mona_program(formula: LTLfFormula) -> str:
     return MonaProgram(formula).mona_program()
 
 
-def run_mona(program: str, timeout: float) -> str:
-    """Run MONA on a program text in a private temp dir; its stdout, or MonaError."""
+def run_mona(program: str, timeout: float, memory_mb: int = DEFAULT_MEMORY_MB) -> str:
+    """Run MONA on a program text in a private temp dir; its stdout, or MonaError.
+
+    MONA's automata can grow exponentially (21 GB measured for a 22-step look-back), so its
+    address space is capped at `memory_mb` as well as its time.
+    """
     binary = mona_binary()
+    limit = memory_mb * 1024 * 1024
+
+    def cap_memory() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
     with tempfile.TemporaryDirectory(prefix="tleaf-mona-") as tmp:
         path = os.path.join(tmp, "formula.mona")
         with open(path, "w", encoding="utf-8") as fh:
@@ -85,12 +96,14 @@ def run_mona(program: str, timeout: float) -> str:
                 text=True,
                 timeout=timeout,
                 cwd=tmp,
+                preexec_fn=cap_memory,
             )
         except subprocess.TimeoutExpired:
             raise MonaTimeout(f"MONA did not finish within {timeout:g} s") from None
     if proc.returncode != 0:
         detail = (proc.stderr or proc.stdout).strip().splitlines()
-        raise MonaError(f"MONA failed (exit {proc.returncode}): {detail[-1] if detail else '?'}")
+        reason = detail[-1] if detail else f"exit status {proc.returncode}"
+        raise MonaError(f"MONA failed ({reason}; memory limit {memory_mb} MB)")
     return proc.stdout
 
 
