@@ -50,7 +50,7 @@ from rich.table import Table
 
 from tleaf_cli.data.dfa_table import dfa_payload
 from tleaf_cli.data.random_formulas import random_formula
-from tleaf_cli.logic.alphabet import Alphabet
+from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.compile import compile_formula
 from tleaf_cli.logic.dfa import DFA
@@ -390,43 +390,95 @@ def bench_checker(args: Args, formulas: list[str]) -> None:
 
 
 # --------------------------------------------------------------------------- profile
-def profile_stages(formulas: list[str]) -> None:
-    """Seconds per stage of tleaf's compile (as compile-dfa does it, guards included)."""
-    stages = [
-        "parse",
-        "MONA program",
-        "MONA subprocess",
-        "parse MONA output",
-        "automaton_to_dfa (table + minimise)",
-        "guards (dfa_payload)",
+STAGES = (
+    "parse",
+    "MONA program (ltlf2dfa encoding)",
+    "MONA subprocess",
+    "parse MONA output",
+    "automaton_to_dfa: table from cubes",
+    "automaton_to_dfa: minimize_nonempty",
+    "guards (dfa_payload, as compile-dfa)",
+)
+
+
+def stage_seconds(formulas: list[str], alphabet: AlphabetKind) -> dict[str, float]:
+    """Mean seconds per formula in each stage of tleaf's compile, guards included."""
+    totals = dict.fromkeys(STAGES, 0.0)
+    minimise = [0.0]
+    original = DFA.minimize_nonempty
+
+    def timed_minimize(self: DFA) -> DFA:  # counts the minimisation inside automaton_to_dfa
+        start = time.perf_counter()
+        result = original(self)
+        minimise[0] += time.perf_counter() - start
+        return result
+
+    DFA.minimize_nonempty = timed_minimize  # type: ignore[method-assign]
+    try:
+        for text in formulas:
+            marks = [time.perf_counter()]
+            formula = parse(text)
+            letters = Alphabet(atoms(formula), alphabet)
+            marks.append(time.perf_counter())
+            program = mona_program(formula)
+            marks.append(time.perf_counter())
+            output = run_mona(program, 60.0)
+            marks.append(time.perf_counter())
+            automaton = parse_output(output)
+            marks.append(time.perf_counter())
+            dfa = automaton_to_dfa(automaton, letters)
+            marks.append(time.perf_counter())
+            marks.append(time.perf_counter())  # minimise is split out below
+            dfa_payload(dfa)
+            marks.append(time.perf_counter())
+            for stage, a, b in zip(STAGES, marks[:-1], marks[1:], strict=True):
+                totals[stage] += b - a
+    finally:
+        DFA.minimize_nonempty = original  # type: ignore[method-assign]
+    totals["automaton_to_dfa: table from cubes"] -= minimise[0]
+    totals["automaton_to_dfa: minimize_nonempty"] = minimise[0]
+    return {stage: seconds / len(formulas) for stage, seconds in totals.items()}
+
+
+PEAK_RSS_SCRIPT = """
+import resource, sys
+from tleaf_cli.logic.compile import compile_formula
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+compile_formula(sys.argv[1], sys.argv[2])
+print(before / 1024, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)
+"""
+
+
+def peak_rss_mb(text: str, alphabet: AlphabetKind) -> tuple[float, float]:
+    """(MB before, peak MB after) of one compile_formula call in a fresh interpreter."""
+    cmd = [sys.executable, "-c", PEAK_RSS_SCRIPT, text, alphabet]
+    out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.split()
+    return float(out[0]), float(out[1])
+
+
+def profile_compile(formulas: list[str]) -> None:
+    name, slow = pattern_set(12)[2]
+    columns = [
+        (f"{len(formulas)} random 3-atom, ms/formula", formulas, "powerset"),
+        ("12-atom chain alt., powerset, ms", [slow], "powerset"),
+        ("12-atom chain alt., one-hot, ms", [slow], "one-hot"),
     ]
-    totals = dict.fromkeys(stages, 0.0)
-    for text in formulas:
-        marks = [time.perf_counter()]
-        formula = parse(text)
-        letters = Alphabet(atoms(formula), "powerset")
-        marks.append(time.perf_counter())
-        program = mona_program(formula)
-        marks.append(time.perf_counter())
-        output = run_mona(program, 30.0)
-        marks.append(time.perf_counter())
-        automaton = parse_output(output)
-        marks.append(time.perf_counter())
-        dfa = automaton_to_dfa(automaton, letters)
-        marks.append(time.perf_counter())
-        dfa_payload(dfa)
-        marks.append(time.perf_counter())
-        for stage, a, b in zip(stages, marks[:-1], marks[1:], strict=True):
-            totals[stage] += b - a
-    total = sum(totals.values())
-    table = Table(title=f"4. Where tleaf's compile time goes ({len(formulas)} formulas, 1 process)")
+    results = [stage_seconds(texts, kind) for _, texts, kind in columns]
+    table = Table(title="4. Where tleaf's compile time goes (1 process, stage by stage)")
     table.add_column("stage")
-    table.add_column("ms per formula", justify="right")
-    table.add_column("share", justify="right")
-    for stage, seconds in totals.items():
-        table.add_row(stage, f"{1000 * seconds / len(formulas):.2f}", f"{seconds / total:.0%}")
-    table.add_row("total", f"{1000 * total / len(formulas):.2f}", "100%")
+    for title, _, _ in columns:
+        table.add_column(title, justify="right")
+    for stage in STAGES:
+        cells = [f"{1000 * r[stage]:.2f} ({r[stage] / sum(r.values()):.0%})" for r in results]
+        table.add_row(stage, *cells)
+    table.add_row("total", *[f"{1000 * sum(r.values()):.2f}" for r in results])
     console.print(table)
+    for kind in ("powerset", "one-hot"):
+        before, peak = peak_rss_mb(slow, kind)
+        console.print(
+            f"Peak RSS of one compile_formula({name!r}, {kind!r}) in a fresh interpreter: "
+            f"{peak:,.0f} MB (after imports: {before:,.0f} MB)."
+        )
 
 
 # --------------------------------------------------------------------------- main
@@ -444,7 +496,7 @@ def main() -> None:
     bench_patterns(args)
     bench_checker(args, formulas)
     if args.profile:
-        profile_stages(formulas[:200])
+        profile_compile(formulas[:200])
 
 
 if __name__ == "__main__":

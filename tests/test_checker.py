@@ -29,8 +29,7 @@ def test_many_dfas_many_traces_match_step_by_step_runs() -> None:
         letters[i, : lengths[i]] = gen.integers(0, size, lengths[i])
     got = packed.check(which, letters, lengths)
     expected = [
-        bool(dfas[k].accepting[dfas[k].run(letters[i, : lengths[i]])])
-        for i, k in enumerate(which)
+        bool(dfas[k].accepting[dfas[k].run(letters[i, : lengths[i]])]) for i, k in enumerate(which)
     ]
     assert got.tolist() == expected
     assert 0 < got.sum() < n  # a meaningful mix, not all one label

@@ -43,7 +43,7 @@ def _distinguishable_pairs(dfa: DFA) -> set[tuple[int, int]]:
 
 @pytest.mark.parametrize("kind", ["powerset", "one-hot"])
 def test_compiled_dfas_are_minimal_complete_and_reachable(kind: str) -> None:
-    for text in _formulas(40) + ["G(a -> F b)", "a U b", "last", "WX a"]:
+    for text in [*_formulas(40), "G(a -> F b)", "a U b", "last", "WX a"]:
         dfa = compile_formula(text, kind)
         n = dfa.num_states
         # complete: one successor per (state, letter), inside the states
@@ -69,8 +69,12 @@ def test_minimal_on_nonempty_traces_uses_the_empty_word_freely() -> None:
 
 
 def test_same_language_gives_identical_tables() -> None:
-    pairs = [("G(a -> F b)", "!F(a & !F b)"), ("a U b", "b | (a & X(a U b))"),
-             ("F a", "!G !a"), ("a R b", "!(!a U !b)")]
+    pairs = [
+        ("G(a -> F b)", "!F(a & !F b)"),
+        ("a U b", "b | (a & X(a U b))"),
+        ("F a", "!G !a"),
+        ("a R b", "!(!a U !b)"),
+    ]
     for x, y in pairs:
         assert compile_formula(x) == compile_formula(y), (x, y)
     assert compile_formula("F a") != compile_formula("G a")

@@ -58,8 +58,10 @@ def read_formulas(path: str | Path) -> list[FormulaSource]:
 def parse_ltl_text(text: str, name: str = "<text>") -> list[FormulaSource]:
     out: list[FormulaSource] = []
     first_seen: dict[str, int] = {}
-    for lineno, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
+    # Only "\n" ends a line (not the other separators str.splitlines knows), so line numbers
+    # match what editors show.
+    for lineno, raw in enumerate(text.split("\n"), start=1):
+        line = raw.split("#", 1)[0].strip()  # strip() also drops a CRLF's "\r"
         if not line:
             continue
         fid, body, problem = f"L{lineno}", line, None

@@ -44,7 +44,7 @@ def parse(text: str) -> LTLfFormula:
     except UnexpectedCharacters as e:
         raise _explain_character(text, e) from None
     except (UnexpectedToken, UnexpectedEOF) as e:
-        raise _explain_token(e) from None
+        raise _explain_token(text, e) from None
     except (LarkError, ValueError, AssertionError) as e:
         raise FormulaSyntaxError(f"not a formula ({e.__class__.__name__})") from None
 
@@ -73,13 +73,14 @@ def _explain_character(text: str, e: UnexpectedCharacters) -> FormulaSyntaxError
     return FormulaSyntaxError(f"unexpected character '{char}'; {OPERATORS_HELP}", col)
 
 
-def _explain_token(e: UnexpectedToken | UnexpectedEOF) -> FormulaSyntaxError:
+def _explain_token(text: str, e: UnexpectedToken | UnexpectedEOF) -> FormulaSyntaxError:
     token = getattr(e, "token", None)
     col = getattr(e, "column", None)
     if col is None or col < 0:
         col = None
     if token is None or token.type == "$END":
-        return FormulaSyntaxError("formula ends too early (an operand or ')' is missing)", col)
+        end = len(text.rstrip()) + 1  # just past the last character
+        return FormulaSyntaxError("formula ends too early (an operand or ')' is missing)", end)
     if token.type == "RSEPARATOR":
         return FormulaSyntaxError("unbalanced ')'", col)
     return FormulaSyntaxError(f"unexpected '{token.value}' here (an operator is missing?)", col)
