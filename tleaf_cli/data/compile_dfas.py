@@ -103,14 +103,12 @@ def compile_sources(
 
     canon = list(tasks)
     cache_dir = str(settings.cache_dir) if settings.cache_dir else None
-    calls = (
-        delayed(_compile_task)(text, settings.alphabet, settings.timeout, cache_dir, versions)
-        for text in canon
-    )
+    args = [(text, settings.alphabet, settings.timeout, cache_dir, versions) for text in canon]
     if settings.jobs == 1 or len(canon) < 2:
-        results = (call[0](*call[1], **call[2]) for call in calls)
+        results = (_compile_task(*a) for a in args)
     else:
-        results = Parallel(n_jobs=settings.jobs, return_as="generator")(calls)
+        parallel = Parallel(n_jobs=settings.jobs, return_as="generator")
+        results = parallel(delayed(_compile_task)(*a) for a in args)
     hits = 0
     for k, (payload, error, hit) in enumerate(results):
         hits += hit
