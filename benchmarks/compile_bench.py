@@ -244,7 +244,8 @@ def bench_random_set(args: Args, formulas: list[str], workdir: Path) -> None:
         f"`tleaf --version` takes {startup:.2f} s (best of 3).\n"
         f"Ratio tleaf (--jobs {args.jobs}, no cache) / to_dfa: "
         f"{len(formulas) / runs[0][1][0] / peer_rate:.2f}x formulas/s. 'compile s' is the time "
-        "compile-dfa reports itself (reading, parsing, compiling; not start-up or writing).\n"
+        "compile-dfa reports itself (parsing and compiling, worker start-up included; "
+        "not process start-up, reading or writing).\n"
     )
 
 

@@ -15,6 +15,8 @@ import typer
 from tleaf_cli import __version__, ui, views
 from tleaf_cli.data.compile_dfas import DEFAULT_TIMEOUT, CompileSettings, compile_file
 from tleaf_cli.data.compile_dfas import default_cache_dir as _default_cache_dir
+from tleaf_cli.data.formula_gen import TIERS, FormulaSettings, generate_formulas, write_formula_file
+from tleaf_cli.data.traces import DEFAULT_MAX_LEN, DEFAULT_MIN_LEN, TraceSettings, generate_traces
 from tleaf_cli.errors import UsageError
 
 app = typer.Typer(
@@ -28,6 +30,23 @@ app = typer.Typer(
 
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
 Jobs = Annotated[int, typer.Option("--jobs", "-j", min=1, help="Parallel worker processes.")]
+Seed = Annotated[int, typer.Option(help="Random seed; the same seed writes the same file.")]
+MinLen = Annotated[int, typer.Option(min=1, help="Shortest trace length.")]
+MaxLen = Annotated[int, typer.Option(min=1, help="Longest trace length.")]
+CacheDir = Annotated[
+    Path | None,
+    typer.Option(help="Compile cache [default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
+]
+NoCache = Annotated[bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")]
+
+
+def _compile_settings(one_hot: bool, timeout: float, cache_dir, no_cache: bool, jobs: int):
+    return CompileSettings(
+        alphabet="one-hot" if one_hot else "powerset",
+        timeout=timeout,
+        cache_dir=None if no_cache else (cache_dir or _default_cache_dir()),
+        jobs=jobs,
+    )
 
 
 def _exits(func):
@@ -100,12 +119,7 @@ def compile_dfa(
     A formula that fails (syntax, timeout) gets a row whose `error` says why; the others are still
     compiled, and the exit status is 1.
     """
-    settings = CompileSettings(
-        alphabet="one-hot" if one_hot else "powerset",
-        timeout=timeout,
-        cache_dir=None if no_cache else (cache_dir or _default_cache_dir()),
-        jobs=jobs,
-    )
+    settings = _compile_settings(one_hot, timeout, cache_dir, no_cache, jobs)
     with ui.progress("compiling", quiet) as update:
         report = compile_file(formulas, out, settings, graphs, update)
     ui.failures(report.failures)
@@ -116,6 +130,142 @@ def compile_dfa(
         quiet,
     )
     if report.failures:
+        raise typer.Exit(1)
+
+
+@app.command("gen-formulas")
+@_exits
+def gen_formulas(
+    out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
+        "formulas.ltl"
+    ),
+    tier: Annotated[
+        str | None,
+        typer.Option(
+            help="The paper's settings: low (3 atoms, size 10), moderate (3, 20), "
+            "high (6, 20). Overrides --atoms and --size."
+        ),
+    ] = None,
+    atoms: Annotated[int, typer.Option(help="Distinct atoms in every formula (a, b, c, ...).")] = 3,
+    size: Annotated[
+        int, typer.Option(help="Syntax-tree nodes (operators + atom occurrences).")
+    ] = 10,
+    n: Annotated[int, typer.Option("-n", min=1, help="Formulas to keep.")] = 100,
+    seed: Seed = 0,
+    min_len: MinLen = DEFAULT_MIN_LEN,
+    max_len: MaxLen = DEFAULT_MAX_LEN,
+    one_hot: Annotated[
+        bool, typer.Option("--one-hot", help="Judge formulas on one-hot traces.")
+    ] = False,
+    prefix: Annotated[
+        str | None, typer.Option(help="Formula id prefix [default: the tier, or f].")
+    ] = None,
+    jobs: Jobs = 1,
+    timeout: Annotated[
+        float, typer.Option(min=0.001, help="MONA seconds per formula.")
+    ] = DEFAULT_TIMEOUT,
+    cache_dir: CacheDir = None,
+    no_cache: NoCache = False,
+    quiet: Quiet = False,
+) -> None:
+    """Draw SYNTHETIC random LTLf formulas worth learning from.
+
+    Rejects unsatisfiable and valid formulas, formulas with no length in [--min-len, --max-len]
+    that has both satisfying and violating traces, and repeats of a language already kept.
+    """
+    if tier is not None:
+        if tier not in TIERS:
+            raise UsageError(f"--tier must be one of {', '.join(TIERS)}, not '{tier}'")
+        atoms, size = TIERS[tier]
+    settings = FormulaSettings(
+        n=n,
+        atoms=atoms,
+        size=size,
+        seed=seed,
+        min_len=min_len,
+        max_len=max_len,
+        one_hot=one_hot,
+        prefix=prefix or (f"{tier}-" if tier else "f"),
+        compile=_compile_settings(one_hot, timeout, cache_dir, no_cache, jobs),
+    )
+    with ui.progress("generating", quiet) as update:
+        report = generate_formulas(settings, update)
+    write_formula_file(report, settings, out)
+    reasons = ", ".join(f"{k}: {v}" for k, v in report.rejected.most_common()) or "none"
+    ui.summary(
+        f"{out}: kept {len(report.kept)} of {report.drawn} drawn "
+        f"({atoms} atoms, size {size}); rejected {sum(report.rejected.values())} ({reasons})",
+        quiet,
+    )
+    if len(report.kept) < n:
+        ui.fatal(f"only {len(report.kept)} of {n} formulas found before the draw limit")
+        raise typer.Exit(1)
+
+
+def _fractions(text: str | None) -> tuple[float, float, float] | None:
+    if text is None:
+        return None
+    try:
+        parts = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise UsageError(f"--split takes three fractions like 0.8,0.1,0.1, not '{text}'") from None
+    if len(parts) != 3:
+        raise UsageError(f"--split takes three fractions like 0.8,0.1,0.1, not '{text}'")
+    return parts  # type: ignore[return-value]
+
+
+@app.command("gen-traces")
+@_exits
+def gen_traces(
+    dfas: Annotated[Path, typer.Argument(help="A dfas.parquet from compile-dfa.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The traces.parquet to write.")] = Path(
+        "traces.parquet"
+    ),
+    per_formula: Annotated[
+        int, typer.Option(min=1, help="K: satisfying and K violating traces per formula.")
+    ] = 20,
+    min_len: MinLen = DEFAULT_MIN_LEN,
+    max_len: MaxLen = DEFAULT_MAX_LEN,
+    hard_fraction: Annotated[
+        float, typer.Option(help="Share of violating traces that are hard negatives.")
+    ] = 0.5,
+    one_hot: Annotated[
+        bool, typer.Option("--one-hot", help="One-hot letters only (a single atom, or none).")
+    ] = False,
+    split: Annotated[
+        str | None, typer.Option(help="Add a split column by formula: train,val,test fractions.")
+    ] = None,
+    seed: Seed = 0,
+    jobs: Jobs = 1,
+    quiet: Quiet = False,
+) -> None:
+    """Sample satisfying and violating traces for every DFA, paired by length.
+
+    Satisfying traces are uniform among accepted words of a length; violating ones are uniform
+    rejected words or hard negatives (a satisfying trace with the fewest steps changed). Every
+    label is checked with the exact checker. Exit 1 if some DFA cannot give K of each.
+    """
+    settings = TraceSettings(
+        per_formula=per_formula,
+        min_len=min_len,
+        max_len=max_len,
+        hard_fraction=hard_fraction,
+        one_hot=one_hot,
+        seed=seed,
+        split=_fractions(split),
+        jobs=jobs,
+    )
+    with ui.progress("sampling", quiet) as update:
+        report = generate_traces(dfas, out, settings, update)
+    ui.failures([(str(dfas), f"formula {fid}: {why}") for fid, why in report.short])
+    skipped = f", {report.skipped} rows without a DFA skipped" if report.skipped else ""
+    ui.summary(
+        f"{out}: {report.rows} traces for {report.formulas} formulas "
+        f"({report.hard} hard negatives; {len(report.short)} formulas short of {per_formula} "
+        f"pairs{skipped})",
+        quiet,
+    )
+    if report.short:
         raise typer.Exit(1)
 
 

@@ -1,0 +1,170 @@
+"""The `gen-formulas` stage: random LTLf formulas that are worth learning from.
+
+Candidates of an exact syntax-tree size over an exact number of atoms (`random_formulas.py`) are
+compiled in batches (through the compile stage, so `--jobs` and the cache apply) and kept only if
+their language is new and has both satisfying and violating traces at some length that
+`gen-traces` will use. Rejections are counted by reason.
+"""
+
+from __future__ import annotations
+
+import json
+import random
+import string
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from tleaf_cli.data.artifacts import write_text_atomic
+from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
+from tleaf_cli.data.dfa_table import dfa_from_row
+from tleaf_cli.data.formula_files import FormulaSource
+from tleaf_cli.data.random_formulas import random_formula
+from tleaf_cli.data.traces import DEFAULT_MAX_LEN, DEFAULT_MIN_LEN
+from tleaf_cli.errors import UsageError
+from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.sampling import WordSampler, one_hot_letters
+
+# The paper's model-checking tiers: (number of atoms, syntax-tree size).
+TIERS: dict[str, tuple[int, int]] = {"low": (3, 10), "moderate": (3, 20), "high": (6, 20)}
+
+REASONS = (
+    "unsatisfiable",
+    "valid",
+    "trivial at the trace lengths",
+    "same language as a kept one",
+    "did not compile",
+)
+
+
+@dataclass(frozen=True)
+class FormulaSettings:
+    n: int
+    atoms: int
+    size: int
+    seed: int = 0
+    min_len: int = DEFAULT_MIN_LEN
+    max_len: int = DEFAULT_MAX_LEN
+    one_hot: bool = False
+    prefix: str = "f"
+    compile: CompileSettings = field(default_factory=CompileSettings)
+
+    def check(self) -> None:
+        if self.atoms < 1 or self.atoms > 26:
+            raise UsageError(f"--atoms must be 1..26, got {self.atoms}")
+        if self.size < 2 * self.atoms - 1:
+            raise UsageError(
+                f"--size {self.size} cannot hold {self.atoms} distinct atoms "
+                f"(a tree with k leaves has at least 2k-1 nodes)"
+            )
+        if self.n < 1:
+            raise UsageError("-n must be at least 1")
+        if not 1 <= self.min_len <= self.max_len:
+            raise UsageError("need 1 <= --min-len <= --max-len")
+
+
+@dataclass
+class FormulaReport:
+    kept: list[tuple[str, str]]  # (formula_id, text)
+    drawn: int = 0
+    rejected: Counter = field(default_factory=Counter)
+
+
+def judge(dfa: DFA, min_len: int, max_len: int, one_hot: bool) -> str | None:
+    """Why a compiled formula teaches nothing, or None if it is worth keeping."""
+    letters = one_hot_letters(dfa) if one_hot else None
+    first = dfa.table[dfa.initial, letters if letters is not None else slice(None)]
+    after_one = _reachable_from(dfa, np.unique(first), letters)
+    if not dfa.accepting[after_one].any():
+        return "unsatisfiable"
+    if dfa.accepting[after_one].all():
+        return "valid"
+    sampler = WordSampler(dfa, max_len, letters)
+    span = slice(min_len, max_len + 1)
+    if not (np.minimum(sampler.counts(True)[span], sampler.counts(False)[span]) > 0).any():
+        return "trivial at the trace lengths"
+    return None
+
+
+def _reachable_from(dfa: DFA, start: np.ndarray, letters) -> np.ndarray:
+    table = dfa.table if letters is None else dfa.table[:, letters]
+    seen = np.zeros(dfa.num_states, dtype=bool)
+    seen[start] = True
+    frontier = start
+    while len(frontier):
+        nxt = np.unique(table[frontier])
+        frontier = nxt[~seen[nxt]]
+        seen[frontier] = True
+    return np.flatnonzero(seen)
+
+
+def generate_formulas(
+    settings: FormulaSettings, on_progress: Callable[[int, int], None] | None = None
+) -> FormulaReport:
+    """Draw, compile and filter until `settings.n` formulas are kept (or the draws run out)."""
+    settings.check()
+    rng = random.Random(settings.seed)
+    atoms = list(string.ascii_lowercase[: settings.atoms])
+    compile_settings = CompileSettings(
+        alphabet="one-hot" if settings.one_hot else "powerset",
+        timeout=settings.compile.timeout,
+        cache_dir=settings.compile.cache_dir,
+        jobs=settings.compile.jobs,
+    )
+    report = FormulaReport(kept=[])
+    languages: set[bytes] = set()
+    max_draws = 50 * settings.n + 1000
+    while len(report.kept) < settings.n and report.drawn < max_draws:
+        batch = min(max(64, 2 * (settings.n - len(report.kept))), max_draws - report.drawn)
+        texts = [random_formula(rng, atoms, settings.size) for _ in range(batch)]
+        sources = [
+            FormulaSource(f"c{k}", t, "<generated>", f"draw {report.drawn + k}")
+            for k, t in enumerate(texts)
+        ]
+        compiled = compile_sources(sources, compile_settings).rows
+        for text, row in zip(texts, compiled, strict=True):
+            if len(report.kept) >= settings.n:
+                break
+            report.drawn += 1
+            if row["error"] is not None:
+                report.rejected["did not compile"] += 1
+                continue
+            dfa = dfa_from_row(row)
+            reason = judge(dfa, settings.min_len, settings.max_len, settings.one_hot)
+            key = dfa.table.tobytes() + dfa.accepting.tobytes() + bytes([dfa.initial])
+            if reason is None and key in languages:
+                reason = "same language as a kept one"
+            if reason is not None:
+                report.rejected[reason] += 1
+                continue
+            languages.add(key)
+            report.kept.append((f"{settings.prefix}{len(report.kept):05d}", text))
+        if on_progress:
+            on_progress(len(report.kept), settings.n)
+    return report
+
+
+def write_formula_file(report: FormulaReport, settings: FormulaSettings, out: str | Path) -> None:
+    """The kept formulas as a `.ltl` file whose header comments record how they were made."""
+    header = {
+        "kind": "synthetic formulas (tleaf gen-formulas)",
+        "atoms": settings.atoms,
+        "size": settings.size,
+        "n": settings.n,
+        "seed": settings.seed,
+        "min_len": settings.min_len,
+        "max_len": settings.max_len,
+        "one_hot": settings.one_hot,
+        "drawn": report.drawn,
+        "kept": len(report.kept),
+        "rejected": dict(report.rejected),
+    }
+    lines = [
+        "# Synthetic LTLf formulas generated by `tleaf gen-formulas` (not the paper's data set).",
+        f"# {json.dumps(header, sort_keys=True)}",
+    ]
+    lines += [f"{fid}: {text}" for fid, text in report.kept]
+    write_text_atomic(out, "\n".join(lines) + "\n")

@@ -1,0 +1,253 @@
+"""`traces.parquet` and the `gen-traces` stage: satisfying and violating traces per DFA.
+
+For each formula, K pairs: a satisfying trace drawn uniformly among the accepted words of a
+length L, and a violating trace of the same L, so length never gives the label away. Violating
+traces are a mix of uniform rejected words and hard negatives (a satisfying trace with as few
+steps changed as possible until it is rejected). Each formula draws from its own random stream,
+seeded by (seed, formula position), so `--jobs N` writes the same file as `--jobs 1`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pyarrow as pa
+from joblib import Parallel, delayed
+
+from tleaf_cli.data.artifacts import describe_inputs, read_artifact, write_artifact
+from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
+from tleaf_cli.errors import UsageError
+from tleaf_cli.logic.checker import PackedDFAs
+from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.sampling import WordSampler, one_hot_letters
+
+KIND = "traces"
+SCHEMA_VERSION = 1
+SPLITS = ("train", "val", "test")
+DEFAULT_MIN_LEN = 2
+DEFAULT_MAX_LEN = 12
+
+COLUMNS = [
+    ("formula_id", pa.string()),
+    ("trace_id", pa.int32()),
+    ("trace", pa.list_(pa.list_(pa.string()))),
+    ("label", pa.bool_()),
+    ("source", pa.string()),  # "uniform" (sampled), or "hard" (a satisfying trace, edited)
+]
+
+
+@dataclass(frozen=True)
+class TraceSettings:
+    per_formula: int = 20
+    min_len: int = DEFAULT_MIN_LEN
+    max_len: int = DEFAULT_MAX_LEN
+    hard_fraction: float = 0.5
+    one_hot: bool = False
+    seed: int = 0
+    split: tuple[float, float, float] | None = None
+    jobs: int = 1
+
+    def check(self) -> None:
+        if not 1 <= self.min_len <= self.max_len:
+            raise UsageError(
+                f"need 1 <= --min-len <= --max-len, got {self.min_len}, {self.max_len}"
+            )
+        if not 0.0 <= self.hard_fraction <= 1.0:
+            raise UsageError(f"--hard-fraction must be in [0, 1], got {self.hard_fraction}")
+        if self.per_formula < 1:
+            raise UsageError("--per-formula must be at least 1")
+        if self.split is not None and (
+            len(self.split) != 3 or min(self.split) < 0 or abs(sum(self.split) - 1) > 1e-6
+        ):
+            raise UsageError(
+                "--split takes three non-negative fractions summing to 1, e.g. 0.8,0.1,0.1"
+            )
+
+
+@dataclass
+class FormulaTraces:
+    """One formula's traces (letter-index words) and, when short of K, why."""
+
+    words: list[np.ndarray]
+    labels: list[bool]
+    sources: list[str]
+    shortfall: str | None = None
+
+
+@dataclass
+class TraceReport:
+    rows: int
+    formulas: int
+    skipped: int  # rows of dfas.parquet without a DFA
+    short: list[tuple[str, str]]  # (formula_id, reason)
+    hard: int
+
+
+def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) -> FormulaTraces:
+    """K satisfying and K violating traces paired by length; fewer, with a reason, if impossible."""
+    letters = one_hot_letters(dfa) if settings.one_hot else None
+    sampler = WordSampler(dfa, settings.max_len, letters)
+    acc, rej = sampler.counts(True), sampler.counts(False)
+    lengths = np.arange(settings.min_len, settings.max_len + 1)
+    capacity = np.minimum(acc[lengths], rej[lengths])
+    span = f"lengths {settings.min_len}..{settings.max_len}"
+    if capacity.sum() == 0:
+        kind = "satisfying" if acc[lengths].sum() == 0 else "violating"
+        return FormulaTraces([], [], [], f"no {kind} trace at {span}")
+
+    # Lengths of the K pairs: uniform among lengths with room for one more pair on both sides.
+    need = np.zeros(len(lengths), dtype=np.int64)
+    for _ in range(settings.per_formula):
+        open_ = np.flatnonzero(capacity > need)
+        if len(open_) == 0:
+            break
+        need[rng.choice(open_)] += 1
+
+    pairs: list[tuple[np.ndarray, np.ndarray, str]] = []
+    for k in np.flatnonzero(need):
+        length, m = int(lengths[k]), int(need[k])
+        sats = _distinct(sampler, rng, length, True, m, exclude=set())
+        taken: set[bytes] = set()
+        negs: list[tuple[np.ndarray, str]] = []
+        for word in sats:
+            if rng.random() < settings.hard_fraction:
+                hard = sampler.nearest_rejected(rng, word)
+                if hard.tobytes() not in taken:
+                    taken.add(hard.tobytes())
+                    negs.append((hard, "hard"))
+                    continue
+            negs.append((None, "uniform"))
+        uniform = _distinct(
+            sampler, rng, length, False, sum(s == "uniform" for _, s in negs), taken
+        )
+        fill = iter(uniform)
+        for sat, (neg, source) in zip(sats, negs, strict=True):
+            neg = next(fill, None) if neg is None else neg
+            if neg is not None:
+                pairs.append((sat, neg, source))
+
+    words, labels, sources = [], [], []
+    for sat, neg, source in pairs:
+        words += [sat, neg]
+        labels += [True, False]
+        sources += ["uniform", source]
+    shortfall = None
+    if len(pairs) < settings.per_formula:
+        shortfall = (
+            f"only {len(pairs)} of {settings.per_formula} distinct satisfying/violating pairs "
+            f"exist at {span}"
+        )
+    return FormulaTraces(words, labels, sources, shortfall)
+
+
+def _distinct(sampler, rng, length, accept, m, exclude: set[bytes], rounds: int = 30):
+    """Up to m distinct words of one length and label, none in `exclude`."""
+    out: list[np.ndarray] = []
+    seen = set(exclude)
+    for _ in range(rounds):
+        if len(out) >= m:
+            break
+        for word in sampler.sample(rng, length, accept, 2 * (m - len(out)) + 2):
+            key = word.tobytes()
+            if key not in seen and len(out) < m:
+                seen.add(key)
+                out.append(word)
+    return out
+
+
+def _formula_job(row: dict, index: int, settings: TraceSettings) -> tuple[list[dict], str | None]:
+    """Rows of traces.parquet for one formula (labels verified), and its shortfall if any."""
+    dfa = dfa_from_row(row)
+    rng = np.random.default_rng([settings.seed, index])
+    result = traces_for_dfa(dfa, settings, rng)
+    if result.words:
+        width = max(len(w) for w in result.words)
+        letters = np.zeros((len(result.words), width), dtype=np.int64)
+        for i, w in enumerate(result.words):
+            letters[i, : len(w)] = w
+        lengths = np.array([len(w) for w in result.words])
+        checked = PackedDFAs([dfa]).check(np.zeros(len(lengths), dtype=np.int64), letters, lengths)
+        if checked.tolist() != result.labels:
+            raise AssertionError(f"sampler produced a mislabelled trace for {row['formula_id']}")
+    out = [
+        {
+            "formula_id": row["formula_id"],
+            "trace_id": i,
+            "trace": [sorted(dfa.alphabet.letter(int(x))) for x in word],
+            "label": label,
+            "source": source,
+        }
+        for i, (word, label, source) in enumerate(
+            zip(result.words, result.labels, result.sources, strict=True)
+        )
+    ]
+    return out, result.shortfall
+
+
+def assign_splits(ids: Sequence[str], fractions: tuple[float, float, float], seed: int) -> dict:
+    """formula_id -> split, by formula (never one formula in two splits), deterministic."""
+    order = np.random.default_rng([seed, 7919]).permutation(len(ids))
+    bounds = np.round(np.cumsum(fractions) * len(ids)).astype(int)
+    split_of = {}
+    for rank, i in enumerate(order):
+        split_of[ids[i]] = SPLITS[int(np.searchsorted(bounds, rank, side="right"))]
+    return split_of
+
+
+def generate_traces(
+    dfas_path: str | os.PathLike,
+    out: str | os.PathLike,
+    settings: TraceSettings,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> TraceReport:
+    settings.check()
+    table = read_dfas(dfas_path)
+    compiled = [(i, r) for i, r in enumerate(table.rows) if r["error"] is None]
+    if settings.jobs == 1:
+        results = (_formula_job(r, i, settings) for i, r in compiled)
+    else:
+        parallel = Parallel(n_jobs=settings.jobs, return_as="generator", batch_size=8)
+        results = parallel(delayed(_formula_job)(r, i, settings) for i, r in compiled)
+    rows: list[dict] = []
+    short: list[tuple[str, str]] = []
+    for done, ((_, row), (trace_rows, shortfall)) in enumerate(
+        zip(compiled, results, strict=True), start=1
+    ):
+        rows += trace_rows
+        if shortfall:
+            short.append((row["formula_id"], shortfall))
+        if on_progress:
+            on_progress(done, len(compiled))
+
+    columns = list(COLUMNS)
+    if settings.split is not None:
+        split_of = assign_splits(
+            [r["formula_id"] for _, r in compiled], settings.split, settings.seed
+        )
+        for r in rows:
+            r["split"] = split_of[r["formula_id"]]
+        columns.append(("split", pa.string()))
+    params = {k: v for k, v in settings.__dict__.items() if k != "jobs"}
+    write_artifact(
+        pa.Table.from_pylist(rows, schema=pa.schema(columns)),
+        out,
+        kind=KIND,
+        schema=SCHEMA_VERSION,
+        params=params,
+        inputs=describe_inputs([dfas_path]),
+    )
+    return TraceReport(
+        rows=len(rows),
+        formulas=len(compiled),
+        skipped=len(table.rows) - len(compiled),
+        short=short,
+        hard=sum(r["source"] == "hard" for r in rows),
+    )
+
+
+def read_traces(path: str | os.PathLike) -> pa.Table:
+    table, _ = read_artifact(path, KIND, SCHEMA_VERSION)
+    return table
