@@ -216,3 +216,12 @@ def test_satisfying_traces_are_uniform_among_accepted_words() -> None:
             s = dfa.table[s, x]
         walk.append(tuple(w))
     assert _chi_square(walk, support) > critical
+
+
+def test_inspect_stats(low) -> None:
+    dfas = tleaf("inspect", low["dfas"], "--stats")
+    assert dfas.exit_code == 0 and "compiled 30, failed 0" in dfas.output
+    traces = tleaf("inspect", low["traces"], "--stats")
+    assert traces.exit_code == 0
+    assert "label: False 300, True 300" in traces.output
+    assert "split: test 120, train 360, val 120" in traces.output

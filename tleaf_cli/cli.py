@@ -281,12 +281,18 @@ def inspect(
         Path | None, typer.Option(help="With --id: draw to .png/.svg/.pdf (Graphviz) or .dot.")
     ] = None,
     rows: Annotated[int, typer.Option(min=0, help="How many first rows to show.")] = 10,
+    stats: Annotated[
+        bool, typer.Option("--stats", help="Distributions: DFA sizes; trace labels and lengths.")
+    ] = False,
 ) -> None:
     """Show an artifact: kind, schema, provenance, row count, first rows; or one DFA with --id."""
     if formula_id is None:
         if dot or draw:
             raise UsageError("--dot and --draw need --id (which DFA to draw)")
-        views.show_artifact(path, rows)
+        if stats:
+            views.show_stats(path)
+        else:
+            views.show_artifact(path, rows)
     else:
         views.show_dfa(path, formula_id, dot, draw)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections import Counter
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -38,6 +39,44 @@ def show_artifact(path: Path, limit: int = 10) -> None:
     if prov.kind == DFA_KIND and n_rows:
         compiled = pq.read_table(path, columns=["error"]).column("error").null_count
         ui.text(f"compiled: {compiled} of {n_rows}; failed: {n_rows - compiled}")
+
+
+def show_stats(path: Path) -> None:
+    """Distributions: DFA sizes for a dfas.parquet; labels, sources, splits, lengths for traces."""
+    prov = read_provenance(path)
+    table = pq.read_table(path)
+    ui.text(f"{path}: {prov.kind} artifact, {table.num_rows} rows")
+    if prov.kind == DFA_KIND:
+        rows = [r for r in table.select(["num_states", "edges", "error"]).to_pylist()]
+        ok = [r for r in rows if r["error"] is None]
+        ui.text(f"compiled {len(ok)}, failed {len(rows) - len(ok)}")
+        if ok:
+            states = Counter(r["num_states"] for r in ok)
+            edges = [len(r["edges"]) for r in ok]
+            ui.text(f"edges per DFA: mean {sum(edges) / len(edges):.1f}, max {max(edges)}")
+            ui.table(
+                "DFA states",
+                ["states", "DFAs", "share"],
+                [[str(k), str(v), f"{v / len(ok):.1%}"] for k, v in sorted(states.items())],
+            )
+    elif prov.kind == "traces":
+        rows = table.drop_columns(["trace"]).to_pylist()
+        lengths = [len(t) for t in table.column("trace").to_pylist()]
+        for column in ("label", "source", "split"):
+            if column in table.column_names:
+                counts = Counter(str(r[column]) for r in rows)
+                ui.text(f"{column}: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items())))
+        by_label = {True: Counter(), False: Counter()}
+        for r, n in zip(rows, lengths, strict=True):
+            by_label[r["label"]][n] += 1
+        keys = sorted(set(lengths))
+        ui.table(
+            "trace lengths",
+            ["length", "satisfying", "violating"],
+            [[str(k), str(by_label[True][k]), str(by_label[False][k])] for k in keys],
+        )
+    else:
+        ui.text("(no statistics for this kind)")
 
 
 def show_dfa(path: Path, formula_id: str, dot: bool = False, draw: Path | None = None) -> None:
