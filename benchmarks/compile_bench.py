@@ -127,6 +127,10 @@ def compiled_rows(path: Path) -> int:
     return pq.read_table(path, columns=["error"]).column("error").null_count
 
 
+def load_average() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
 def rate(count: int, seconds: float) -> str:
     return f"{count / seconds:,.1f}" if seconds > 0 else "-"
 
@@ -505,7 +509,8 @@ def main() -> None:
     formulas = random_set(args.seed, args.n)
     console.print(
         f"tleaf compile benchmark: seed {args.seed}, {args.n} formulas, "
-        f"{os.cpu_count()} CPUs, Python {sys.version.split()[0]}\n"
+        f"{os.cpu_count()} CPUs, Python {sys.version.split()[0]}, "
+        f"load average at start {load_average()} (other work on the machine skews timings)\n"
     )
     with tempfile.TemporaryDirectory(prefix="tleaf-bench-") as tmp:
         bench_random_set(args, formulas, Path(tmp))
@@ -513,6 +518,7 @@ def main() -> None:
     bench_checker(args, formulas)
     if args.profile:
         profile_compile(formulas[:200])
+    console.print(f"Load average at end: {load_average()}")
 
 
 if __name__ == "__main__":

@@ -138,9 +138,14 @@ def test_rejects_formulas_that_teach_nothing(tmp_path: Path) -> None:
     assert judge(compile_formula("a & !a"), 2, 12, False) == "unsatisfiable"
     assert judge(compile_formula("a | !a"), 2, 12, False) == "valid"
     assert judge(compile_formula("X X X X X X X X X X X X X a"), 2, 12, False) == (
-        "trivial at the trace lengths"
+        "too few traces at the trace lengths"
     )
     assert judge(compile_formula("G(a -> F b)"), 2, 12, False) is None
+    # "G a" has one satisfying trace per length: 11 pairs at lengths 2..12, not 20.
+    assert judge(compile_formula("G a"), 2, 12, False, pairs=11) is None
+    assert judge(compile_formula("G a"), 2, 12, False, pairs=12) == (
+        "too few traces at the trace lengths"
+    )
 
 
 def test_seeds_and_jobs(tmp_path: Path, low) -> None:

@@ -15,7 +15,13 @@ import typer
 from tleaf_cli import __version__, ui, views
 from tleaf_cli.data.compile_dfas import DEFAULT_TIMEOUT, CompileSettings, compile_file
 from tleaf_cli.data.compile_dfas import default_cache_dir as _default_cache_dir
-from tleaf_cli.data.formula_gen import TIERS, FormulaSettings, generate_formulas, write_formula_file
+from tleaf_cli.data.formula_gen import (
+    DEFAULT_CANDIDATE_TIMEOUT,
+    TIERS,
+    FormulaSettings,
+    generate_formulas,
+    write_formula_file,
+)
 from tleaf_cli.data.traces import DEFAULT_MAX_LEN, DEFAULT_MIN_LEN, TraceSettings, generate_traces
 from tleaf_cli.errors import UsageError
 
@@ -154,6 +160,14 @@ def gen_formulas(
     seed: Seed = 0,
     min_len: MinLen = DEFAULT_MIN_LEN,
     max_len: MaxLen = DEFAULT_MAX_LEN,
+    pairs: Annotated[
+        int,
+        typer.Option(
+            min=1,
+            help="Keep formulas with at least this many distinct "
+            "(satisfying, violating) pairs of equal length: gen-traces' --per-formula.",
+        ),
+    ] = 20,
     one_hot: Annotated[
         bool, typer.Option("--one-hot", help="Judge formulas on one-hot traces.")
     ] = False,
@@ -162,16 +176,17 @@ def gen_formulas(
     ] = None,
     jobs: Jobs = 1,
     timeout: Annotated[
-        float, typer.Option(min=0.001, help="MONA seconds per formula.")
-    ] = DEFAULT_TIMEOUT,
+        float, typer.Option(min=0.001, help="MONA seconds per candidate; slower ones are rejected.")
+    ] = DEFAULT_CANDIDATE_TIMEOUT,
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
     quiet: Quiet = False,
 ) -> None:
     """Draw SYNTHETIC random LTLf formulas worth learning from.
 
-    Rejects unsatisfiable and valid formulas, formulas with no length in [--min-len, --max-len]
-    that has both satisfying and violating traces, and repeats of a language already kept.
+    Rejects unsatisfiable and valid formulas, formulas with fewer than --pairs distinct
+    (satisfying, violating) pairs of equal length in [--min-len, --max-len], repeats of a
+    language already kept, and candidates MONA cannot finish within --timeout.
     """
     if tier is not None:
         if tier not in TIERS:

@@ -28,6 +28,9 @@ from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.sampling import WordSampler, one_hot_letters
 
+# Candidates are cheap to replace, so MONA gets less time per formula than in compile-dfa.
+DEFAULT_CANDIDATE_TIMEOUT = 5.0
+
 # The paper's model-checking tiers: (number of atoms, syntax-tree size).
 TIERS: dict[str, tuple[int, int]] = {"low": (3, 10), "moderate": (3, 20), "high": (6, 20)}
 
@@ -48,9 +51,12 @@ class FormulaSettings:
     seed: int = 0
     min_len: int = DEFAULT_MIN_LEN
     max_len: int = DEFAULT_MAX_LEN
+    pairs: int = 20
     one_hot: bool = False
     prefix: str = "f"
-    compile: CompileSettings = field(default_factory=CompileSettings)
+    compile: CompileSettings = field(
+        default_factory=lambda: CompileSettings(timeout=DEFAULT_CANDIDATE_TIMEOUT)
+    )
 
     def check(self) -> None:
         if self.atoms < 1 or self.atoms > 26:
@@ -73,8 +79,12 @@ class FormulaReport:
     rejected: Counter = field(default_factory=Counter)
 
 
-def judge(dfa: DFA, min_len: int, max_len: int, one_hot: bool) -> str | None:
-    """Why a compiled formula teaches nothing, or None if it is worth keeping."""
+def judge(dfa: DFA, min_len: int, max_len: int, one_hot: bool, pairs: int = 1) -> str | None:
+    """Why a compiled formula teaches nothing, or None if it is worth keeping.
+
+    Kept formulas have at least `pairs` (satisfying, violating) pairs of distinct traces of equal
+    length in [min_len, max_len], which is what `gen-traces --per-formula` will ask for.
+    """
     letters = one_hot_letters(dfa) if one_hot else None
     first = dfa.table[dfa.initial, letters if letters is not None else slice(None)]
     after_one = _reachable_from(dfa, np.unique(first), letters)
@@ -84,8 +94,8 @@ def judge(dfa: DFA, min_len: int, max_len: int, one_hot: bool) -> str | None:
         return "valid"
     sampler = WordSampler(dfa, max_len, letters)
     span = slice(min_len, max_len + 1)
-    if not (np.minimum(sampler.counts(True)[span], sampler.counts(False)[span]) > 0).any():
-        return "trivial at the trace lengths"
+    if np.minimum(sampler.counts(True)[span], sampler.counts(False)[span]).sum() < pairs:
+        return "too few traces at the trace lengths"
     return None
 
 
@@ -118,7 +128,11 @@ def generate_formulas(
     languages: set[bytes] = set()
     max_draws = 50 * settings.n + 1000
     while len(report.kept) < settings.n and report.drawn < max_draws:
-        batch = min(max(64, 2 * (settings.n - len(report.kept))), max_draws - report.drawn)
+        # Draw about what the rejection rate so far says is needed, plus a margin.
+        rejected = sum(report.rejected.values())
+        rate = min((rejected + 1) / (report.drawn + 10), 0.9)
+        missing = settings.n - len(report.kept)
+        batch = min(int(missing / (1 - rate) * 1.1) + 16, max_draws - report.drawn)
         texts = [random_formula(rng, atoms, settings.size) for _ in range(batch)]
         sources = [
             FormulaSource(f"c{k}", t, "<generated>", f"draw {report.drawn + k}")
@@ -133,7 +147,9 @@ def generate_formulas(
                 report.rejected["did not compile"] += 1
                 continue
             dfa = dfa_from_row(row)
-            reason = judge(dfa, settings.min_len, settings.max_len, settings.one_hot)
+            reason = judge(
+                dfa, settings.min_len, settings.max_len, settings.one_hot, settings.pairs
+            )
             key = dfa.table.tobytes() + dfa.accepting.tobytes() + bytes([dfa.initial])
             if reason is None and key in languages:
                 reason = "same language as a kept one"
@@ -157,6 +173,7 @@ def write_formula_file(report: FormulaReport, settings: FormulaSettings, out: st
         "seed": settings.seed,
         "min_len": settings.min_len,
         "max_len": settings.max_len,
+        "pairs": settings.pairs,
         "one_hot": settings.one_hot,
         "drawn": report.drawn,
         "kept": len(report.kept),
