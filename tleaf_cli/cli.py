@@ -199,6 +199,7 @@ def gen_formulas(
         seed=seed,
         min_len=min_len,
         max_len=max_len,
+        pairs=pairs,
         one_hot=one_hot,
         prefix=prefix or (f"{tier}-" if tier else "f"),
         compile=_compile_settings(one_hot, timeout, cache_dir, no_cache, jobs),
