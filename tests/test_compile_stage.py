@@ -190,10 +190,15 @@ def test_one_hot_option_and_graph_files(tmp_path: Path) -> None:
     assert dot.startswith("digraph") and "doublecircle" in dot
 
 
-def test_no_temporary_files_left_behind(tmp_path: Path) -> None:
+def test_no_temporary_files_left_behind_and_usual_permissions(tmp_path: Path) -> None:
     out = tmp_path / "o.parquet"
-    tleaf("compile-dfa", EXAMPLE, "-o", out)
+    old = os.umask(0o022)
+    try:
+        tleaf("compile-dfa", EXAMPLE, "-o", out)
+    finally:
+        os.umask(old)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["o.parquet"]
+    assert out.stat().st_mode & 0o777 == 0o644
 
 
 def test_inspect_artifact_and_one_dfa(tmp_path: Path) -> None:
