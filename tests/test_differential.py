@@ -92,14 +92,11 @@ PATTERNS = {
 }
 
 
-def _random_formulas(n: int, seed: int = 2021) -> list[str]:
+def _random_formulas(n: int, seed: int = 2021, n_atoms: int = 3) -> list[str]:
+    """n formulas over exactly n_atoms of a, b, c, syntax-tree sizes 2*n_atoms-1 .. 14."""
     rng = random.Random(seed)
-    out = []
-    for i in range(n):
-        k = [1, 2, 3, 3][i % 4]
-        size = rng.randint(2 * k - 1, 12)
-        out.append(random_formula(rng, ATOMS[:k], size))
-    return out
+    atoms = ATOMS[:n_atoms]
+    return [random_formula(rng, atoms, rng.randint(2 * n_atoms - 1, 14)) for _ in range(n)]
 
 
 def _agree(text: str) -> None:
@@ -128,11 +125,16 @@ def test_specification_patterns(name: str) -> None:
     _agree(PATTERNS[name])
 
 
-def test_random_formulas() -> None:
-    """At least 200 random formulas over up to three atoms: no mismatch anywhere."""
-    formulas = _random_formulas(220)
+def test_random_three_atom_formulas() -> None:
+    """At least 200 distinct random formulas over exactly three atoms: no mismatch anywhere."""
+    formulas = _random_formulas(210)
     assert len(set(formulas)) >= 200
     for text in formulas:
+        _agree(text)
+
+
+def test_random_one_and_two_atom_formulas() -> None:
+    for text in _random_formulas(30, seed=5, n_atoms=1) + _random_formulas(30, seed=6, n_atoms=2):
         _agree(text)
 
 
