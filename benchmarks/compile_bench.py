@@ -477,6 +477,44 @@ def peak_rss(text: str, alphabet: AlphabetKind) -> str:
     return f"{peak:,.0f} MB (after imports: {before:,.0f} MB)"
 
 
+def spawn_costs(formulas: list[str]) -> None:
+    """The MONA stage split: tleaf's run_mona, a bare `mona` call on the same file, `/bin/true`.
+
+    run_mona caps MONA's memory with a `preexec_fn`, which makes Python fork (and run Python in
+    the child) instead of vfork/posix_spawn; the bare call shows what that costs.
+    """
+    programs = [mona_program(parse(text)) for text in formulas]
+    mona = shutil.which("mona") or "mona"
+    true = shutil.which("true") or "/bin/true"
+
+    def bare_mona(program: str) -> None:
+        with tempfile.TemporaryDirectory(prefix="bench-mona-") as tmp:
+            path = os.path.join(tmp, "formula.mona")
+            Path(path).write_text(program, encoding="utf-8")
+            cmd = [mona, "-q", "-u", "-w", path]
+            subprocess.run(cmd, capture_output=True, text=True, timeout=30, cwd=tmp)
+
+    calls: list[tuple[str, Callable[[str], object]]] = [
+        ("tleaf run_mona (preexec_fn memory cap)", lambda p: run_mona(p, 30.0)),
+        ("same mona call, no preexec_fn", bare_mona),
+        ("subprocess.run(['true'])", lambda p: subprocess.run([true])),
+    ]
+    table = Table(
+        title=f"MONA stage, {len(programs)} programs (mean ms per call, best of 3 rounds)"
+    )
+    table.add_column("call")
+    table.add_column("ms per call", justify="right")
+    for label, call in calls:
+        best = float("inf")
+        for _ in range(3):
+            start = time.perf_counter()
+            for program in programs:
+                call(program)
+            best = min(best, (time.perf_counter() - start) / len(programs))
+        table.add_row(label, f"{1000 * best:.2f}")
+    console.print(table)
+
+
 def profile_compile(formulas: list[str]) -> None:
     name, slow = pattern_set(12)[2]
     columns = [
@@ -499,6 +537,7 @@ def profile_compile(formulas: list[str]) -> None:
             f"Peak RSS of one compile_formula(<{name}>, {kind!r}) in a fresh interpreter: "
             f"{peak_rss(slow, kind)}."
         )
+    spawn_costs(formulas)
 
 
 # --------------------------------------------------------------------------- main

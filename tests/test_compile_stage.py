@@ -18,6 +18,7 @@ from tleaf_cli.data import compile_dfas
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.random_formulas import random_formula
+from tleaf_cli.logic import mona
 
 runner = CliRunner()
 EXAMPLE = Path(__file__).parent.parent / "examples" / "cooking_rules.ltl"
@@ -78,7 +79,7 @@ def test_cache_hit_runs_no_mona(tmp_path: Path, monkeypatch) -> None:
     def no_mona(*args, **kwargs):
         raise AssertionError("MONA was called on a cached formula")
 
-    monkeypatch.setattr(compile_dfas, "run_mona", no_mona)
+    monkeypatch.setattr(mona, "run_mona", no_mona)
     second = compile_dfas.compile_file(src, tmp_path / "2.parquet", settings)
     assert second.cache_hits == 3 and second.compiled == 3
     assert pq.read_table(tmp_path / "1.parquet").equals(pq.read_table(tmp_path / "2.parquet"))

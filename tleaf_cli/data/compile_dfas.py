@@ -26,22 +26,14 @@ from tleaf_cli.data.formula_files import FormulaSource, read_formulas
 from tleaf_cli.data.graphs import write_graph_files
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic import alphabet as alphabet_mod
+from tleaf_cli.logic import compile as compile_mod
 from tleaf_cli.logic import dfa as dfa_mod
 from tleaf_cli.logic import guards as guards_mod
 from tleaf_cli.logic import mona as mona_mod
 from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind, LetterError
+from tleaf_cli.logic.compile import DEFAULT_TIMEOUT, compile_formula
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
-from tleaf_cli.logic.mona import (
-    MonaError,
-    automaton_to_dfa,
-    mona_binary,
-    mona_program,
-    mona_version,
-    parse_output,
-    run_mona,
-)
-
-DEFAULT_TIMEOUT = 30.0
+from tleaf_cli.logic.mona import MonaError, mona_binary, mona_version
 
 
 def default_cache_dir() -> Path:
@@ -184,10 +176,8 @@ def _compile_task(
 def _compile_payload(
     text: str, alphabet: AlphabetKind, timeout: float, versions: tuple[str, ...]
 ) -> dict:
-    formula = parse(text)
-    letters = Alphabet(atoms(formula), alphabet)
-    dfa = automaton_to_dfa(parse_output(run_mona(mona_program(formula), timeout)), letters)
-    return dfa_payload(dfa)
+    """The cached unit: `versions` is only part of the cache key."""
+    return dfa_payload(compile_formula(text, alphabet, timeout))
 
 
 @cache
@@ -200,7 +190,7 @@ def _memorized(cache_dir: str):
 def _versions() -> tuple[str, ...]:
     """Everything that shapes a compiled DFA: tool versions and tleaf's logic code."""
     code = hashlib.sha256()
-    for module in (alphabet_mod, dfa_mod, guards_mod, mona_mod):
+    for module in (alphabet_mod, compile_mod, dfa_mod, guards_mod, mona_mod):
         code.update(Path(module.__file__).read_bytes())
     try:
         mona = mona_version()

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+from tleaf_cli.logic import mona
 from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import atoms, parse
-from tleaf_cli.logic.mona import automaton_to_dfa, mona_program, parse_output, run_mona
 
 DEFAULT_TIMEOUT = 30.0
 
@@ -19,5 +19,5 @@ def compile_formula(
     """
     formula = parse(text)
     letters = Alphabet(atoms(formula), alphabet)
-    output = run_mona(mona_program(formula), timeout)
-    return automaton_to_dfa(parse_output(output), letters)
+    output = mona.run_mona(mona.mona_program(formula), timeout)
+    return mona.automaton_to_dfa(mona.parse_output(output), letters)
