@@ -49,8 +49,7 @@ def dfa_payload(dfa: DFA) -> dict[str, Any]:
         "initial": dfa.initial,
         "accepting": [int(s) for s in dfa.accepting.nonzero()[0]],
         "edges": [
-            {"src": s, "dst": d, "guard": g.text, "cnf": [list(c) for c in g.cnf]}
-            for s, d, g in dfa.guarded_edges()
+            {"src": s, "dst": d, "guard": g.text, "cnf": g.cnf} for s, d, g in dfa.guarded_edges()
         ],
     }
 
