@@ -90,7 +90,7 @@ def test_cache_hit_runs_no_mona(tmp_path: Path, monkeypatch) -> None:
 
 
 def test_identical_formulas_are_compiled_once(tmp_path: Path) -> None:
-    src = _write(tmp_path / "f.ltl", ["G a", "G  a", "G(a)", "F a"])
+    src = _write(tmp_path / "f.ltl", ["G a", "G  a", "  G a", "F a"])
     report = compile_dfas.compile_file(
         src, tmp_path / "o.parquet", compile_dfas.CompileSettings(cache_dir=None)
     )

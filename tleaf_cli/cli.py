@@ -12,18 +12,12 @@ from typing import Annotated
 
 import typer
 
-from tleaf_cli import __version__, ui, views
-from tleaf_cli.data.compile_dfas import DEFAULT_TIMEOUT, CompileSettings, compile_file
-from tleaf_cli.data.compile_dfas import default_cache_dir as _default_cache_dir
-from tleaf_cli.data.formula_gen import (
-    DEFAULT_CANDIDATE_TIMEOUT,
-    TIERS,
-    FormulaSettings,
-    generate_formulas,
-    write_formula_file,
-)
-from tleaf_cli.data.traces import DEFAULT_MAX_LEN, DEFAULT_MIN_LEN, TraceSettings, generate_traces
+from tleaf_cli import __version__, ui
+from tleaf_cli.defaults import CANDIDATE_TIMEOUT, COMPILE_TIMEOUT, MAX_LEN, MIN_LEN, TIERS
 from tleaf_cli.errors import UsageError
+
+# The library is imported inside each command, so `tleaf --help` and light commands start fast
+# (ltlf2dfa alone pulls in sympy).
 
 app = typer.Typer(
     name="tleaf",
@@ -47,10 +41,12 @@ NoCache = Annotated[bool, typer.Option("--no-cache", help="Neither read nor fill
 
 
 def _compile_settings(one_hot: bool, timeout: float, cache_dir, no_cache: bool, jobs: int):
+    from tleaf_cli.data.compile_dfas import CompileSettings, default_cache_dir
+
     return CompileSettings(
         alphabet="one-hot" if one_hot else "powerset",
         timeout=timeout,
-        cache_dir=None if no_cache else (cache_dir or _default_cache_dir()),
+        cache_dir=None if no_cache else (cache_dir or default_cache_dir()),
         jobs=jobs,
     )
 
@@ -107,7 +103,7 @@ def compile_dfa(
     jobs: Jobs = 1,
     timeout: Annotated[
         float, typer.Option(min=0.1, help="Seconds MONA may spend on one formula.")
-    ] = DEFAULT_TIMEOUT,
+    ] = COMPILE_TIMEOUT,
     graphs: Annotated[
         Path | None, typer.Option(help="Also write <id>.graphml and <id>.dot per DFA here.")
     ] = None,
@@ -125,6 +121,8 @@ def compile_dfa(
     A formula that fails (syntax, timeout) gets a row whose `error` says why; the others are still
     compiled, and the exit status is 1.
     """
+    from tleaf_cli.data.compile_dfas import compile_file
+
     settings = _compile_settings(one_hot, timeout, cache_dir, no_cache, jobs)
     with ui.progress("compiling", quiet) as update:
         report = compile_file(formulas, out, settings, graphs, update)
@@ -158,8 +156,8 @@ def gen_formulas(
     ] = 10,
     n: Annotated[int, typer.Option("-n", min=1, help="Formulas to keep.")] = 100,
     seed: Seed = 0,
-    min_len: MinLen = DEFAULT_MIN_LEN,
-    max_len: MaxLen = DEFAULT_MAX_LEN,
+    min_len: MinLen = MIN_LEN,
+    max_len: MaxLen = MAX_LEN,
     pairs: Annotated[
         int,
         typer.Option(
@@ -177,7 +175,7 @@ def gen_formulas(
     jobs: Jobs = 1,
     timeout: Annotated[
         float, typer.Option(min=0.001, help="MONA seconds per candidate; slower ones are rejected.")
-    ] = DEFAULT_CANDIDATE_TIMEOUT,
+    ] = CANDIDATE_TIMEOUT,
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
     quiet: Quiet = False,
@@ -188,6 +186,8 @@ def gen_formulas(
     (satisfying, violating) pairs of equal length in [--min-len, --max-len], repeats of a
     language already kept, and candidates MONA cannot finish within --timeout.
     """
+    from tleaf_cli.data.formula_gen import FormulaSettings, generate_formulas, write_formula_file
+
     if tier is not None:
         if tier not in TIERS:
             raise UsageError(f"--tier must be one of {', '.join(TIERS)}, not '{tier}'")
@@ -240,8 +240,8 @@ def gen_traces(
     per_formula: Annotated[
         int, typer.Option(min=1, help="K: satisfying and K violating traces per formula.")
     ] = 20,
-    min_len: MinLen = DEFAULT_MIN_LEN,
-    max_len: MaxLen = DEFAULT_MAX_LEN,
+    min_len: MinLen = MIN_LEN,
+    max_len: MaxLen = MAX_LEN,
     hard_fraction: Annotated[
         float, typer.Option(help="Share of violating traces that are hard negatives.")
     ] = 0.5,
@@ -261,6 +261,8 @@ def gen_traces(
     rejected words or hard negatives (a satisfying trace with the fewest steps changed). Every
     label is checked with the exact checker. Exit 1 if some DFA cannot give K of each.
     """
+    from tleaf_cli.data.traces import TraceSettings, generate_traces
+
     settings = TraceSettings(
         per_formula=per_formula,
         min_len=min_len,
@@ -302,6 +304,8 @@ def inspect(
     ] = False,
 ) -> None:
     """Show an artifact: kind, schema, provenance, row count, first rows; or one DFA with --id."""
+    from tleaf_cli import views
+
     if formula_id is None:
         if dot or draw:
             raise UsageError("--dot and --draw need --id (which DFA to draw)")

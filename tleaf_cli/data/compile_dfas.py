@@ -18,12 +18,14 @@ from importlib import metadata
 from pathlib import Path
 
 from joblib import Memory, Parallel, delayed
+from ltlf2dfa.ltlf import LTLfFormula
 
 from tleaf_cli import __version__
 from tleaf_cli.data.artifacts import describe_inputs, write_artifact
 from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, read_formulas
 from tleaf_cli.data.graphs import write_graph_files
+from tleaf_cli.defaults import COMPILE_TIMEOUT
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic import alphabet as alphabet_mod
 from tleaf_cli.logic import compile as compile_mod
@@ -31,7 +33,7 @@ from tleaf_cli.logic import dfa as dfa_mod
 from tleaf_cli.logic import guards as guards_mod
 from tleaf_cli.logic import mona as mona_mod
 from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind, LetterError
-from tleaf_cli.logic.compile import DEFAULT_TIMEOUT, compile_formula
+from tleaf_cli.logic.compile import compile_parsed
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 from tleaf_cli.logic.mona import MonaError, mona_binary, mona_version
 
@@ -47,7 +49,7 @@ def default_cache_dir() -> Path:
 @dataclass(frozen=True)
 class CompileSettings:
     alphabet: AlphabetKind = "powerset"
-    timeout: float = DEFAULT_TIMEOUT
+    timeout: float = COMPILE_TIMEOUT
     cache_dir: Path | None = field(default_factory=default_cache_dir)
     jobs: int = 1
 
@@ -76,40 +78,30 @@ def compile_sources(
     start = time.perf_counter()
     versions = _versions()
     rows: list[dict | None] = [None] * len(sources)
-    tasks: dict[str, list[int]] = {}  # canonical formula -> rows waiting for it
+    tasks: dict[str, list[int]] = {}  # formula text (spaces normalised) -> rows waiting for it
     for i, src in enumerate(sources):
         if src.problem is not None:
             rows[i] = make_row(src.formula_id, src.text, None, src.located(src.problem))
-            continue
-        try:
-            formula = parse(src.text)
-            Alphabet(atoms(formula), settings.alphabet)
-        except FormulaSyntaxError as e:
-            error = src.located(e.message, e.column)
-            rows[i] = make_row(src.formula_id, src.text, None, error)
-            continue
-        except LetterError as e:
-            rows[i] = make_row(src.formula_id, src.text, None, src.located(str(e)))
-            continue
-        tasks.setdefault(str(formula), []).append(i)
+        else:
+            tasks.setdefault(" ".join(src.text.split()), []).append(i)
 
-    canon = list(tasks)
+    texts = list(tasks)
     cache_dir = str(settings.cache_dir) if settings.cache_dir else None
-    args = [(text, settings.alphabet, settings.timeout, cache_dir, versions) for text in canon]
-    if settings.jobs == 1 or len(canon) < 2:
+    args = [(text, settings.alphabet, settings.timeout, cache_dir, versions) for text in texts]
+    if settings.jobs == 1 or len(texts) < 2:
         results = (_compile_task(*a) for a in args)
     else:
         parallel = Parallel(n_jobs=settings.jobs, return_as="generator")
         results = parallel(delayed(_compile_task)(*a) for a in args)
     hits = 0
-    for k, (payload, error, hit) in enumerate(results):
-        hits += hit
-        for i in tasks[canon[k]]:
+    for k, outcome in enumerate(results):
+        hits += outcome.cache_hit
+        for i in tasks[texts[k]]:
             src = sources[i]
-            located = None if error is None else src.located(error)
-            rows[i] = make_row(src.formula_id, src.text, payload, located)
+            error = None if outcome.error is None else src.located(outcome.error, outcome.column)
+            rows[i] = make_row(src.formula_id, src.text, outcome.payload, error)
         if on_progress:
-            on_progress(k + 1, len(canon))
+            on_progress(k + 1, len(texts))
 
     failures = [
         (src.path, row["error"])
@@ -119,7 +111,7 @@ def compile_sources(
     return CompileReport(
         rows=[r for r in rows if r is not None],
         failures=failures,
-        unique=len(canon),
+        unique=len(texts),
         cache_hits=hits,
         seconds=time.perf_counter() - start,
     )
@@ -155,35 +147,57 @@ def compile_file(
     return report
 
 
+@dataclass(frozen=True)
+class _Outcome:
+    payload: dict | None
+    error: str | None = None
+    column: int | None = None  # of a syntax error, within the formula text
+    cache_hit: bool = False
+
+
 def _compile_task(
     text: str,
     alphabet: AlphabetKind,
     timeout: float,
     cache_dir: str | None,
     versions: tuple[str, ...],
-) -> tuple[dict | None, str | None, bool]:
-    """(payload, error, cache hit) for one canonical formula; runs in a worker."""
+) -> _Outcome:
+    """Parse and compile one formula; runs in a worker. The cache is keyed on the parsed form."""
+    try:
+        formula = parse(text)
+        Alphabet(atoms(formula), alphabet)
+    except FormulaSyntaxError as e:
+        return _Outcome(None, e.message, e.column)
+    except LetterError as e:
+        return _Outcome(None, str(e))
+    canonical = str(formula)
     try:
         if cache_dir is None:
-            return _compile_payload(text, alphabet, timeout, versions), None, False
+            return _Outcome(_compile_payload(canonical, alphabet, timeout, versions, formula))
         cached = _memorized(cache_dir)
-        hit = cached.check_call_in_cache(text, alphabet, timeout, versions)
-        return cached(text, alphabet, timeout, versions), None, hit
+        hit = cached.check_call_in_cache(canonical, alphabet, timeout, versions)
+        payload = cached(canonical, alphabet, timeout, versions, formula)
+        return _Outcome(payload, cache_hit=hit)
     except MonaError as e:
-        return None, str(e), False
+        return _Outcome(None, str(e))
 
 
 def _compile_payload(
-    text: str, alphabet: AlphabetKind, timeout: float, versions: tuple[str, ...]
+    canonical: str,
+    alphabet: AlphabetKind,
+    timeout: float,
+    versions: tuple[str, ...],
+    formula: LTLfFormula | None = None,
 ) -> dict:
-    """The cached unit: `versions` is only part of the cache key."""
-    return dfa_payload(compile_formula(text, alphabet, timeout))
+    """The cached unit, keyed on (canonical text, alphabet, versions); `formula` is the parse of
+    `canonical`, passed so it is not parsed twice, and left out of the key like `timeout`."""
+    return dfa_payload(compile_parsed(formula or parse(canonical), alphabet, timeout))
 
 
 @cache
 def _memorized(cache_dir: str):
     memory = Memory(location=cache_dir, verbose=0)
-    return memory.cache(_compile_payload, ignore=["timeout"])
+    return memory.cache(_compile_payload, ignore=["timeout", "formula"])
 
 
 @cache

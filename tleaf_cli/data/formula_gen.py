@@ -23,16 +23,10 @@ from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.data.random_formulas import random_formula
-from tleaf_cli.data.traces import DEFAULT_MAX_LEN, DEFAULT_MIN_LEN
+from tleaf_cli.defaults import CANDIDATE_TIMEOUT, MAX_LEN, MIN_LEN
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.sampling import WordSampler, one_hot_letters
-
-# Candidates are cheap to replace, so MONA gets less time per formula than in compile-dfa.
-DEFAULT_CANDIDATE_TIMEOUT = 5.0
-
-# The paper's model-checking tiers: (number of atoms, syntax-tree size).
-TIERS: dict[str, tuple[int, int]] = {"low": (3, 10), "moderate": (3, 20), "high": (6, 20)}
 
 REASONS = (
     "unsatisfiable",
@@ -49,13 +43,13 @@ class FormulaSettings:
     atoms: int
     size: int
     seed: int = 0
-    min_len: int = DEFAULT_MIN_LEN
-    max_len: int = DEFAULT_MAX_LEN
+    min_len: int = MIN_LEN
+    max_len: int = MAX_LEN
     pairs: int = 20
     one_hot: bool = False
     prefix: str = "f"
     compile: CompileSettings = field(
-        default_factory=lambda: CompileSettings(timeout=DEFAULT_CANDIDATE_TIMEOUT)
+        default_factory=lambda: CompileSettings(timeout=CANDIDATE_TIMEOUT)
     )
 
     def check(self) -> None:

@@ -19,6 +19,7 @@ from joblib import Parallel, delayed
 
 from tleaf_cli.data.artifacts import describe_inputs, read_artifact, write_artifact
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
+from tleaf_cli.defaults import MAX_LEN, MIN_LEN
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.dfa import DFA
@@ -27,8 +28,6 @@ from tleaf_cli.logic.sampling import WordSampler, one_hot_letters
 KIND = "traces"
 SCHEMA_VERSION = 1
 SPLITS = ("train", "val", "test")
-DEFAULT_MIN_LEN = 2
-DEFAULT_MAX_LEN = 12
 
 COLUMNS = [
     ("formula_id", pa.string()),
@@ -42,8 +41,8 @@ COLUMNS = [
 @dataclass(frozen=True)
 class TraceSettings:
     per_formula: int = 20
-    min_len: int = DEFAULT_MIN_LEN
-    max_len: int = DEFAULT_MAX_LEN
+    min_len: int = MIN_LEN
+    max_len: int = MAX_LEN
     hard_fraction: float = 0.5
     one_hot: bool = False
     seed: int = 0
