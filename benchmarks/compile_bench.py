@@ -492,7 +492,7 @@ def peak_rss(text: str, alphabet: AlphabetKind) -> str:
 def spawn_costs(formulas: list[str]) -> None:
     """The MONA stage split: tleaf's run_mona, a bare `mona` call on the same file, `/bin/true`.
 
-    run_mona caps MONA's memory through `sh -c 'ulimit -v ...; exec mona'` (a Python preexec_fn
+    run_mona caps MONA's memory with prlimit on the started child (a Python preexec_fn
     would force a full fork: 15 ms instead of 6 ms per call, measured); the bare call, with no
     cap and no `-n`, shows what the wrapper costs.
     """
@@ -508,7 +508,7 @@ def spawn_costs(formulas: list[str]) -> None:
             subprocess.run(cmd, capture_output=True, text=True, timeout=30, cwd=tmp)
 
     calls: list[tuple[str, Callable[[str], object]]] = [
-        ("tleaf run_mona (sh ulimit memory cap, -n)", lambda p: run_mona(p, 30.0)),
+        ("tleaf run_mona (prlimit memory cap, -n)", lambda p: run_mona(p, 30.0)),
         ("bare mona -q -u -w, no cap", bare_mona),
         ("subprocess.run(['true'])", lambda p: subprocess.run([true])),
     ]

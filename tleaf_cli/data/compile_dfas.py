@@ -1,9 +1,9 @@
 """The `compile-dfa` stage: formula sources in, `dfas.parquet` rows out.
 
-Every formula is parsed here first (cheap, and syntax errors need no MONA); identical formulas are
-compiled once; the rest go to joblib workers in input order, so `--jobs N` writes the same file
-as `--jobs 1`. A joblib.Memory cache keyed on the parsed formula, the alphabet and the versions of
-everything that shapes the output means a formula compiled before costs no MONA call.
+Identical formula texts are compiled once; each distinct one is parsed and compiled by a joblib
+worker, results taken in input order, so `--jobs N` writes the same file as `--jobs 1`. A
+joblib.Memory cache keyed on the parsed formula, the alphabet and the versions of everything
+that shapes the output means a formula compiled before costs no MONA call.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ from tleaf_cli import __version__
 from tleaf_cli.data.artifacts import describe_inputs, write_artifact
 from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, read_formulas
-from tleaf_cli.data.graphs import write_graph_files
 from tleaf_cli.defaults import COMPILE_TIMEOUT
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic import alphabet as alphabet_mod
@@ -143,6 +142,8 @@ def compile_file(
         inputs=describe_inputs([source]),
     )
     if graphs_dir is not None:
+        from tleaf_cli.data.graphs import write_graph_files  # networkx: only when asked for
+
         write_graph_files(report.rows, graphs_dir)
     return report
 
