@@ -255,7 +255,7 @@ def gen_traces(
     jobs: Jobs = 1,
     quiet: Quiet = False,
 ) -> None:
-    """Sample satisfying and violating traces for every DFA, paired by length.
+    """Sample SYNTHETIC satisfying and violating traces for every DFA, paired by length.
 
     Satisfying traces are uniform among accepted words of a length; violating ones are uniform
     rejected words or hard negatives (a satisfying trace with the fewest steps changed). Every

@@ -230,6 +230,7 @@ def generate_traces(
             r["split"] = split_of[r["formula_id"]]
         columns.append(("split", pa.string()))
     params = {k: v for k, v in settings.__dict__.items() if k != "jobs"}
+    params["data"] = "synthetic: traces sampled from the DFAs by tleaf gen-traces"
     write_artifact(
         pa.Table.from_pylist(rows, schema=pa.schema(columns)),
         out,
