@@ -68,6 +68,14 @@ def _exits(func):
     return wrapper
 
 
+def _finish(failures: list[tuple[str, str]], summary: str, quiet: bool) -> None:
+    """One stderr line per failure, the summary line, and exit status 1 if anything failed."""
+    ui.failures(failures)
+    ui.summary(summary, quiet)
+    if failures:
+        raise typer.Exit(1)
+
+
 def _version(value: bool) -> None:
     if value:
         ui.text(f"tleaf {__version__}")
@@ -126,15 +134,13 @@ def compile_dfa(
     settings = _compile_settings(one_hot, timeout, cache_dir, no_cache, jobs)
     with ui.progress("compiling", quiet) as update:
         report = compile_file(formulas, out, settings, graphs, update)
-    ui.failures(report.failures)
-    ui.summary(
+    _finish(
+        report.failures,
         f"{out}: {report.compiled} of {len(report.rows)} formulas compiled "
         f"({report.unique} distinct, {report.cache_hits} from cache, "
         f"{len(report.rows) - report.compiled} failed) in {report.seconds:.2f} s",
         quiet,
     )
-    if report.failures:
-        raise typer.Exit(1)
 
 
 @app.command("gen-formulas")
@@ -275,16 +281,14 @@ def gen_traces(
     )
     with ui.progress("sampling", quiet) as update:
         report = generate_traces(dfas, out, settings, update)
-    ui.failures([(str(dfas), f"formula {fid}: {why}") for fid, why in report.short])
     skipped = f", {report.skipped} rows without a DFA skipped" if report.skipped else ""
-    ui.summary(
+    _finish(
+        [(str(dfas), f"formula {fid}: {why}") for fid, why in report.short],
         f"{out}: {report.rows} traces for {report.formulas} formulas "
         f"({report.hard} hard negatives; {len(report.short)} formulas short of {per_formula} "
         f"pairs{skipped})",
         quiet,
     )
-    if report.short:
-        raise typer.Exit(1)
 
 
 @app.command("inspect")

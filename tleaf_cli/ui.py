@@ -35,7 +35,7 @@ def progress(description: str, quiet: bool = False) -> Iterator[Callable[[int, i
         yield lambda done, total: bar.update(task, completed=done, total=total)
 
 
-def failures(items: list[tuple[str, str]], quiet: bool = False) -> None:
+def failures(items: list[tuple[str, str]]) -> None:
     """One stderr line per failure (`path: message`), at most MAX_FAILURE_LINES of them."""
     for path, message in items[:MAX_FAILURE_LINES]:
         err.print(f"[red]error[/]: {escape(path)}: {escape(message)}", soft_wrap=True)
