@@ -211,11 +211,12 @@ def test_satisfying_traces_are_uniform_among_accepted_words() -> None:
     # The test has teeth: a random walk over letters that can still reach acceptance is not
     # uniform over words, and fails it.
     walk = []
+    completions, _ = sampler.accepting  # count[t, s] (unscaled at these lengths)
     pyrng = random.Random(0)
     for _ in range(n):
         s, w = dfa.initial, []
         for t in range(length):
-            ok = [x for x in letters if sampler.accepting[length - t - 1, dfa.table[s, x]] > 0]
+            ok = [x for x in letters if completions[length - t - 1, dfa.table[s, x]] > 0]
             x = pyrng.choice(ok)
             w.append(x)
             s = dfa.table[s, x]
@@ -230,3 +231,14 @@ def test_inspect_stats(low) -> None:
     assert traces.exit_code == 0
     assert "label: False 300, True 300" in traces.output
     assert "split: test 120, train 360, val 120" in traces.output
+
+
+def test_long_traces_over_large_alphabets_do_not_overflow() -> None:
+    """64 letters, length 300: about 2**1800 words, far past float64; counts stay usable."""
+    dfa = compile_formula("G(a -> F b) & F(c & d & e & f)")
+    sampler = WordSampler(dfa, 300)
+    assert np.isinf(sampler.counts(True)[300]) and np.isinf(sampler.counts(False)[300])
+    words = sampler.sample(np.random.default_rng(0), 300, True, 5)
+    assert all(dfa.accepting[dfa.run(w)] for w in words)
+    hard = sampler.nearest_rejected(np.random.default_rng(0), words[0])
+    assert not dfa.accepting[dfa.run(hard)]

@@ -7,8 +7,9 @@ from state s to acceptance (to rejection, for the complement):
 
 Uniform sampling of an accepted word of length L walks forwards from the initial state and, with
 r letters still to go, picks letter l with probability count[r-1, next] / count[r, state]: every
-accepted word of length L then has probability 1 / count[L, initial]. Counts are float64, exact up
-to 2**53 and never zero by rounding, which is all the sampler needs.
+accepted word of length L then has probability 1 / count[L, initial]. Counts are float64 (exact
+up to 2**53, and a positive count never rounds to zero), each length's row scaled by a power of
+two when it grows past 2**512, so long traces over large alphabets do not overflow.
 
 Hard negatives: for an accepted word w, the fewest substitutions that make it rejected, by a
 shortest-path over (position, state) with cost 1 per changed letter, and a random one among the
@@ -40,27 +41,34 @@ class WordSampler:
         self.accepting = self._count(dfa.accepting)
         self.rejecting = self._count(~dfa.accepting)
 
-    def _count(self, final: np.ndarray) -> np.ndarray:
+    def _count(self, final: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Counts per length, each length's row scaled by 2**-exponent so it never overflows."""
         counts = np.zeros((self.max_len + 1, self.dfa.num_states))
+        exponent = np.zeros(self.max_len + 1, dtype=np.int64)
         counts[0] = final
-        with np.errstate(over="raise"):
-            for t in range(1, self.max_len + 1):
-                counts[t] = counts[t - 1][self.next].sum(axis=1)
-        return counts
+        for t in range(1, self.max_len + 1):
+            row = counts[t - 1][self.next].sum(axis=1)
+            shift = int(np.frexp(row.max())[1]) if row.max() > 2.0**512 else 0
+            counts[t] = np.ldexp(row, -shift)
+            exponent[t] = exponent[t - 1] + shift
+        return counts, exponent
 
     def counts(self, accept: bool) -> np.ndarray:
-        """Words of each length 0..max_len from the initial state that are (not) accepted."""
-        table = self.accepting if accept else self.rejecting
-        return table[:, self.dfa.initial]
+        """Words of each length 0..max_len from the initial state that are (not) accepted
+        (inf where there are more than float64 can hold)."""
+        counts, exponent = self.accepting if accept else self.rejecting
+        with np.errstate(over="ignore"):
+            return np.ldexp(counts[:, self.dfa.initial], exponent)
 
     def sample(self, rng: np.random.Generator, length: int, accept: bool, n: int) -> np.ndarray:
         """n words of `length` (letter indices), uniform among the (not) accepted ones."""
-        counts = self.accepting if accept else self.rejecting
+        counts, _ = self.accepting if accept else self.rejecting
         if counts[length, self.dfa.initial] == 0:
             raise ValueError(f"no {'accepted' if accept else 'rejected'} word of length {length}")
         state = np.full(n, self.dfa.initial, dtype=np.int64)
         out = np.empty((n, length), dtype=np.int64)
         for t in range(length):
+            # One length's row shares one scale, so its ratios are exact completion ratios.
             weights = counts[length - t - 1][self.next[state]]  # [n, letters]
             cum = np.cumsum(weights, axis=1)
             u = rng.random(n) * cum[:, -1]
