@@ -225,3 +225,16 @@ def test_inspect_draws_svg(tmp_path: Path) -> None:
     result = tleaf("inspect", out, "--id", "cut_then_fry", "--draw", svg)
     assert result.exit_code == 0, result.output
     assert "<svg" in svg.read_text()
+
+
+def test_unwritable_output_fails_before_any_work(tmp_path: Path) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    for args in (
+        ["compile-dfa", EXAMPLE, "-o", blocker / "dfas.parquet"],
+        ["gen-formulas", "-n", 2, "-o", blocker / "f.ltl"],
+        ["compile-dfa", EXAMPLE, "-o", tmp_path],
+    ):
+        result = tleaf(*args)
+        assert result.exit_code == 2, result.output
+        assert "Traceback" not in result.output and "error:" in result.output

@@ -61,6 +61,9 @@ def _exits(func):
         except UsageError as e:
             ui.fatal(str(e))
             raise typer.Exit(e.exit_code) from None
+        except OSError as e:  # the environment, not tleaf: a full disk, a vanished folder
+            ui.fatal(f"{e.filename or ''}: {e.strerror or e}".lstrip(": "))
+            raise typer.Exit(2) from None
         except KeyboardInterrupt:
             ui.fatal("interrupted; nothing was written")
             raise typer.Exit(130) from None
@@ -192,6 +195,7 @@ def gen_formulas(
     (satisfying, violating) pairs of equal length in [--min-len, --max-len], repeats of a
     language already kept, and candidates MONA cannot finish within --timeout.
     """
+    from tleaf_cli.data.artifacts import check_writable
     from tleaf_cli.data.formula_gen import FormulaSettings, generate_formulas, write_formula_file
 
     if tier is not None:
@@ -210,6 +214,7 @@ def gen_formulas(
         prefix=prefix or (f"{tier}-" if tier else "f"),
         compile=_compile_settings(one_hot, timeout, cache_dir, no_cache, jobs),
     )
+    check_writable(out)
     with ui.progress("generating", quiet) as update:
         report = generate_formulas(settings, update)
     write_formula_file(report, settings, out)

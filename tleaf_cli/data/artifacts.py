@@ -49,6 +49,19 @@ def describe_inputs(paths: Iterable[str | os.PathLike]) -> list[dict[str, str]]:
     return [{"path": str(p), "sha256": file_sha256(p)} for p in paths]
 
 
+def check_writable(target: str | os.PathLike) -> None:
+    """UsageError now, before any work, if `target` cannot be written (its folder is made)."""
+    target = Path(target)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise UsageError(f"{target}: cannot create its folder ({e.strerror})") from None
+    if target.is_dir():
+        raise UsageError(f"{target}: is a folder; give a file name")
+    if not os.access(target.parent, os.W_OK):
+        raise UsageError(f"{target}: folder {target.parent} is not writable")
+
+
 def atomic_path(target: str | os.PathLike):
     """A temporary path in the target's directory; rename it over the target when done."""
     target = Path(target)

@@ -17,7 +17,12 @@ import numpy as np
 import pyarrow as pa
 from joblib import Parallel, delayed
 
-from tleaf_cli.data.artifacts import describe_inputs, read_artifact, write_artifact
+from tleaf_cli.data.artifacts import (
+    check_writable,
+    describe_inputs,
+    read_artifact,
+    write_artifact,
+)
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.defaults import MAX_LEN, MIN_LEN
 from tleaf_cli.errors import UsageError
@@ -203,6 +208,7 @@ def generate_traces(
     on_progress: Callable[[int, int], None] | None = None,
 ) -> TraceReport:
     settings.check()
+    check_writable(out)
     table = read_dfas(dfas_path)
     compiled = [(i, r) for i, r in enumerate(table.rows) if r["error"] is None]
     if settings.jobs == 1:
