@@ -1,0 +1,218 @@
+"""Graphs the embedders read, built as torch_geometric `Data` (no layers here).
+
+Four kinds, after the paper (Sec. III) and LENSR for propositional formulas:
+
+* **Propositional graph** (input of the edge embedder q_e) for a CNF — a DFA edge's guard, or a
+  letter written as a conjunction of literals. Nodes: one per atom occurrence kind (an atom
+  node per distinct atom), a NOT node per negative literal, an OR node per clause, one AND root,
+  and a GLOBAL node joined to every other node. Arcs point from operands to their operator
+  (atom -> NOT -> OR -> AND); the GLOBAL node links both ways. `true` (no clause) is a lone AND.
+* **Automaton graph** (input of the meta embedder q_m) for a DFA: one node per state (flags
+  initial / accepting) and one node per DFA edge, with arcs s -> e -> t. Edge nodes carry the
+  index of their guard in `guards`, so q_e can embed each distinct guard once per batch.
+* **Trace graph**: a trace w_1..w_T as the same kind of graph, a chain s_0 -> e_1 -> s_1 -> ... ->
+  e_T -> s_T with s_0 initial and s_T accepting; e_i carries the letter w_i as a guard.
+* **Syntax-tree graph** (the paper's baseline): one node per node of the parse tree, typed by
+  operator, atoms by their index; arcs from child to parent.
+
+Node features are left to the models: graphs store integer node types and atom indices (into a
+vocabulary the caller fixes), so atom features (one-hot, random, text) stay pluggable.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Sequence
+
+import torch
+from ltlf2dfa.ltlf import (
+    LTLfAlways,
+    LTLfAnd,
+    LTLfAtomic,
+    LTLfEquivalence,
+    LTLfEventually,
+    LTLfFalse,
+    LTLfFormula,
+    LTLfImplies,
+    LTLfLast,
+    LTLfNext,
+    LTLfNot,
+    LTLfOr,
+    LTLfRelease,
+    LTLfTrue,
+    LTLfUntil,
+    LTLfWeakNext,
+)
+from torch_geometric.data import Data
+
+from tleaf_cli.logic.dfa import DFA
+
+# Propositional graph node types.
+GLOBAL, AND, OR, NOT, ATOM = range(5)
+PROP_TYPES = 5
+
+# Automaton / trace graph node kinds.
+STATE, EDGE = range(2)
+
+# Syntax-tree node types: operators in a fixed order, then atoms.
+SYNTAX_OPS: tuple[type, ...] = (
+    LTLfNot,
+    LTLfAnd,
+    LTLfOr,
+    LTLfImplies,
+    LTLfEquivalence,
+    LTLfNext,
+    LTLfWeakNext,
+    LTLfEventually,
+    LTLfAlways,
+    LTLfUntil,
+    LTLfRelease,
+    LTLfTrue,
+    LTLfFalse,
+    LTLfLast,
+)
+SYNTAX_ATOM = len(SYNTAX_OPS)
+SYNTAX_TYPES = SYNTAX_ATOM + 1
+
+Clauses = Sequence[Sequence[int]]
+
+
+def _edge_index(arcs: list[tuple[int, int]]) -> torch.Tensor:
+    if not arcs:
+        return torch.zeros((2, 0), dtype=torch.long)
+    return torch.tensor(arcs, dtype=torch.long).t().contiguous()
+
+
+def cnf_graph(cnf: Clauses, atom_ids: Sequence[int]) -> Data:
+    """The propositional graph of a CNF whose literals index (1-based) into `atom_ids`.
+
+    `atom_ids[k]` is the vocabulary index of the CNF's k-th atom. Fields: `node_type` [N],
+    `atom` [N] (vocabulary index, -1 for operator nodes), `edge_index` [2, E].
+    """
+    types, atoms, arcs = [GLOBAL, AND], [-1, -1], []
+    atom_node: dict[int, int] = {}
+    for clause in cnf:
+        clause_node = len(types)
+        types.append(OR)
+        atoms.append(-1)
+        arcs.append((clause_node, 1))
+        for lit in clause:
+            k = abs(lit) - 1
+            if not 0 <= k < len(atom_ids):
+                raise ValueError(f"literal {lit} out of range for {len(atom_ids)} atoms")
+            if k not in atom_node:
+                atom_node[k] = len(types)
+                types.append(ATOM)
+                atoms.append(int(atom_ids[k]))
+            source = atom_node[k]
+            if lit < 0:
+                source_not = len(types)
+                types.append(NOT)
+                atoms.append(-1)
+                arcs.append((source, source_not))
+                source = source_not
+            arcs.append((source, clause_node))
+    for node in range(1, len(types)):
+        arcs += [(0, node), (node, 0)]
+    return Data(
+        node_type=torch.tensor(types, dtype=torch.long),
+        atom=torch.tensor(atoms, dtype=torch.long),
+        edge_index=_edge_index(arcs),
+        num_nodes=len(types),
+    )
+
+
+def letter_cnf(true_atoms: Collection[str], atoms: Sequence[str]) -> list[list[int]]:
+    """A letter over `atoms` as a conjunction of literals: atom k positive if true, else negated."""
+    return [[k + 1] if a in true_atoms else [-(k + 1)] for k, a in enumerate(atoms)]
+
+
+def dfa_graph(dfa: DFA) -> tuple[Data, list[tuple[tuple[int, ...], ...]]]:
+    """The automaton graph of a DFA, and the guards (CNF over `dfa.atoms`) its edge nodes index.
+
+    Fields: `node_kind` [N] (STATE/EDGE), `flags` [N, 2] float (initial, accepting; 0 on edge
+    nodes), `guard` [N] (index into the returned guards, -1 on states), `edge_index` [2, E],
+    `initial` (the initial state's node index).
+    """
+    n = dfa.num_states
+    kinds, guard_ids, arcs = [STATE] * n, [-1] * n, []
+    flags = [[float(s == dfa.initial), float(dfa.accepting[s])] for s in range(n)]
+    guards: list[tuple[tuple[int, ...], ...]] = []
+    for src, dst, guard in dfa.guarded_edges():
+        node = len(kinds)
+        kinds.append(EDGE)
+        flags.append([0.0, 0.0])
+        guard_ids.append(len(guards))
+        guards.append(guard.cnf)
+        arcs += [(src, node), (node, dst)]
+    data = Data(
+        node_kind=torch.tensor(kinds, dtype=torch.long),
+        flags=torch.tensor(flags, dtype=torch.float32),
+        guard=torch.tensor(guard_ids, dtype=torch.long),
+        edge_index=_edge_index(arcs),
+        initial=torch.tensor([dfa.initial], dtype=torch.long),
+        num_nodes=len(kinds),
+    )
+    return data, guards
+
+
+def trace_graph(length: int) -> Data:
+    """The chain graph of a trace of `length` steps; edge node of step i has `guard` = i.
+
+    Which letter each step carries is left to the caller (the guards list, or soft letters for
+    a differentiable trace), so one graph shape serves every trace of that length.
+    """
+    if length < 1:
+        raise ValueError("traces are non-empty")
+    states = list(range(length + 1))
+    edges = list(range(length + 1, 2 * length + 1))
+    kinds = [STATE] * (length + 1) + [EDGE] * length
+    flags = [[0.0, 0.0] for _ in kinds]
+    flags[0][0] = 1.0
+    flags[length][1] = 1.0
+    arcs = []
+    for i, e in enumerate(edges):
+        arcs += [(states[i], e), (e, states[i + 1])]
+    return Data(
+        node_kind=torch.tensor(kinds, dtype=torch.long),
+        flags=torch.tensor(flags, dtype=torch.float32),
+        guard=torch.tensor([-1] * (length + 1) + list(range(length)), dtype=torch.long),
+        edge_index=_edge_index(arcs),
+        initial=torch.tensor([0], dtype=torch.long),
+        num_nodes=len(kinds),
+    )
+
+
+def syntax_graph(formula: LTLfFormula, vocabulary: dict[str, int]) -> Data:
+    """The parse tree as a graph: `node_type` [N] (SYNTAX_OPS index, or SYNTAX_ATOM), `atom` [N]
+    (vocabulary index, -1 for operators), arcs child -> parent; node 0 is the root."""
+    types: list[int] = []
+    atoms: list[int] = []
+    arcs: list[tuple[int, int]] = []
+
+    def visit(f: LTLfFormula) -> int:
+        node = len(types)
+        if isinstance(f, LTLfTrue | LTLfFalse):  # subclasses of LTLfAtomic: test first
+            types.append(SYNTAX_OPS.index(type(f)))
+            atoms.append(-1)
+            return node
+        if isinstance(f, LTLfAtomic):
+            name = str(f.s)
+            if name not in vocabulary:
+                raise KeyError(f"atom '{name}' is not in the vocabulary")
+            types.append(SYNTAX_ATOM)
+            atoms.append(vocabulary[name])
+            return node
+        types.append(SYNTAX_OPS.index(type(f)))
+        atoms.append(-1)
+        children = getattr(f, "formulas", None) or ([f.f] if hasattr(f, "f") else [])
+        for child in children:
+            arcs.append((visit(child), node))
+        return node
+
+    visit(formula)
+    return Data(
+        node_type=torch.tensor(types, dtype=torch.long),
+        atom=torch.tensor(atoms, dtype=torch.long),
+        edge_index=_edge_index(arcs),
+        num_nodes=len(types),
+    )
