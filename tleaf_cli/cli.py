@@ -296,6 +296,81 @@ def gen_traces(
     )
 
 
+@app.command("train-edge")
+@_exits
+def train_edge(
+    dfas: Annotated[Path, typer.Argument(help="A dfas.parquet: its guards are the training data.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Model directory to write.")] = Path(
+        "edge_model"
+    ),
+    atom_features: Annotated[
+        str, typer.Option(help="Atom node features: onehot (over the vocabulary) or random.")
+    ] = "onehot",
+    epochs: Annotated[int, typer.Option(min=1, help="Most epochs to train.")] = 30,
+    patience: Annotated[
+        int,
+        typer.Option(min=1, help="Stop after this many epochs without a better held-out score."),
+    ] = 5,
+    hidden: Annotated[int, typer.Option(min=1, help="GCN width.")] = 256,
+    layers: Annotated[int, typer.Option(min=1, help="GCN layers.")] = 2,
+    out_dim: Annotated[int, typer.Option(min=1, help="Embedding size.")] = 100,
+    margin: Annotated[float, typer.Option(help="Triplet loss margin.")] = 1.0,
+    lr: Annotated[float, typer.Option(help="Adam learning rate.")] = 1e-3,
+    batch_size: Annotated[int, typer.Option(min=1, help="Triplets per batch.")] = 128,
+    seed: Seed = 0,
+    device: Annotated[str, typer.Option(help="cpu or cuda.")] = "cpu",
+    max_minutes: Annotated[
+        float | None, typer.Option(help="Stop after the epoch that passes this budget.")
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Continue from the model directory's last epoch.")
+    ] = False,
+    quiet: Quiet = False,
+) -> None:
+    """Train the edge embedder q_e: guards close to letters that satisfy them (triplet loss).
+
+    Held-out triplet accuracy (d(guard, sat) < d(guard, unsat)) on formulas never trained on is
+    reported each epoch; the best epoch's weights are kept.
+    """
+    from tleaf_cli.embed.encoders import ATOM_FEATURE_KINDS
+    from tleaf_cli.embed.train_edge import EdgeSettings
+    from tleaf_cli.embed.train_edge import train_edge as run
+
+    if atom_features not in ATOM_FEATURE_KINDS:
+        raise UsageError(f"--atom-features must be one of {', '.join(ATOM_FEATURE_KINDS)}")
+    settings = EdgeSettings(
+        atom_features=atom_features,
+        hidden=hidden,
+        layers=layers,
+        out_dim=out_dim,
+        margin=margin,
+        lr=lr,
+        batch_size=batch_size,
+        epochs=epochs,
+        patience=patience,
+        seed=seed,
+        device=device,
+        max_minutes=max_minutes,
+    )
+    with ui.progress("training q_e (epochs)", quiet) as update:
+
+        def on_epoch(r) -> None:
+            update(r.epoch, epochs)
+            ui.summary(
+                f"epoch {r.epoch}: loss {r.loss:.4f}, train acc {r.train_accuracy:.3f}, "
+                f"held-out acc {r.heldout_accuracy:.3f} ({r.seconds:.0f} s)",
+                quiet,
+            )
+
+        metrics = run(dfas, out, settings, resume=resume, on_epoch=on_epoch)
+    best = metrics["best"]
+    ui.summary(
+        f"{out}: best held-out triplet accuracy {best['heldout_accuracy']:.3f} "
+        f"(epoch {best['epoch']} of {len(metrics['history'])})",
+        quiet,
+    )
+
+
 @app.command("inspect")
 @_exits
 def inspect(

@@ -1,0 +1,95 @@
+"""Training data for the edge embedder q_e: (guard, satisfying letter, violating letter) triplets.
+
+Guards come from the edges of a `dfas.parquet` (each distinct guard once per formula; `true`
+guards have no violating letter and are skipped) plus random CNFs over the same atoms, so q_e
+also sees propositions that are not DFA guards. Letters are drawn uniformly from the guard's
+letter set and from its complement, over the formula's alphabet (so one-hot DFAs give one-hot
+letters). Held-out triplets come from formulas never used for training.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from torch_geometric.data import Data
+
+from tleaf_cli.data.dfa_table import DfaTable
+from tleaf_cli.embed.graphs import cnf_graph, letter_cnf
+from tleaf_cli.logic.alphabet import Alphabet
+from tleaf_cli.logic.guards import cnf_holds
+
+
+@dataclass(frozen=True)
+class GuardTriplet:
+    formula_id: str
+    atoms: tuple[str, ...]
+    cnf: tuple[tuple[int, ...], ...]
+    sat: frozenset[str]
+    unsat: frozenset[str]
+
+
+def vocabulary(table: DfaTable) -> list[str]:
+    """Sorted atoms of every compiled formula: the index space of atom features."""
+    return sorted({a for r in table.rows if r["error"] is None for a in r["atoms"]})
+
+
+def guard_triplets(
+    table: DfaTable, per_guard: int, random_guards: int, rng: np.random.Generator
+) -> list[GuardTriplet]:
+    """Triplets for every compiled formula, in table order."""
+    out: list[GuardTriplet] = []
+    for row in table.rows:
+        if row["error"] is not None or not row["atoms"]:
+            continue
+        alphabet = Alphabet(tuple(row["atoms"]), row["alphabet"])
+        guards = list(dict.fromkeys(tuple(map(tuple, e["cnf"])) for e in row["edges"]))
+        guards += [_random_cnf(rng, len(alphabet.atoms)) for _ in range(random_guards)]
+        for cnf in guards:
+            on = cnf_holds(cnf, alphabet)
+            if on.all() or not on.any():
+                continue
+            inside, outside = np.flatnonzero(on), np.flatnonzero(~on)
+            for _ in range(per_guard):
+                out.append(
+                    GuardTriplet(
+                        row["formula_id"],
+                        alphabet.atoms,
+                        cnf,
+                        alphabet.letter(int(rng.choice(inside))),
+                        alphabet.letter(int(rng.choice(outside))),
+                    )
+                )
+    return out
+
+
+def _random_cnf(rng: np.random.Generator, n_atoms: int) -> tuple[tuple[int, ...], ...]:
+    """1-3 clauses of 1-3 distinct literals over n_atoms atoms."""
+    clauses = []
+    for _ in range(int(rng.integers(1, 4))):
+        k = int(rng.integers(1, min(3, n_atoms) + 1))
+        atoms = rng.choice(n_atoms, size=k, replace=False) + 1
+        signs = rng.choice([-1, 1], size=k)
+        clauses.append(tuple(int(a * s) for a, s in zip(atoms, signs, strict=True)))
+    return tuple(clauses)
+
+
+def split_by_formula(
+    triplets: Sequence[GuardTriplet], holdout: float, rng: np.random.Generator
+) -> tuple[list[GuardTriplet], list[GuardTriplet]]:
+    """(train, held-out): whole formulas go to one side."""
+    ids = sorted({t.formula_id for t in triplets})
+    held = set(rng.permutation(ids)[: max(1, round(holdout * len(ids)))].tolist()) if ids else set()
+    train = [t for t in triplets if t.formula_id not in held]
+    return train, [t for t in triplets if t.formula_id in held]
+
+
+def triplet_graphs(t: GuardTriplet, index: dict[str, int]) -> tuple[Data, Data, Data]:
+    """(guard, satisfying letter, violating letter) as propositional graphs."""
+    ids = [index[a] for a in t.atoms]
+    return (
+        cnf_graph(t.cnf, ids),
+        cnf_graph(letter_cnf(t.sat, t.atoms), ids),
+        cnf_graph(letter_cnf(t.unsat, t.atoms), ids),
+    )

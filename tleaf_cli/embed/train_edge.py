@@ -1,0 +1,214 @@
+"""Training the edge embedder q_e with the triplet loss (`tleaf train-edge`).
+
+Read top to bottom: settings, data, model, the epoch loop, the model directory. Each triplet is
+(guard G, letter that satisfies G, letter that violates G); the loss pulls q_e(G) towards the
+satisfying letter and pushes it from the violating one, and held-out triplet accuracy
+(d(G, sat) < d(G, unsat)) on formulas never trained on is measured after every epoch. The best
+epoch's weights are kept. CPU training is repeatable for a seed.
+
+Model directory (DESIGN.md): `config.json` (architecture, settings, vocabulary, input hashes),
+`weights.pt` (state_dict of the best epoch, loadable with `torch.load(weights_only=True)`),
+`metrics.json` (curve and final figures), and `checkpoint.pt` (last epoch, for `--resume`).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch_geometric.data import Batch
+
+from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
+from tleaf_cli.data.dfa_table import read_dfas
+from tleaf_cli.embed.edge_data import guard_triplets, split_by_formula, triplet_graphs, vocabulary
+from tleaf_cli.embed.encoders import (
+    PropositionEncoder,
+    atom_features,
+    triplet_accuracy,
+    triplet_loss,
+)
+from tleaf_cli.errors import UsageError
+
+
+@dataclass(frozen=True)
+class EdgeSettings:
+    atom_features: str = "onehot"
+    feature_dim: int = 64  # for random features
+    hidden: int = 256
+    layers: int = 2
+    out_dim: int = 100
+    margin: float = 1.0
+    lr: float = 1e-3
+    batch_size: int = 128
+    epochs: int = 30
+    patience: int = 5  # epochs without a better held-out accuracy before stopping
+    per_guard: int = 4  # triplets per guard
+    random_guards: int = 2  # random CNFs per formula, besides its guards
+    holdout: float = 0.2  # share of formulas held out
+    seed: int = 0
+    device: str = "cpu"
+    max_minutes: float | None = None
+
+
+@dataclass
+class EpochReport:
+    epoch: int
+    loss: float
+    train_accuracy: float
+    heldout_accuracy: float
+    seconds: float
+
+
+def train_edge(
+    dfas_path: str | Path,
+    out_dir: str | Path,
+    settings: EdgeSettings,
+    resume: bool = False,
+    on_epoch: Callable[[EpochReport], None] | None = None,
+) -> dict:
+    out_dir = Path(out_dir)
+    start = time.perf_counter()
+    torch.manual_seed(settings.seed)
+    rng = np.random.default_rng(settings.seed)
+    device = _device(settings.device)
+
+    # ---- data: triplets of propositional graphs, split by formula
+    table = read_dfas(dfas_path)
+    vocab = vocabulary(table)
+    if not vocab:
+        raise UsageError(f"{dfas_path}: no compiled formula with atoms to train on")
+    index = {a: i for i, a in enumerate(vocab)}
+    train, heldout = split_by_formula(
+        guard_triplets(table, settings.per_guard, settings.random_guards, rng),
+        settings.holdout,
+        rng,
+    )
+    if not train or not heldout:
+        raise UsageError(f"{dfas_path}: too few formulas for a train / held-out split")
+    train_graphs = [triplet_graphs(t, index) for t in train]
+    heldout_graphs = [triplet_graphs(t, index) for t in heldout]
+
+    # ---- model and optimiser
+    table_ = atom_features(len(vocab), settings.atom_features, settings.feature_dim, settings.seed)
+    model = PropositionEncoder(table_, settings.hidden, settings.layers, settings.out_dim).to(
+        device
+    )
+    optimiser = torch.optim.Adam(model.parameters(), lr=settings.lr)
+    history: list[dict] = []
+    best = {"heldout_accuracy": -1.0, "epoch": 0}
+    first_epoch = 1
+    if resume and (out_dir / "checkpoint.pt").exists():
+        state = torch.load(out_dir / "checkpoint.pt", weights_only=False)
+        model.load_state_dict(state["model"])
+        optimiser.load_state_dict(state["optimiser"])
+        history, best, first_epoch = state["history"], state["best"], state["epoch"] + 1
+        torch.set_rng_state(state["torch_rng"])
+    out_dir.mkdir(parents=True, exist_ok=True)
+    generator = torch.Generator().manual_seed(settings.seed + first_epoch)
+
+    # ---- epochs
+    stale = 0
+    for epoch in range(first_epoch, settings.epochs + 1):
+        model.train()
+        order = torch.randperm(len(train_graphs), generator=generator).tolist()
+        losses, accs = [], []
+        for i in range(0, len(order), settings.batch_size):
+            chunk = [train_graphs[j] for j in order[i : i + settings.batch_size]]
+            anchor, pos, neg = (_embed(model, part, device) for part in zip(*chunk, strict=True))
+            loss = triplet_loss(anchor, pos, neg, settings.margin)
+            optimiser.zero_grad()
+            loss.backward()
+            optimiser.step()
+            losses.append(loss.item() * len(chunk))
+            accs.append(triplet_accuracy(anchor, pos, neg) * len(chunk))
+        heldout_acc = evaluate(model, heldout_graphs, settings.batch_size, device)
+        report = EpochReport(
+            epoch=epoch,
+            loss=sum(losses) / len(train_graphs),
+            train_accuracy=sum(accs) / len(train_graphs),
+            heldout_accuracy=heldout_acc,
+            seconds=time.perf_counter() - start,
+        )
+        history.append(asdict(report))
+        if heldout_acc > best["heldout_accuracy"]:
+            best = {"heldout_accuracy": heldout_acc, "epoch": epoch}
+            torch.save(model.state_dict(), out_dir / "weights.pt")
+            stale = 0
+        else:
+            stale += 1
+        torch.save(
+            {
+                "model": model.state_dict(),
+                "optimiser": optimiser.state_dict(),
+                "epoch": epoch,
+                "history": history,
+                "best": best,
+                "torch_rng": torch.get_rng_state(),
+            },
+            out_dir / "checkpoint.pt",
+        )
+        if on_epoch:
+            on_epoch(report)
+        out_of_time = settings.max_minutes is not None and (
+            time.perf_counter() - start > 60 * settings.max_minutes
+        )
+        if stale >= settings.patience or out_of_time:
+            break
+
+    # ---- the model directory
+    config = {
+        "kind": "edge-embedder",
+        "settings": asdict(settings),
+        "vocabulary": vocab,
+        "inputs": describe_inputs([dfas_path]),
+        "triplets": {"train": len(train), "heldout": len(heldout)},
+    }
+    metrics = {"best": best, "history": history}
+    write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
+    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
+    return metrics
+
+
+def evaluate(model: PropositionEncoder, graphs, batch_size: int, device) -> float:
+    """Triplet accuracy over (guard, sat, unsat) graph triples, in eval mode, no gradients."""
+    model.eval()
+    hits = 0.0
+    with torch.no_grad():
+        for i in range(0, len(graphs), batch_size):
+            chunk = graphs[i : i + batch_size]
+            anchor, pos, neg = (_embed(model, part, device) for part in zip(*chunk, strict=True))
+            hits += triplet_accuracy(anchor, pos, neg) * len(chunk)
+    return hits / max(len(graphs), 1)
+
+
+def load_edge_model(model_dir: str | Path) -> tuple[PropositionEncoder, dict]:
+    """The trained q_e (best epoch) and its config."""
+    model_dir = Path(model_dir)
+    try:
+        config = json.loads((model_dir / "config.json").read_text())
+    except (OSError, ValueError) as e:
+        raise UsageError(f"{model_dir}: not a tleaf model directory ({e})") from None
+    if config.get("kind") != "edge-embedder":
+        raise UsageError(f"{model_dir}: a '{config.get('kind')}' model, expected 'edge-embedder'")
+    s = EdgeSettings(**config["settings"])
+    table = atom_features(len(config["vocabulary"]), s.atom_features, s.feature_dim, s.seed)
+    model = PropositionEncoder(table, s.hidden, s.layers, s.out_dim)
+    model.load_state_dict(torch.load(model_dir / "weights.pt", weights_only=True))
+    return model.eval(), config
+
+
+def _embed(model: PropositionEncoder, graphs, device) -> torch.Tensor:
+    return model(Batch.from_data_list(list(graphs)).to(device))
+
+
+def _device(name: str) -> torch.device:
+    if name == "cuda" and not torch.cuda.is_available():
+        raise UsageError("--device cuda: no CUDA device is available here")
+    if name not in ("cpu", "cuda"):
+        raise UsageError(f"--device must be cpu or cuda, not '{name}'")
+    return torch.device(name)
