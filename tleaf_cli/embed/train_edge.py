@@ -14,7 +14,6 @@ Model directory (DESIGN.md): `config.json` (architecture, settings, vocabulary, 
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -26,12 +25,8 @@ from torch_geometric.data import Batch
 from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.embed.edge_data import guard_triplets, split_by_formula, triplet_graphs, vocabulary
-from tleaf_cli.embed.encoders import (
-    PropositionEncoder,
-    atom_features,
-    triplet_accuracy,
-    triplet_loss,
-)
+from tleaf_cli.embed.encoders import PropositionEncoder, atom_features, triplet_accuracy
+from tleaf_cli.embed.training import EpochReport, LoopSettings, chunks, device_for, fit
 from tleaf_cli.errors import UsageError
 
 
@@ -55,15 +50,6 @@ class EdgeSettings:
     max_minutes: float | None = None
 
 
-@dataclass
-class EpochReport:
-    epoch: int
-    loss: float
-    train_accuracy: float
-    heldout_accuracy: float
-    seconds: float
-
-
 def train_edge(
     dfas_path: str | Path,
     out_dir: str | Path,
@@ -72,10 +58,9 @@ def train_edge(
     on_epoch: Callable[[EpochReport], None] | None = None,
 ) -> dict:
     out_dir = Path(out_dir)
-    start = time.perf_counter()
     torch.manual_seed(settings.seed)
     rng = np.random.default_rng(settings.seed)
-    device = _device(settings.device)
+    device = device_for(settings.device)
 
     # ---- data: triplets of propositional graphs, split by formula
     table = read_dfas(dfas_path)
@@ -93,72 +78,30 @@ def train_edge(
     train_graphs = [triplet_graphs(t, index) for t in train]
     heldout_graphs = [triplet_graphs(t, index) for t in heldout]
 
-    # ---- model and optimiser
-    table_ = atom_features(len(vocab), settings.atom_features, settings.feature_dim, settings.seed)
-    model = PropositionEncoder(table_, settings.hidden, settings.layers, settings.out_dim).to(
-        device
-    )
-    optimiser = torch.optim.Adam(model.parameters(), lr=settings.lr)
-    history: list[dict] = []
-    best = {"heldout_accuracy": -1.0, "epoch": 0}
-    first_epoch = 1
-    if resume and (out_dir / "checkpoint.pt").exists():
-        state = torch.load(out_dir / "checkpoint.pt", weights_only=False)
-        model.load_state_dict(state["model"])
-        optimiser.load_state_dict(state["optimiser"])
-        history, best, first_epoch = state["history"], state["best"], state["epoch"] + 1
-        torch.set_rng_state(state["torch_rng"])
-    out_dir.mkdir(parents=True, exist_ok=True)
-    generator = torch.Generator().manual_seed(settings.seed + first_epoch)
+    # ---- model, then the shared triplet loop
+    atoms = atom_features(len(vocab), settings.atom_features, settings.feature_dim, settings.seed)
+    model = PropositionEncoder(atoms, settings.hidden, settings.layers, settings.out_dim).to(device)
 
-    # ---- epochs
-    stale = 0
-    for epoch in range(first_epoch, settings.epochs + 1):
-        model.train()
-        order = torch.randperm(len(train_graphs), generator=generator).tolist()
-        losses, accs = [], []
-        for i in range(0, len(order), settings.batch_size):
-            chunk = [train_graphs[j] for j in order[i : i + settings.batch_size]]
-            anchor, pos, neg = (_embed(model, part, device) for part in zip(*chunk, strict=True))
-            loss = triplet_loss(anchor, pos, neg, settings.margin)
-            optimiser.zero_grad()
-            loss.backward()
-            optimiser.step()
-            losses.append(loss.item() * len(chunk))
-            accs.append(triplet_accuracy(anchor, pos, neg) * len(chunk))
-        heldout_acc = evaluate(model, heldout_graphs, settings.batch_size, device)
-        report = EpochReport(
-            epoch=epoch,
-            loss=sum(losses) / len(train_graphs),
-            train_accuracy=sum(accs) / len(train_graphs),
-            heldout_accuracy=heldout_acc,
-            seconds=time.perf_counter() - start,
-        )
-        history.append(asdict(report))
-        if heldout_acc > best["heldout_accuracy"]:
-            best = {"heldout_accuracy": heldout_acc, "epoch": epoch}
-            torch.save(model.state_dict(), out_dir / "weights.pt")
-            stale = 0
-        else:
-            stale += 1
-        torch.save(
-            {
-                "model": model.state_dict(),
-                "optimiser": optimiser.state_dict(),
-                "epoch": epoch,
-                "history": history,
-                "best": best,
-                "torch_rng": torch.get_rng_state(),
-            },
-            out_dir / "checkpoint.pt",
-        )
-        if on_epoch:
-            on_epoch(report)
-        out_of_time = settings.max_minutes is not None and (
-            time.perf_counter() - start > 60 * settings.max_minutes
-        )
-        if stale >= settings.patience or out_of_time:
-            break
+    def embed(chunk) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        return tuple(_embed(model, part, device) for part in zip(*chunk, strict=True))
+
+    metrics = fit(
+        model,
+        lambda generator: chunks(train_graphs, settings.batch_size, generator),
+        embed,
+        lambda: evaluate(model, heldout_graphs, settings.batch_size, device),
+        LoopSettings(
+            settings.epochs,
+            settings.patience,
+            settings.margin,
+            settings.lr,
+            settings.seed,
+            settings.max_minutes,
+        ),
+        out_dir,
+        resume,
+        on_epoch,
+    )
 
     # ---- the model directory
     config = {
@@ -168,21 +111,18 @@ def train_edge(
         "inputs": describe_inputs([dfas_path]),
         "triplets": {"train": len(train), "heldout": len(heldout)},
     }
-    metrics = {"best": best, "history": history}
     write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
 
 
 def evaluate(model: PropositionEncoder, graphs, batch_size: int, device) -> float:
-    """Triplet accuracy over (guard, sat, unsat) graph triples, in eval mode, no gradients."""
-    model.eval()
+    """Triplet accuracy over (guard, sat, unsat) graph triples."""
     hits = 0.0
-    with torch.no_grad():
-        for i in range(0, len(graphs), batch_size):
-            chunk = graphs[i : i + batch_size]
-            anchor, pos, neg = (_embed(model, part, device) for part in zip(*chunk, strict=True))
-            hits += triplet_accuracy(anchor, pos, neg) * len(chunk)
+    for i in range(0, len(graphs), batch_size):
+        chunk = graphs[i : i + batch_size]
+        anchor, pos, neg = (_embed(model, part, device) for part in zip(*chunk, strict=True))
+        hits += triplet_accuracy(anchor, pos, neg) * len(chunk)
     return hits / max(len(graphs), 1)
 
 
@@ -204,11 +144,3 @@ def load_edge_model(model_dir: str | Path) -> tuple[PropositionEncoder, dict]:
 
 def _embed(model: PropositionEncoder, graphs, device) -> torch.Tensor:
     return model(Batch.from_data_list(list(graphs)).to(device))
-
-
-def _device(name: str) -> torch.device:
-    if name == "cuda" and not torch.cuda.is_available():
-        raise UsageError("--device cuda: no CUDA device is available here")
-    if name not in ("cpu", "cuda"):
-        raise UsageError(f"--device must be cpu or cuda, not '{name}'")
-    return torch.device(name)
