@@ -1,0 +1,73 @@
+"""Inputs of the meta embedder: automaton and trace graphs whose edge nodes carry q_e vectors.
+
+q_e is frozen while q_m trains, so every distinct (atoms, CNF) — a DFA guard, or a trace letter
+written as a conjunction over its formula's atoms — is embedded once and cached, and each graph
+gets its node features (`edge_vec`) when it is built.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Sequence
+
+import torch
+from torch_geometric.data import Batch, Data
+
+from tleaf_cli.embed.encoders import PropositionEncoder
+from tleaf_cli.embed.graphs import cnf_graph, dfa_graph, letter_cnf, trace_graph
+from tleaf_cli.errors import UsageError
+from tleaf_cli.logic.dfa import DFA
+
+Key = tuple[tuple[str, ...], tuple[tuple[int, ...], ...]]
+
+
+class GuardVectors:
+    """q_e(guard) for (atoms, cnf) keys, computed in batches and cached."""
+
+    def __init__(self, model: PropositionEncoder, vocabulary: Sequence[str], batch: int = 1024):
+        self.model = model.eval()
+        self.index = {a: i for i, a in enumerate(vocabulary)}
+        self.batch = batch
+        self.cache: dict[Key, torch.Tensor] = {}
+        self.dim = model.head.out_features
+
+    def __call__(self, keys: Sequence[Key]) -> torch.Tensor:
+        missing = list(dict.fromkeys(k for k in keys if k not in self.cache))
+        for i in range(0, len(missing), self.batch):
+            part = missing[i : i + self.batch]
+            graphs = [cnf_graph(cnf, self._ids(atoms)) for atoms, cnf in part]
+            with torch.no_grad():
+                vectors = self.model(Batch.from_data_list(graphs))
+            self.cache.update(zip(part, vectors, strict=True))
+        if not keys:
+            return torch.zeros((0, self.dim))
+        return torch.stack([self.cache[k] for k in keys])
+
+    def _ids(self, atoms: Sequence[str]) -> list[int]:
+        unknown = [a for a in atoms if a not in self.index]
+        if unknown:
+            raise UsageError(
+                f"atoms {unknown} are not in the edge model's vocabulary; train-edge on DFAs "
+                "that contain them"
+            )
+        return [self.index[a] for a in atoms]
+
+
+def _with_edge_vectors(graph: Data, vectors: torch.Tensor) -> Data:
+    edge_vec = torch.zeros((graph.num_nodes, vectors.shape[1]))
+    on_edges = graph.guard >= 0
+    edge_vec[on_edges] = vectors[graph.guard[on_edges]]
+    graph.edge_vec = edge_vec
+    return graph
+
+
+def featured_dfa_graph(dfa: DFA, vectors: GuardVectors) -> Data:
+    graph, guards = dfa_graph(dfa)
+    return _with_edge_vectors(graph, vectors([(dfa.atoms, g) for g in guards]))
+
+
+def featured_trace_graph(
+    trace: Sequence[Collection[str]], atoms: tuple[str, ...], vectors: GuardVectors
+) -> Data:
+    """A trace over a formula's atoms (letters as conjunctions of literals over them)."""
+    keys = [(atoms, tuple(map(tuple, letter_cnf(step, atoms)))) for step in trace]
+    return _with_edge_vectors(trace_graph(len(trace)), vectors(keys))

@@ -1,0 +1,211 @@
+"""Training the meta embedder q_m, or the syntax-tree baseline (`tleaf train-meta`).
+
+Read top to bottom: settings, data, model, the shared triplet loop, the test score, the model
+directory. A triplet is (formula, satisfying trace, violating trace) of the traces' train split;
+each epoch pairs every satisfying trace with a random violating trace of the same formula (the
+paper samples pairs per formula). The val split's fixed pairs choose the best epoch; the test
+split, formulas never trained on, gives the final triplet accuracy, also per kind of violating
+trace (uniform / hard).
+
+`--embedder dfa` (T-LEAF): formulas are expanded DFA graphs and traces chains, both through one
+AutomatonEncoder whose edge nodes carry the frozen q_e's vectors. `--embedder syntax` (the
+paper's baseline): formulas are parse trees through a SyntaxEncoder; traces as before.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import torch
+from torch import nn
+from torch_geometric.data import Batch
+
+from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
+from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
+from tleaf_cli.data.traces import read_traces
+from tleaf_cli.embed.automaton import AutomatonEncoder
+from tleaf_cli.embed.encoders import atom_features, triplet_accuracy
+from tleaf_cli.embed.graphs import syntax_graph
+from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
+from tleaf_cli.embed.syntax import SyntaxEncoder
+from tleaf_cli.embed.train_edge import load_edge_model
+from tleaf_cli.embed.training import EpochReport, LoopSettings, chunks, device_for, fit
+from tleaf_cli.errors import UsageError
+from tleaf_cli.logic.formulas import parse
+
+EMBEDDERS = ("dfa", "syntax")
+
+
+@dataclass(frozen=True)
+class MetaSettings:
+    embedder: str = "dfa"
+    hidden: int = 100
+    layers: int = 4
+    out_dim: int = 200
+    steps: int = 24  # random-walk steps of the readout
+    margin: float = 1.0
+    lr: float = 1e-3
+    batch_size: int = 64
+    epochs: int = 30
+    patience: int = 5
+    seed: int = 0
+    device: str = "cpu"
+    max_minutes: float | None = None
+
+
+class TripletEmbedder(nn.Module):
+    """A formula encoder and a trace encoder into one space (the same module for q_m)."""
+
+    def __init__(self, formula: nn.Module, trace: nn.Module) -> None:
+        super().__init__()
+        self.formula = formula
+        self.trace = trace
+
+    def embed_formulas(self, batch) -> torch.Tensor:
+        return self.formula(batch)
+
+    def embed_traces(self, batch) -> torch.Tensor:
+        return self.trace(batch)
+
+
+def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor) -> TripletEmbedder:
+    trace = AutomatonEncoder(
+        edge_dim, settings.hidden, settings.layers, settings.out_dim, settings.steps
+    )
+    if settings.embedder == "dfa":
+        return TripletEmbedder(trace, trace)
+    formula = SyntaxEncoder(atom_table, settings.hidden, settings.layers, settings.out_dim)
+    return TripletEmbedder(formula, trace)
+
+
+def train_meta(
+    dfas_path: str | Path,
+    traces_path: str | Path,
+    edge_dir: str | Path,
+    out_dir: str | Path,
+    settings: MetaSettings,
+    resume: bool = False,
+    on_epoch: Callable[[EpochReport], None] | None = None,
+) -> dict:
+    out_dir = Path(out_dir)
+    if settings.embedder not in EMBEDDERS:
+        raise UsageError(f"--embedder must be one of {', '.join(EMBEDDERS)}")
+    torch.manual_seed(settings.seed)
+    device = device_for(settings.device)
+
+    # ---- data: formula graphs, trace graphs, and which traces go with which formula
+    edge_model, edge_config = load_edge_model(edge_dir)
+    vectors = GuardVectors(edge_model, edge_config["vocabulary"])
+    vocab_index = {a: i for i, a in enumerate(edge_config["vocabulary"])}
+    rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
+    traces = read_traces(traces_path)
+    if "split" not in traces.column_names:
+        raise UsageError(f"{traces_path}: no split column; run gen-traces with --split")
+    formula_graphs = {}
+    for fid, row in rows.items():
+        if settings.embedder == "dfa":
+            formula_graphs[fid] = featured_dfa_graph(dfa_from_row(row), vectors)
+        else:
+            formula_graphs[fid] = syntax_graph(parse(row["formula"]), vocab_index)
+    by_split: dict[str, dict[str, dict[bool, list]]] = defaultdict(
+        lambda: defaultdict(lambda: {True: [], False: []})
+    )
+    for t in traces.to_pylist():
+        if t["formula_id"] not in rows:
+            continue
+        atoms = tuple(rows[t["formula_id"]]["atoms"])
+        graph = featured_trace_graph(t["trace"], atoms, vectors)
+        by_split[t["split"]][t["formula_id"]][t["label"]].append((graph, t["source"]))
+
+    def fixed_pairs(split: str, source: str | None = None):
+        out = []
+        for fid, sides in by_split[split].items():
+            for (sat, _), (neg, kind) in zip(sides[True], sides[False], strict=False):
+                if source is None or kind == source:
+                    out.append((formula_graphs[fid], sat, neg))
+        return out
+
+    train_formulas = [f for f, s in by_split["train"].items() if s[True] and s[False]]
+    if not train_formulas or not fixed_pairs("val"):
+        raise UsageError(f"{traces_path}: needs satisfying and violating traces in train and val")
+
+    # ---- model and the shared triplet loop
+    atom_table = atom_features(
+        len(vocab_index),
+        edge_config["settings"]["atom_features"],
+        edge_config["settings"]["feature_dim"],
+        edge_config["settings"]["seed"],
+    )
+    model = build_model(settings, vectors.dim, atom_table).to(device)
+
+    def epoch_triplets(generator: torch.Generator):
+        triplets = []
+        for fid in train_formulas:
+            sides = by_split["train"][fid]
+            picks = torch.randint(len(sides[False]), (len(sides[True]),), generator=generator)
+            triplets += [
+                (formula_graphs[fid], sat, sides[False][k][0])
+                for (sat, _), k in zip(sides[True], picks.tolist(), strict=True)
+            ]
+        return chunks(triplets, settings.batch_size, generator)
+
+    def embed(chunk):
+        formulas, sats, negs = zip(*chunk, strict=True)
+        return (
+            model.embed_formulas(Batch.from_data_list(list(formulas)).to(device)),
+            model.embed_traces(Batch.from_data_list(list(sats)).to(device)),
+            model.embed_traces(Batch.from_data_list(list(negs)).to(device)),
+        )
+
+    def accuracy(pairs) -> float:
+        hits = 0.0
+        for i in range(0, len(pairs), settings.batch_size):
+            part = pairs[i : i + settings.batch_size]
+            hits += triplet_accuracy(*embed(part)) * len(part)
+        return hits / max(len(pairs), 1)
+
+    val = fixed_pairs("val")
+    metrics = fit(
+        model,
+        epoch_triplets,
+        embed,
+        lambda: accuracy(val),
+        LoopSettings(
+            settings.epochs,
+            settings.patience,
+            settings.margin,
+            settings.lr,
+            settings.seed,
+            settings.max_minutes,
+        ),
+        out_dir,
+        resume,
+        on_epoch,
+    )
+
+    # ---- test split with the best weights
+    model.load_state_dict(torch.load(out_dir / "weights.pt", weights_only=True))
+    model.eval()
+    with torch.no_grad():
+        metrics["test"] = {
+            "triplet_accuracy": accuracy(fixed_pairs("test")),
+            "uniform_negatives": accuracy(fixed_pairs("test", "uniform")),
+            "hard_negatives": accuracy(fixed_pairs("test", "hard")),
+            "pairs": len(fixed_pairs("test")),
+        }
+
+    # ---- the model directory
+    config = {
+        "kind": "meta-embedder",
+        "settings": asdict(settings),
+        "edge_model": str(Path(edge_dir).resolve()),
+        "edge_config": edge_config,
+        "inputs": describe_inputs([dfas_path, traces_path]),
+    }
+    write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
+    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
+    return metrics
