@@ -371,6 +371,104 @@ def train_edge(
     )
 
 
+@app.command("train-meta")
+@_exits
+def train_meta(
+    dfas: Annotated[Path, typer.Argument(help="The dfas.parquet the traces were drawn from.")],
+    traces: Annotated[Path, typer.Argument(help="A traces.parquet with a split column.")],
+    edge: Annotated[Path, typer.Option(help="The edge model directory from train-edge.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Model directory to write.")] = Path(
+        "meta_model"
+    ),
+    embedder: Annotated[
+        str, typer.Option(help="dfa (T-LEAF) or syntax (the paper's syntax-tree baseline).")
+    ] = "dfa",
+    epochs: Annotated[int, typer.Option(min=1, help="Most epochs to train.")] = 30,
+    patience: Annotated[
+        int, typer.Option(min=1, help="Stop after this many epochs without a better val score.")
+    ] = 5,
+    hidden: Annotated[int, typer.Option(min=1, help="GCN width.")] = 100,
+    layers: Annotated[int, typer.Option(min=1, help="GCN layers.")] = 4,
+    out_dim: Annotated[int, typer.Option(min=1, help="Embedding size.")] = 200,
+    steps: Annotated[int, typer.Option(min=1, help="Random-walk steps of the readout.")] = 24,
+    margin: Annotated[float, typer.Option(help="Triplet loss margin.")] = 1.0,
+    lr: Annotated[float, typer.Option(help="Adam learning rate.")] = 1e-3,
+    batch_size: Annotated[int, typer.Option(min=1, help="Triplets per batch.")] = 64,
+    seed: Seed = 0,
+    device: Annotated[str, typer.Option(help="cpu or cuda.")] = "cpu",
+    max_minutes: Annotated[
+        float | None, typer.Option(help="Stop after the epoch that passes this budget.")
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Continue from the model directory's last epoch.")
+    ] = False,
+    quiet: Quiet = False,
+) -> None:
+    """Train the meta embedder q_m (or the syntax-tree baseline) with the triplet loss.
+
+    Triplets (formula, satisfying trace, violating trace) from the train split; the best epoch on
+    the val split is kept; the test split (formulas never trained on) gives the final figures.
+    """
+    from tleaf_cli.embed.train_meta import MetaSettings
+    from tleaf_cli.embed.train_meta import train_meta as run
+
+    settings = MetaSettings(
+        embedder=embedder,
+        hidden=hidden,
+        layers=layers,
+        out_dim=out_dim,
+        steps=steps,
+        margin=margin,
+        lr=lr,
+        batch_size=batch_size,
+        epochs=epochs,
+        patience=patience,
+        seed=seed,
+        device=device,
+        max_minutes=max_minutes,
+    )
+    with ui.progress(f"training q ({embedder})", quiet) as update:
+
+        def on_epoch(r) -> None:
+            update(r.epoch, epochs)
+            ui.summary(
+                f"epoch {r.epoch}: loss {r.loss:.4f}, train acc {r.train_accuracy:.3f}, "
+                f"val acc {r.heldout_accuracy:.3f} ({r.seconds:.0f} s)",
+                quiet,
+            )
+
+        metrics = run(dfas, traces, edge, out, settings, resume=resume, on_epoch=on_epoch)
+    test = metrics["test"]
+    ui.summary(
+        f"{out}: test triplet accuracy {test['triplet_accuracy']:.3f} "
+        f"(uniform negatives {test['uniform_negatives']:.3f}, hard {test['hard_negatives']:.3f}; "
+        f"best val epoch {metrics['best']['epoch']})",
+        quiet,
+    )
+
+
+@app.command("embed")
+@_exits
+def embed(
+    model: Annotated[Path, typer.Argument(help="A meta model directory from train-meta.")],
+    source: Annotated[Path, typer.Argument(help="A dfas.parquet or a traces.parquet.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The vectors.parquet to write.")] = Path(
+        "vectors.parquet"
+    ),
+    dfas: Annotated[
+        Path | None,
+        typer.Option(help="For traces: their dfas.parquet [default: the one their file records]."),
+    ] = None,
+    quiet: Quiet = False,
+) -> None:
+    """Vectors for every DFA or trace (deterministic for a model and an input)."""
+    from tleaf_cli.embed.vectors import embed_file
+
+    with ui.progress("embedding", quiet) as update:
+        count = embed_file(model, source, out, dfas, update)
+    ui.summary(f"{out}: {count} vectors", quiet)
+
+
 @app.command("inspect")
 @_exits
 def inspect(

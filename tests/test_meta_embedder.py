@@ -1,0 +1,137 @@
+"""The meta embedder q_m, its syntax baseline, soft traces, and `tleaf embed`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+import torch
+from torch_geometric.data import Batch
+from typer.testing import CliRunner
+
+from tleaf_cli.cli import app
+from tleaf_cli.embed.automaton import walk_weights
+from tleaf_cli.embed.meta_data import featured_trace_graph
+from tleaf_cli.embed.soft import load_embedder
+from tleaf_cli.embed.train_edge import EdgeSettings, train_edge
+from tleaf_cli.embed.train_meta import MetaSettings, train_meta
+
+runner = CliRunner()
+SMALL_META = MetaSettings(hidden=32, layers=2, out_dim=16, epochs=4, patience=4, batch_size=32)
+
+
+def cli(*args) -> object:
+    return runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def chain(tmp_path_factory) -> dict[str, Path]:
+    """A tiny synthetic chain: 40 low-tier formulas, 8 pairs each, q_e trained briefly."""
+    d = tmp_path_factory.mktemp("meta")
+    p = {
+        k: d / v
+        for k, v in [
+            ("ltl", "f.ltl"),
+            ("dfas", "dfas.parquet"),
+            ("traces", "traces.parquet"),
+            ("edge", "edge"),
+        ]
+    }
+    assert cli("gen-formulas", "--tier", "low", "-n", 40, "-o", p["ltl"]).exit_code == 0
+    assert cli("compile-dfa", p["ltl"], "-o", p["dfas"]).exit_code == 0
+    assert (
+        cli(
+            "gen-traces", p["dfas"], "-o", p["traces"], "--per-formula", 8, "--split", "0.6,0.2,0.2"
+        ).exit_code
+        == 0
+    )
+    train_edge(p["dfas"], p["edge"], EdgeSettings(hidden=32, out_dim=16, epochs=3, per_guard=2))
+    return p
+
+
+def test_walk_readout_starts_at_the_initial_state_and_sums_to_one() -> None:
+    # chain 0 -> 1 -> 2 (2 has no way out: the walker stays)
+    edge_index = torch.tensor([[0, 1], [1, 2]])
+    r = walk_weights(edge_index, torch.tensor([0]), 3, steps=3)
+    assert torch.allclose(r, torch.tensor([1, 1, 2]) / 4)
+    assert torch.isclose(r.sum(), torch.tensor(1.0))
+
+
+def test_dfa_embedder_learns_and_writes_a_loadable_model(chain, tmp_path: Path) -> None:
+    metrics = train_meta(chain["dfas"], chain["traces"], chain["edge"], tmp_path / "m", SMALL_META)
+    curve = metrics["history"]
+    assert curve[-1]["loss"] < curve[0]["loss"]
+    assert metrics["test"]["pairs"] > 0 and 0.0 <= metrics["test"]["triplet_accuracy"] <= 1.0
+    assert max(h["train_accuracy"] for h in curve) > 0.55  # above chance on what it trains on
+    embedder = load_embedder(tmp_path / "m")
+    assert embedder.kind == "dfa"
+
+
+def test_syntax_baseline_trains_through_the_same_code(chain, tmp_path: Path) -> None:
+    settings = MetaSettings(**{**SMALL_META.__dict__, "embedder": "syntax", "epochs": 2})
+    metrics = train_meta(chain["dfas"], chain["traces"], chain["edge"], tmp_path / "s", settings)
+    assert len(metrics["history"]) == 2 and "test" in metrics
+
+
+@pytest.fixture(scope="module")
+def embedder(chain, tmp_path_factory):
+    out = tmp_path_factory.mktemp("q") / "m"
+    settings = MetaSettings(**{**SMALL_META.__dict__, "epochs": 1})
+    train_meta(chain["dfas"], chain["traces"], chain["edge"], out, settings)
+    return load_embedder(out), out
+
+
+def test_one_hot_soft_trace_equals_the_discrete_trace(embedder) -> None:
+    q, _ = embedder
+    atoms = ("a", "b", "c")
+    trace = [{"b"}, set(), {"a"}]
+    discrete = q.model.embed_traces(_batch(featured_trace_graph(trace, atoms, q.vectors)))[0]
+    for domain, probs in (
+        ("one-hot", torch.tensor([[0.0, 1, 0], [0, 0, 0], [1, 0, 0]])),
+        ("powerset", torch.tensor([[0.0, 1, 0], [0, 0, 0], [1, 0, 0]])),
+    ):
+        soft = q.embed_soft_trace(probs, atoms, domain=domain)
+        assert torch.allclose(soft, discrete, atol=1e-5), domain
+
+
+def test_soft_trace_gradients_are_finite_nonzero_and_match_finite_differences(embedder) -> None:
+    q, _ = embedder
+    atoms = ("a", "b", "c")
+    columns = ["a", "b", "c", "zzz"]  # a domain atom outside the formula: the empty letter
+    logits = torch.randn(4, 4, dtype=torch.float32, generator=torch.Generator().manual_seed(0))
+    target = torch.randn(q.model.trace.head.out_features)
+
+    def loss_of(z):
+        probs = torch.softmax(z, dim=1)
+        return (q.embed_soft_trace(probs, atoms, columns) - target).pow(2).sum()
+
+    z = logits.clone().requires_grad_(True)
+    loss_of(z).backward()
+    grad = z.grad
+    assert torch.isfinite(grad).all() and grad.abs().sum() > 0
+    eps = 1e-2
+    for i, j in [(0, 0), (1, 2), (3, 3)]:
+        bumped = logits.clone()
+        bumped[i, j] += eps
+        lowered = logits.clone()
+        lowered[i, j] -= eps
+        numeric = (loss_of(bumped) - loss_of(lowered)) / (2 * eps)
+        assert numeric.item() == pytest.approx(grad[i, j].item(), rel=0.05, abs=1e-3)
+
+
+def test_embed_is_deterministic_for_dfas_and_traces(chain, embedder, tmp_path: Path) -> None:
+    _, model_dir = embedder
+    for source in (chain["dfas"], chain["traces"]):
+        a, b = tmp_path / "a.parquet", tmp_path / "b.parquet"
+        assert cli("embed", model_dir, source, "-o", a).exit_code == 0
+        assert cli("embed", model_dir, source, "-o", b).exit_code == 0
+        ta, tb = pq.read_table(a), pq.read_table(b)
+        assert ta.equals(tb)
+        assert ta.schema.field("vector").type.list_size == 16
+        assert set(ta.column("kind").to_pylist()) in ({"dfa"}, {"trace"})
+    assert cli("embed", model_dir, chain["ltl"], "-o", tmp_path / "x.parquet").exit_code == 2
+
+
+def _batch(graph):
+    return Batch.from_data_list([graph])

@@ -1,0 +1,116 @@
+"""A trained q (frozen q_e + q_m), and differentiable embeddings of soft traces.
+
+A soft trace is a [T, k] tensor of per-step probabilities over named atoms (`columns`). Each
+step's letter distribution over a formula's atoms is
+
+* one-hot domain: P(atom a) for each of the formula's atoms, and the rest of the mass —
+  the domain's other atoms — on the empty letter;
+* powerset domain: independent probabilities,
+  P(letter) = prod_a (p_a if a is in the letter else 1 - p_a).
+
+The edge node of step t then carries the expected q_e vector sum_l P_t(l) q_e(l), which is
+exactly the discrete letter's vector when P_t is one-hot, and differentiable in P throughout.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import torch
+from torch_geometric.data import Batch
+
+from tleaf_cli.embed.encoders import atom_features
+from tleaf_cli.embed.graphs import letter_cnf, trace_graph
+from tleaf_cli.embed.meta_data import GuardVectors
+from tleaf_cli.embed.train_edge import load_edge_model
+from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
+from tleaf_cli.errors import UsageError
+
+
+class Embedder:
+    """q: formulas (as graphs), discrete traces and soft traces into one vector space."""
+
+    def __init__(self, model: TripletEmbedder, vectors: GuardVectors, config: dict) -> None:
+        self.model = model.eval()
+        self.vectors = vectors
+        self.config = config
+        for p in self.model.parameters():
+            p.requires_grad_(False)
+
+    @property
+    def kind(self) -> str:
+        return self.config["settings"]["embedder"]
+
+    def letter_vectors(self, atoms: tuple[str, ...], domain: str) -> tuple[list, torch.Tensor]:
+        """The letters over `atoms` (one-hot: none, then each atom; powerset: every subset, bit
+        k = atoms[k]) and their q_e vectors [letters, d]."""
+        if domain == "one-hot":
+            letters = [frozenset()] + [frozenset({a}) for a in atoms]
+        elif domain == "powerset":
+            letters = [
+                frozenset(a for k, a in enumerate(atoms) if i >> k & 1)
+                for i in range(1 << len(atoms))
+            ]
+        else:
+            raise ValueError(f"domain must be one-hot or powerset, not {domain!r}")
+        keys = [(atoms, tuple(map(tuple, letter_cnf(x, atoms)))) for x in letters]
+        return letters, self.vectors(keys)
+
+    def letter_probabilities(
+        self, probs: torch.Tensor, columns: Sequence[str], atoms: tuple[str, ...], domain: str
+    ) -> torch.Tensor:
+        """[T, letters] distribution of each step over the letters of `letter_vectors`."""
+        p = probs[:, [list(columns).index(a) for a in atoms]]
+        if domain == "one-hot":
+            return torch.cat([(1 - p.sum(dim=1, keepdim=True)).clamp(min=0), p], dim=1)
+        out = []
+        for bits in itertools.product((0, 1), repeat=len(atoms)):
+            # letter index i has atom k iff bit k of i is set: product() varies the last fastest
+            chosen = torch.tensor(bits[::-1], dtype=torch.bool)
+            out.append(torch.where(chosen, p, 1 - p).prod(dim=1))
+        return torch.stack(out, dim=1)
+
+    def embed_soft_traces(
+        self,
+        traces: Sequence[torch.Tensor],
+        atoms: tuple[str, ...],
+        columns: Sequence[str] | None = None,
+        domain: str = "one-hot",
+    ) -> torch.Tensor:
+        """[B, d] vectors of soft traces, each [T_b, len(columns)], over a formula's atoms."""
+        columns = list(atoms) if columns is None else list(columns)
+        _, table = self.letter_vectors(atoms, domain)
+        graphs = []
+        for probs in traces:
+            graph = trace_graph(probs.shape[0])
+            expected = self.letter_probabilities(probs, columns, atoms, domain) @ table
+            graph.edge_vec = torch.cat([torch.zeros(probs.shape[0] + 1, table.shape[1]), expected])
+            graphs.append(graph)
+        return self.model.embed_traces(Batch.from_data_list(graphs))
+
+    def embed_soft_trace(self, probs: torch.Tensor, atoms, columns=None, domain="one-hot"):
+        """The vector of one soft trace [T, len(columns)] (see `embed_soft_traces`)."""
+        return self.embed_soft_traces([probs], tuple(atoms), columns, domain)[0]
+
+
+def load_embedder(model_dir: str | Path) -> Embedder:
+    """A trained meta embedder directory (with its edge model) as an `Embedder`."""
+    model_dir = Path(model_dir)
+    try:
+        config = json.loads((model_dir / "config.json").read_text())
+    except (OSError, ValueError) as e:
+        raise UsageError(f"{model_dir}: not a tleaf model directory ({e})") from None
+    if config.get("kind") != "meta-embedder":
+        raise UsageError(f"{model_dir}: a '{config.get('kind')}' model, expected 'meta-embedder'")
+    edge_model, edge_config = load_edge_model(config["edge_model"])
+    vectors = GuardVectors(edge_model, edge_config["vocabulary"])
+    s = edge_config["settings"]
+    atom_table = atom_features(
+        len(edge_config["vocabulary"]), s["atom_features"], s["feature_dim"], s["seed"]
+    )
+    model = build_model(MetaSettings(**config["settings"]), vectors.dim, atom_table)
+    model.load_state_dict(torch.load(model_dir / "weights.pt", weights_only=True))
+    return Embedder(model, vectors, config)
