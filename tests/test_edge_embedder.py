@@ -46,10 +46,18 @@ def dfas(tmp_path_factory) -> Path:
 
 
 def test_encoder_shapes() -> None:
-    model = PropositionEncoder(atom_features(4, "onehot"), hidden=8, layers=2, out_dim=5)
+    model = PropositionEncoder(atom_features("abcd", "onehot"), hidden=8, layers=2, out_dim=5)
     batch = Batch.from_data_list([cnf_graph([[1, -2]], [0, 1]), cnf_graph([], [3])])
     assert model(batch).shape == (2, 5)
-    assert atom_features(4, "random", dim=7).shape == (4, 7)
+    assert atom_features("abcd", "random", dim=7).shape == (4, 7)
+
+
+def test_text_features_put_related_atoms_close() -> None:
+    table = atom_features(["cut_tomato", "cut_onion", "fry_egg", "rinse_cabbage"], "text")
+    assert table.shape == (4, 384)
+    sim = table @ table.t()
+    assert torch.allclose(sim.diagonal(), torch.ones(4), atol=1e-5)
+    assert sim[0, 1] > sim[0, 3]  # cutting tomato is nearer cutting onion than rinsing cabbage
 
 
 def test_triplet_loss_is_zero_only_past_the_margin() -> None:

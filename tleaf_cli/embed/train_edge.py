@@ -79,7 +79,7 @@ def train_edge(
     heldout_graphs = [triplet_graphs(t, index) for t in heldout]
 
     # ---- model, then the shared triplet loop
-    atoms = atom_features(len(vocab), settings.atom_features, settings.feature_dim, settings.seed)
+    atoms = atom_features(vocab, settings.atom_features, settings.feature_dim, settings.seed)
     model = PropositionEncoder(atoms, settings.hidden, settings.layers, settings.out_dim).to(device)
 
     def embed(chunk) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -108,6 +108,7 @@ def train_edge(
         "kind": "edge-embedder",
         "settings": asdict(settings),
         "vocabulary": vocab,
+        "atom_feature_dim": int(atoms.shape[1]),
         "inputs": describe_inputs([dfas_path]),
         "triplets": {"train": len(train), "heldout": len(heldout)},
     }
@@ -136,7 +137,8 @@ def load_edge_model(model_dir: str | Path) -> tuple[PropositionEncoder, dict]:
     if config.get("kind") != "edge-embedder":
         raise UsageError(f"{model_dir}: a '{config.get('kind')}' model, expected 'edge-embedder'")
     s = EdgeSettings(**config["settings"])
-    table = atom_features(len(config["vocabulary"]), s.atom_features, s.feature_dim, s.seed)
+    # The atom table is a buffer in the weights: a placeholder of its shape is enough here.
+    table = torch.zeros(len(config["vocabulary"]), config["atom_feature_dim"])
     model = PropositionEncoder(table, s.hidden, s.layers, s.out_dim)
     model.load_state_dict(torch.load(model_dir / "weights.pt", weights_only=True))
     return model.eval(), config

@@ -28,7 +28,7 @@ from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.automaton import AutomatonEncoder
-from tleaf_cli.embed.encoders import atom_features, triplet_accuracy
+from tleaf_cli.embed.encoders import triplet_accuracy
 from tleaf_cli.embed.graphs import syntax_graph
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
 from tleaf_cli.embed.syntax import SyntaxEncoder
@@ -134,13 +134,7 @@ def train_meta(
         raise UsageError(f"{traces_path}: needs satisfying and violating traces in train and val")
 
     # ---- model and the shared triplet loop
-    atom_table = atom_features(
-        len(vocab_index),
-        edge_config["settings"]["atom_features"],
-        edge_config["settings"]["feature_dim"],
-        edge_config["settings"]["seed"],
-    )
-    model = build_model(settings, vectors.dim, atom_table).to(device)
+    model = build_model(settings, vectors.dim, edge_model.atom_table).to(device)
 
     def epoch_triplets(generator: torch.Generator):
         triplets = []
