@@ -38,6 +38,24 @@ CacheDir = Annotated[
     typer.Option(help="Compile cache [default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
 ]
 NoCache = Annotated[bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")]
+# Options shared by the training commands.
+Epochs = Annotated[int, typer.Option(min=1, help="Most epochs to train.")]
+Patience = Annotated[
+    int, typer.Option(min=1, help="Stop after this many epochs without a better held-out score.")
+]
+Hidden = Annotated[int, typer.Option(min=1, help="GCN width.")]
+Layers = Annotated[int, typer.Option(min=1, help="GCN layers.")]
+OutDim = Annotated[int, typer.Option(min=1, help="Embedding size.")]
+Margin = Annotated[float, typer.Option(help="Triplet loss margin.")]
+Lr = Annotated[float, typer.Option(help="Adam learning rate.")]
+BatchSize = Annotated[int, typer.Option(min=1, help="Triplets per batch.")]
+Device = Annotated[str, typer.Option(help="cpu or cuda.")]
+MaxMinutes = Annotated[
+    float | None, typer.Option(help="Stop after the epoch that passes this budget.")
+]
+Resume = Annotated[
+    bool, typer.Option("--resume", help="Continue from the model directory's last epoch.")
+]
 
 
 def _compile_settings(one_hot: bool, timeout: float, cache_dir, no_cache: bool, jobs: int):
@@ -77,6 +95,20 @@ def _finish(failures: list[tuple[str, str]], summary: str, quiet: bool) -> None:
     ui.summary(summary, quiet)
     if failures:
         raise typer.Exit(1)
+
+
+def _epoch_printer(update, epochs: int, scored_on: str, quiet: bool):
+    """A training callback: advance the bar and print one line per epoch."""
+
+    def on_epoch(r) -> None:
+        update(r.epoch, epochs)
+        ui.summary(
+            f"epoch {r.epoch}: loss {r.loss:.4f}, train acc {r.train_accuracy:.3f}, "
+            f"{scored_on} acc {r.heldout_accuracy:.3f} ({r.seconds:.0f} s)",
+            quiet,
+        )
+
+    return on_epoch
 
 
 def _version(value: bool) -> None:
@@ -310,25 +342,18 @@ def train_edge(
             "name through a packaged sentence model; needs tleaf[text])."
         ),
     ] = "onehot",
-    epochs: Annotated[int, typer.Option(min=1, help="Most epochs to train.")] = 30,
-    patience: Annotated[
-        int,
-        typer.Option(min=1, help="Stop after this many epochs without a better held-out score."),
-    ] = 5,
-    hidden: Annotated[int, typer.Option(min=1, help="GCN width.")] = 256,
-    layers: Annotated[int, typer.Option(min=1, help="GCN layers.")] = 2,
-    out_dim: Annotated[int, typer.Option(min=1, help="Embedding size.")] = 100,
-    margin: Annotated[float, typer.Option(help="Triplet loss margin.")] = 1.0,
-    lr: Annotated[float, typer.Option(help="Adam learning rate.")] = 1e-3,
-    batch_size: Annotated[int, typer.Option(min=1, help="Triplets per batch.")] = 128,
+    epochs: Epochs = 30,
+    patience: Patience = 5,
+    hidden: Hidden = 256,
+    layers: Layers = 2,
+    out_dim: OutDim = 100,
+    margin: Margin = 1.0,
+    lr: Lr = 1e-3,
+    batch_size: BatchSize = 128,
     seed: Seed = 0,
-    device: Annotated[str, typer.Option(help="cpu or cuda.")] = "cpu",
-    max_minutes: Annotated[
-        float | None, typer.Option(help="Stop after the epoch that passes this budget.")
-    ] = None,
-    resume: Annotated[
-        bool, typer.Option("--resume", help="Continue from the model directory's last epoch.")
-    ] = False,
+    device: Device = "cpu",
+    max_minutes: MaxMinutes = None,
+    resume: Resume = False,
     quiet: Quiet = False,
 ) -> None:
     """Train the edge embedder q_e: guards close to letters that satisfy them (triplet loss).
@@ -357,15 +382,7 @@ def train_edge(
         max_minutes=max_minutes,
     )
     with ui.progress("training q_e (epochs)", quiet) as update:
-
-        def on_epoch(r) -> None:
-            update(r.epoch, epochs)
-            ui.summary(
-                f"epoch {r.epoch}: loss {r.loss:.4f}, train acc {r.train_accuracy:.3f}, "
-                f"held-out acc {r.heldout_accuracy:.3f} ({r.seconds:.0f} s)",
-                quiet,
-            )
-
+        on_epoch = _epoch_printer(update, epochs, "held-out", quiet)
         metrics = run(dfas, out, settings, resume=resume, on_epoch=on_epoch)
     best = metrics["best"]
     ui.summary(
@@ -387,25 +404,19 @@ def train_meta(
     embedder: Annotated[
         str, typer.Option(help="dfa (T-LEAF) or syntax (the paper's syntax-tree baseline).")
     ] = "dfa",
-    epochs: Annotated[int, typer.Option(min=1, help="Most epochs to train.")] = 30,
-    patience: Annotated[
-        int, typer.Option(min=1, help="Stop after this many epochs without a better val score.")
-    ] = 5,
-    hidden: Annotated[int, typer.Option(min=1, help="GCN width.")] = 100,
-    layers: Annotated[int, typer.Option(min=1, help="GCN layers.")] = 4,
-    out_dim: Annotated[int, typer.Option(min=1, help="Embedding size.")] = 200,
+    epochs: Epochs = 30,
+    patience: Patience = 5,
+    hidden: Hidden = 100,
+    layers: Layers = 4,
+    out_dim: OutDim = 200,
     steps: Annotated[int, typer.Option(min=1, help="Random-walk steps of the readout.")] = 24,
-    margin: Annotated[float, typer.Option(help="Triplet loss margin.")] = 1.0,
-    lr: Annotated[float, typer.Option(help="Adam learning rate.")] = 1e-3,
-    batch_size: Annotated[int, typer.Option(min=1, help="Triplets per batch.")] = 64,
+    margin: Margin = 1.0,
+    lr: Lr = 1e-3,
+    batch_size: BatchSize = 64,
     seed: Seed = 0,
-    device: Annotated[str, typer.Option(help="cpu or cuda.")] = "cpu",
-    max_minutes: Annotated[
-        float | None, typer.Option(help="Stop after the epoch that passes this budget.")
-    ] = None,
-    resume: Annotated[
-        bool, typer.Option("--resume", help="Continue from the model directory's last epoch.")
-    ] = False,
+    device: Device = "cpu",
+    max_minutes: MaxMinutes = None,
+    resume: Resume = False,
     quiet: Quiet = False,
 ) -> None:
     """Train the meta embedder q_m (or the syntax-tree baseline) with the triplet loss.
@@ -432,15 +443,7 @@ def train_meta(
         max_minutes=max_minutes,
     )
     with ui.progress(f"training q ({embedder})", quiet) as update:
-
-        def on_epoch(r) -> None:
-            update(r.epoch, epochs)
-            ui.summary(
-                f"epoch {r.epoch}: loss {r.loss:.4f}, train acc {r.train_accuracy:.3f}, "
-                f"val acc {r.heldout_accuracy:.3f} ({r.seconds:.0f} s)",
-                quiet,
-            )
-
+        on_epoch = _epoch_printer(update, epochs, "val", quiet)
         metrics = run(dfas, traces, edge, out, settings, resume=resume, on_epoch=on_epoch)
     test = metrics["test"]
     ui.summary(

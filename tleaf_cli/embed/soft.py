@@ -15,7 +15,6 @@ exactly the discrete letter's vector when P_t is one-hot, and differentiable in 
 from __future__ import annotations
 
 import itertools
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -26,7 +25,7 @@ from tleaf_cli.embed.graphs import letter_cnf, trace_graph
 from tleaf_cli.embed.meta_data import GuardVectors
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
-from tleaf_cli.errors import UsageError
+from tleaf_cli.embed.training import read_model_config
 
 
 class Embedder:
@@ -98,12 +97,7 @@ class Embedder:
 def load_embedder(model_dir: str | Path) -> Embedder:
     """A trained meta embedder directory (with its edge model) as an `Embedder`."""
     model_dir = Path(model_dir)
-    try:
-        config = json.loads((model_dir / "config.json").read_text())
-    except (OSError, ValueError) as e:
-        raise UsageError(f"{model_dir}: not a tleaf model directory ({e})") from None
-    if config.get("kind") != "meta-embedder":
-        raise UsageError(f"{model_dir}: a '{config.get('kind')}' model, expected 'meta-embedder'")
+    config = read_model_config(model_dir, "meta-embedder")
     edge_model, edge_config = load_edge_model(config["edge_model"])
     vectors = GuardVectors(edge_model, edge_config["vocabulary"])
     model = build_model(MetaSettings(**config["settings"]), vectors.dim, edge_model.atom_table)

@@ -26,7 +26,14 @@ from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.embed.edge_data import guard_triplets, split_by_formula, triplet_graphs, vocabulary
 from tleaf_cli.embed.encoders import PropositionEncoder, atom_features, triplet_accuracy
-from tleaf_cli.embed.training import EpochReport, LoopSettings, chunks, device_for, fit
+from tleaf_cli.embed.training import (
+    EpochReport,
+    LoopSettings,
+    chunks,
+    device_for,
+    fit,
+    read_model_config,
+)
 from tleaf_cli.errors import UsageError
 
 
@@ -90,14 +97,7 @@ def train_edge(
         lambda generator: chunks(train_graphs, settings.batch_size, generator),
         embed,
         lambda: evaluate(model, heldout_graphs, settings.batch_size, device),
-        LoopSettings(
-            settings.epochs,
-            settings.patience,
-            settings.margin,
-            settings.lr,
-            settings.seed,
-            settings.max_minutes,
-        ),
+        LoopSettings.of(settings),
         out_dir,
         resume,
         on_epoch,
@@ -130,12 +130,7 @@ def evaluate(model: PropositionEncoder, graphs, batch_size: int, device) -> floa
 def load_edge_model(model_dir: str | Path) -> tuple[PropositionEncoder, dict]:
     """The trained q_e (best epoch) and its config."""
     model_dir = Path(model_dir)
-    try:
-        config = json.loads((model_dir / "config.json").read_text())
-    except (OSError, ValueError) as e:
-        raise UsageError(f"{model_dir}: not a tleaf model directory ({e})") from None
-    if config.get("kind") != "edge-embedder":
-        raise UsageError(f"{model_dir}: a '{config.get('kind')}' model, expected 'edge-embedder'")
+    config = read_model_config(model_dir, "edge-embedder")
     s = EdgeSettings(**config["settings"])
     # The atom table is a buffer in the weights: a placeholder of its shape is enough here.
     table = torch.zeros(len(config["vocabulary"]), config["atom_feature_dim"])

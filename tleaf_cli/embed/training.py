@@ -9,9 +9,10 @@ without a better score, or after the epoch that passes `max_minutes`.
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
 import torch
@@ -38,6 +39,11 @@ class LoopSettings:
     lr: float
     seed: int
     max_minutes: float | None = None
+
+    @classmethod
+    def of(cls, settings: object) -> LoopSettings:
+        """The loop's fields, taken from a trainer's settings object."""
+        return cls(**{f.name: getattr(settings, f.name) for f in fields(cls)})
 
 
 def fit(
@@ -124,6 +130,19 @@ def chunks(items: list, size: int, generator: torch.Generator) -> Iterable[list]
     order = torch.randperm(len(items), generator=generator).tolist()
     for i in range(0, len(order), size):
         yield [items[j] for j in order[i : i + size]]
+
+
+def read_model_config(model_dir: Path, kind: str) -> dict:
+    """A model directory's config.json, checked to be of `kind` (UsageError otherwise)."""
+    from tleaf_cli.errors import UsageError
+
+    try:
+        config = json.loads((model_dir / "config.json").read_text())
+    except (OSError, ValueError) as e:
+        raise UsageError(f"{model_dir}: not a tleaf model directory ({e})") from None
+    if config.get("kind") != kind:
+        raise UsageError(f"{model_dir}: a '{config.get('kind')}' model, expected '{kind}'")
+    return config
 
 
 def device_for(name: str) -> torch.device:
