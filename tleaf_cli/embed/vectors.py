@@ -53,7 +53,8 @@ def embed_file(
             graphs = [featured_dfa_graph(dfa_from_row(r), embedder.vectors) for r in rows]
         else:
             graphs = [syntax_graph(parse(r["formula"]), embedder.vectors.index) for r in rows]
-        encode, label = embedder.model.embed_formulas, embedder.kind
+        encode = embedder.model.embed_formulas
+        label = "dfa" if embedder.kind == "dfa" else "formula"
         inputs = [source]
     elif kind == "traces":
         dfas = dfas or _recorded_dfas(source)
