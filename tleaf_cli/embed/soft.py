@@ -15,17 +15,19 @@ exactly the discrete letter's vector when P_t is one-hot, and differentiable in 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 import torch
 from torch_geometric.data import Batch
 
-from tleaf_cli.embed.graphs import letter_cnf, trace_graph
-from tleaf_cli.embed.meta_data import GuardVectors
+from tleaf_cli.data.dfa_table import dfa_from_row
+from tleaf_cli.embed.graphs import letter_cnf, syntax_graph, trace_graph
+from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
 from tleaf_cli.embed.training import read_model_config
+from tleaf_cli.logic.formulas import parse
 
 
 class Embedder:
@@ -41,6 +43,35 @@ class Embedder:
     @property
     def kind(self) -> str:
         return self.config["settings"]["embedder"]
+
+    def embed_formula_rows(self, rows: Sequence[dict], batch: int = 256) -> torch.Tensor:
+        """[len(rows), d] for compiled dfas.parquet rows: their DFA (q_m) or parse tree."""
+        if self.kind == "dfa":
+            graphs = [featured_dfa_graph(dfa_from_row(r), self.vectors) for r in rows]
+        else:
+            graphs = [syntax_graph(parse(r["formula"]), self.vectors.index) for r in rows]
+        return self._encode(self.model.embed_formulas, graphs, batch)
+
+    def embed_traces(
+        self,
+        traces: Sequence[Sequence[Collection[str]]],
+        atoms: Sequence[tuple[str, ...]],
+        batch: int = 256,
+    ) -> torch.Tensor:
+        """[len(traces), d] for discrete traces, trace i read over the atoms `atoms[i]`."""
+        graphs = [
+            featured_trace_graph(t, a, self.vectors) for t, a in zip(traces, atoms, strict=True)
+        ]
+        return self._encode(self.model.embed_traces, graphs, batch)
+
+    @staticmethod
+    def _encode(encode, graphs, batch: int) -> torch.Tensor:
+        with torch.no_grad():
+            parts = [
+                encode(Batch.from_data_list(graphs[i : i + batch]))
+                for i in range(0, len(graphs), batch)
+            ]
+        return torch.cat(parts) if parts else torch.zeros((0, 0))
 
     def letter_vectors(self, atoms: tuple[str, ...], domain: str) -> tuple[list, torch.Tensor]:
         """The letters over `atoms` (one-hot: none, then each atom; powerset: every subset, bit

@@ -13,8 +13,6 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pyarrow as pa
-import torch
-from torch_geometric.data import Batch
 
 from tleaf_cli.data.artifacts import (
     check_writable,
@@ -22,13 +20,10 @@ from tleaf_cli.data.artifacts import (
     read_provenance,
     write_artifact,
 )
-from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
+from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
-from tleaf_cli.embed.graphs import syntax_graph
-from tleaf_cli.embed.meta_data import featured_dfa_graph, featured_trace_graph
 from tleaf_cli.embed.soft import load_embedder
 from tleaf_cli.errors import UsageError
-from tleaf_cli.logic.formulas import parse
 
 KIND = "embeddings"
 SCHEMA_VERSION = 1
@@ -49,11 +44,7 @@ def embed_file(
     if kind == "dfa":
         rows = [r for r in read_dfas(source).rows if r["error"] is None]
         ids = [r["formula_id"] for r in rows]
-        if embedder.kind == "dfa":
-            graphs = [featured_dfa_graph(dfa_from_row(r), embedder.vectors) for r in rows]
-        else:
-            graphs = [syntax_graph(parse(r["formula"]), embedder.vectors.index) for r in rows]
-        encode = embedder.model.embed_formulas
+        matrix = embedder.embed_formula_rows(rows).numpy()
         label = "dfa" if embedder.kind == "dfa" else "formula"
         inputs = [source]
     elif kind == "traces":
@@ -66,22 +57,15 @@ def embed_file(
                 f"{dfas}: no formula {sorted(missing)[0]!r} for the traces of {source}"
             )
         ids = [f"{t['formula_id']}:{t['trace_id']}" for t in traces]
-        graphs = [
-            featured_trace_graph(t["trace"], atoms[t["formula_id"]], embedder.vectors)
-            for t in traces
-        ]
-        encode, label = embedder.model.embed_traces, "trace"
+        matrix = embedder.embed_traces(
+            [t["trace"] for t in traces], [atoms[t["formula_id"]] for t in traces]
+        ).numpy()
+        label = "trace"
         inputs = [source, dfas]
     else:
         raise UsageError(f"{source}: a '{kind}' artifact; embed reads dfa or traces artifacts")
-
-    vectors = []
-    with torch.no_grad():
-        for i in range(0, len(graphs), BATCH):
-            vectors.append(encode(Batch.from_data_list(graphs[i : i + BATCH])))
-            if on_progress:
-                on_progress(min(i + BATCH, len(graphs)), len(graphs))
-    matrix = torch.cat(vectors).numpy() if vectors else torch.zeros((0, 1)).numpy()
+    if on_progress:
+        on_progress(len(ids), len(ids))
     dim = int(matrix.shape[1])
     table = pa.table(
         {
