@@ -25,3 +25,40 @@ def all_traces(atoms, max_len: int, one_hot: bool = False) -> list[list[frozense
             frozenset(c) for r in range(len(atoms) + 1) for c in itertools.combinations(atoms, r)
         ]
     return [list(t) for n in range(1, max_len + 1) for t in itertools.product(letters, repeat=n)]
+
+
+@pytest.fixture(scope="session")
+def chain_cli():
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    runner = CliRunner()
+    return lambda *args: runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture(scope="session")
+def chain(tmp_path_factory, chain_cli) -> dict[str, Path]:
+    """A tiny synthetic chain: 40 low-tier formulas, 8 pairs each, q_e trained briefly."""
+    from tleaf_cli.embed.train_edge import EdgeSettings, train_edge
+
+    d = tmp_path_factory.mktemp("meta")
+    p = {
+        k: d / v
+        for k, v in [
+            ("ltl", "f.ltl"),
+            ("dfas", "dfas.parquet"),
+            ("traces", "traces.parquet"),
+            ("edge", "edge"),
+        ]
+    }
+    assert chain_cli("gen-formulas", "--tier", "low", "-n", 40, "-o", p["ltl"]).exit_code == 0
+    assert chain_cli("compile-dfa", p["ltl"], "-o", p["dfas"]).exit_code == 0
+    assert (
+        chain_cli(
+            "gen-traces", p["dfas"], "-o", p["traces"], "--per-formula", 8, "--split", "0.6,0.2,0.2"
+        ).exit_code
+        == 0
+    )
+    train_edge(p["dfas"], p["edge"], EdgeSettings(hidden=32, out_dim=16, epochs=3, per_guard=2))
+    return p

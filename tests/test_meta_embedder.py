@@ -14,7 +14,6 @@ from tleaf_cli.cli import app
 from tleaf_cli.embed.automaton import walk_weights
 from tleaf_cli.embed.meta_data import featured_trace_graph
 from tleaf_cli.embed.soft import load_embedder
-from tleaf_cli.embed.train_edge import EdgeSettings, train_edge
 from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
 runner = CliRunner()
@@ -23,31 +22,6 @@ SMALL_META = MetaSettings(hidden=32, layers=2, out_dim=16, epochs=4, patience=4,
 
 def cli(*args) -> object:
     return runner.invoke(app, [str(a) for a in args])
-
-
-@pytest.fixture(scope="module")
-def chain(tmp_path_factory) -> dict[str, Path]:
-    """A tiny synthetic chain: 40 low-tier formulas, 8 pairs each, q_e trained briefly."""
-    d = tmp_path_factory.mktemp("meta")
-    p = {
-        k: d / v
-        for k, v in [
-            ("ltl", "f.ltl"),
-            ("dfas", "dfas.parquet"),
-            ("traces", "traces.parquet"),
-            ("edge", "edge"),
-        ]
-    }
-    assert cli("gen-formulas", "--tier", "low", "-n", 40, "-o", p["ltl"]).exit_code == 0
-    assert cli("compile-dfa", p["ltl"], "-o", p["dfas"]).exit_code == 0
-    assert (
-        cli(
-            "gen-traces", p["dfas"], "-o", p["traces"], "--per-formula", 8, "--split", "0.6,0.2,0.2"
-        ).exit_code
-        == 0
-    )
-    train_edge(p["dfas"], p["edge"], EdgeSettings(hidden=32, out_dim=16, epochs=3, per_guard=2))
-    return p
 
 
 def test_walk_readout_starts_at_the_initial_state_and_sums_to_one() -> None:

@@ -476,6 +476,41 @@ def embed(
     ui.summary(f"{out}: {count} vectors", quiet)
 
 
+eval_app = typer.Typer(help="Evaluate embedders and trained models.", no_args_is_help=True)
+app.add_typer(eval_app, name="eval")
+
+
+@eval_app.command("model-checking")
+@_exits
+def eval_model_checking(
+    dfas: Annotated[Path, typer.Argument(help="The dfas.parquet of the formulas.")],
+    traces: Annotated[Path, typer.Argument(help="A traces.parquet with a split column.")],
+    embedder: Annotated[Path, typer.Option(help="A meta model directory (train-meta).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder.")] = Path("report"),
+    pair_features: Annotated[
+        str, typer.Option(help="concat (the paper's) or rich (adds |a-b| and a*b).")
+    ] = "concat",
+    label: Annotated[str, typer.Option(help="A name for the report (e.g. the tier).")] = "",
+    seed: Seed = 0,
+    quiet: Quiet = False,
+) -> None:
+    """Predict from (z_formula, z_trace) alone whether the trace satisfies the formula.
+
+    An MLP (512, 128) and the distance rule d < tau are fitted on the train split, chosen on val,
+    and scored on the test split (formulas never trained on). Writes report.json and report.md.
+    """
+    from tleaf_cli.tasks.model_checking import EvalSettings, evaluate_model_checking
+
+    settings = EvalSettings(pair_features=pair_features, seed=seed, label=label)
+    with ui.progress("evaluating", quiet):
+        report = evaluate_model_checking(embedder, dfas, traces, out, settings)
+    ui.summary(
+        f"{out}/report.json: MLP {100 * report['mlp']['accuracy']:.2f}%, distance rule "
+        f"{100 * report['distance']['accuracy']:.2f}% on {report['test_formulas']} test formulas",
+        quiet,
+    )
+
+
 @app.command("inspect")
 @_exits
 def inspect(

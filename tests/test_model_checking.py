@@ -1,0 +1,70 @@
+"""`tleaf eval model-checking`: report files, never a test formula in training."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from tleaf_cli.data.artifacts import read_provenance, write_artifact
+from tleaf_cli.embed.train_meta import MetaSettings, train_meta
+
+
+@pytest.fixture(scope="module")
+def meta_model(chain, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("mc") / "meta"
+    settings = MetaSettings(hidden=32, layers=2, out_dim=16, epochs=2, batch_size=32)
+    train_meta(chain["dfas"], chain["traces"], chain["edge"], out, settings)
+    return out
+
+
+def test_report_is_well_formed(chain, chain_cli, meta_model, tmp_path: Path) -> None:
+    out = tmp_path / "report"
+    result = chain_cli(
+        "eval",
+        "model-checking",
+        chain["dfas"],
+        chain["traces"],
+        "--embedder",
+        meta_model,
+        "-o",
+        out,
+        "--label",
+        "tiny",
+    )
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["label"] == "tiny" and report["embedder"] == "dfa" and report["seed"] == 0
+    test_ids = {
+        r["formula_id"] for r in pq.read_table(chain["traces"]).to_pylist() if r["split"] == "test"
+    }
+    assert report["test_formulas"] == len(test_ids)
+    for clf in ("mlp", "distance"):
+        assert 0.0 <= report[clf]["accuracy"] <= 1.0
+    assert "| MLP 512-128" in (out / "report.md").read_text()
+
+
+def test_a_formula_in_train_and_test_is_refused(chain, chain_cli, meta_model, tmp_path):
+    table = pq.read_table(chain["traces"])
+    rows = table.to_pylist()
+    leaked = next(r["formula_id"] for r in rows if r["split"] == "test")
+    for r in rows:
+        if r["formula_id"] == leaked and r["label"]:
+            r["split"] = "train"  # half of a test formula's traces now in train
+    prov = read_provenance(chain["traces"])
+    bad = tmp_path / "leaky.parquet"
+    write_artifact(
+        type(table).from_pylist(rows, schema=table.schema),
+        bad,
+        kind=prov.kind,
+        schema=prov.schema,
+        params=prov.params,
+        inputs=prov.inputs,
+    )
+    result = chain_cli(
+        "eval", "model-checking", chain["dfas"], bad, "--embedder", meta_model, "-o", tmp_path / "r"
+    )
+    assert result.exit_code == 2
+    assert "both train and test" in result.output

@@ -1,0 +1,1 @@
+"""Downstream experiments: model checking, action recognition, cooking imitation."""

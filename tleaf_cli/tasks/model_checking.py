@@ -1,0 +1,209 @@
+"""Model checking from embeddings (`tleaf eval model-checking`), the paper's Table I experiment.
+
+Given only z_φ = q(formula) and z_w = q(trace), predict whether w satisfies φ. The embedder is
+frozen; two classifiers are fitted on the traces' train split and chosen on val:
+
+* the paper's MLP (512, 128 hidden units) on [z_φ ; z_w], or with `rich` pair features
+  [z_φ ; z_w ; |z_φ - z_w| ; z_φ ⊙ z_w];
+* the distance rule d(z_φ, z_w) < τ, τ picked on val — the form the logic loss relies on.
+
+They are scored on the test split, whose formulas were never trained on (checked): `accuracy`
+over the satisfying traces and the uniform violating ones (random rejected words of the same
+length, as in the paper, so comparable with Table I), and `hard_negative_accuracy`, the share of
+hard negatives (minimal edits of satisfying traces) recognised as violating.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch import nn
+
+from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
+from tleaf_cli.data.dfa_table import read_dfas
+from tleaf_cli.data.traces import read_traces
+from tleaf_cli.embed.soft import load_embedder
+from tleaf_cli.errors import UsageError
+
+
+@dataclass(frozen=True)
+class EvalSettings:
+    pair_features: str = "concat"  # or "rich"
+    hidden: tuple[int, int] = (512, 128)
+    lr: float = 1e-3
+    batch_size: int = 256
+    epochs: int = 100
+    patience: int = 10
+    seed: int = 0
+    label: str = ""  # e.g. the tier, for the report's table
+
+
+@dataclass
+class Split:
+    formula_ids: list[str]
+    z_formula: torch.Tensor  # [n, d] per trace, its formula's vector
+    z_trace: torch.Tensor  # [n, d]
+    label: torch.Tensor  # [n] float
+    source: list[str]
+
+
+def pair_features(z_f: torch.Tensor, z_w: torch.Tensor, kind: str) -> torch.Tensor:
+    if kind == "concat":
+        return torch.cat([z_f, z_w], dim=1)
+    if kind == "rich":
+        return torch.cat([z_f, z_w, (z_f - z_w).abs(), z_f * z_w], dim=1)
+    raise UsageError(f"--pair-features must be concat or rich, not '{kind}'")
+
+
+def evaluate_model_checking(
+    model_dir: str | Path,
+    dfas_path: str | Path,
+    traces_path: str | Path,
+    out_dir: str | Path,
+    settings: EvalSettings,
+) -> dict:
+    out_dir = Path(out_dir)
+    check_writable(out_dir / "report.json")
+    torch.manual_seed(settings.seed)
+    embedder = load_embedder(model_dir)
+
+    # ---- embeddings of every formula and trace, by split
+    rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
+    traces = read_traces(traces_path)
+    if "split" not in traces.column_names:
+        raise UsageError(f"{traces_path}: no split column; run gen-traces with --split")
+    traces = [t for t in traces.to_pylist() if t["formula_id"] in rows]
+    ids = list(rows)
+    z_formulas = dict(zip(ids, embedder.embed_formula_rows([rows[i] for i in ids]), strict=True))
+    z_traces = embedder.embed_traces(
+        [t["trace"] for t in traces], [tuple(rows[t["formula_id"]]["atoms"]) for t in traces]
+    )
+    splits = {}
+    for name in ("train", "val", "test"):
+        keep = [k for k, t in enumerate(traces) if t["split"] == name]
+        if not keep:
+            raise UsageError(f"{traces_path}: the {name} split is empty")
+        fids = [traces[k]["formula_id"] for k in keep]
+        splits[name] = Split(
+            fids,
+            torch.stack([z_formulas[f] for f in fids]),
+            z_traces[keep],
+            torch.tensor([float(traces[k]["label"]) for k in keep]),
+            [traces[k]["source"] for k in keep],
+        )
+    overlap = set(splits["train"].formula_ids) & set(splits["test"].formula_ids)
+    if overlap:  # the evaluation must never train on a test formula
+        raise UsageError(
+            f"{traces_path}: formula {sorted(overlap)[0]!r} has traces in both train and test; "
+            "split by formula (gen-traces --split)"
+        )
+
+    # ---- classifiers
+    mlp = _fit_mlp(splits["train"], splits["val"], settings)
+    tau = _fit_threshold(splits["val"])
+    test = splits["test"]
+    with torch.no_grad():
+        mlp_says = mlp(pair_features(test.z_formula, test.z_trace, settings.pair_features))
+    mlp_pred = (mlp_says.squeeze(1) > 0).numpy()
+    distance_pred = (_distances(test) < tau).numpy()
+    report = {
+        "label": settings.label,
+        "embedder": embedder.kind,
+        "seed": settings.seed,
+        "settings": asdict(settings),
+        "test_formulas": len(set(test.formula_ids)),
+        "test_traces": len(test.formula_ids),
+        "mlp": _scores(mlp_pred, test),
+        "distance": {**_scores(distance_pred, test), "tau": tau},
+        "inputs": describe_inputs([dfas_path, traces_path]),
+        "model": str(Path(model_dir).resolve()),
+    }
+    write_text_atomic(out_dir / "report.json", json.dumps(report, indent=2))
+    write_text_atomic(out_dir / "report.md", _markdown(report))
+    return report
+
+
+def _fit_mlp(train: Split, val: Split, s: EvalSettings) -> nn.Module:
+    x = pair_features(train.z_formula, train.z_trace, s.pair_features)
+    xv = pair_features(val.z_formula, val.z_trace, s.pair_features)
+    model = nn.Sequential(
+        nn.Linear(x.shape[1], s.hidden[0]),
+        nn.ReLU(),
+        nn.Linear(s.hidden[0], s.hidden[1]),
+        nn.ReLU(),
+        nn.Linear(s.hidden[1], 1),
+    )
+    optimiser = torch.optim.Adam(model.parameters(), lr=s.lr)
+    loss_fn = nn.BCEWithLogitsLoss()
+    generator = torch.Generator().manual_seed(s.seed)
+    best, best_state, stale = -1.0, None, 0
+    for _ in range(s.epochs):
+        model.train()
+        order = torch.randperm(len(x), generator=generator)
+        for i in range(0, len(x), s.batch_size):
+            idx = order[i : i + s.batch_size]
+            loss = loss_fn(model(x[idx]).squeeze(1), train.label[idx])
+            optimiser.zero_grad()
+            loss.backward()
+            optimiser.step()
+        model.eval()
+        with torch.no_grad():
+            acc = float(((model(xv).squeeze(1) > 0).float() == val.label).float().mean())
+        if acc > best:
+            best, best_state, stale = acc, {k: v.clone() for k, v in model.state_dict().items()}, 0
+        else:
+            stale += 1
+            if stale >= s.patience:
+                break
+    model.load_state_dict(best_state)
+    return model.eval()
+
+
+def _distances(split: Split) -> torch.Tensor:
+    return (split.z_formula - split.z_trace).pow(2).sum(dim=1)
+
+
+def _fit_threshold(val: Split) -> float:
+    """The τ that classifies val best with d < τ (midpoints between sorted distances)."""
+    d = np.sort(_distances(val).numpy())
+    candidates = np.concatenate([[d[0] - 1], (d[:-1] + d[1:]) / 2, [d[-1] + 1]])
+    dist, label = _distances(val).numpy(), val.label.numpy().astype(bool)
+    accuracy = [((dist < c) == label).mean() for c in candidates]
+    return float(candidates[int(np.argmax(accuracy))])
+
+
+def _scores(pred: np.ndarray, split: Split) -> dict:
+    label = split.label.numpy().astype(bool)
+    source = np.array(split.source)
+    paper = label | (source == "uniform")  # satisfying traces and uniform violating ones
+    hard = ~label & (source == "hard")
+    return {
+        "accuracy": float((pred[paper] == label[paper]).mean()),
+        "hard_negative_accuracy": float((~pred[hard]).mean()) if hard.any() else None,
+        "all_accuracy": float((pred == label).mean()),
+    }
+
+
+def _markdown(r: dict) -> str:
+    def pct(x):
+        return "–" if x is None else f"{100 * x:.2f}"
+
+    lines = [
+        f"# Model checking from embeddings — {r['label'] or 'unlabelled'} "
+        f"({r['embedder']} embedder, seed {r['seed']})",
+        "",
+        f"Test split: {r['test_formulas']} formulas never trained on, {r['test_traces']} traces.",
+        "",
+        "| classifier | accuracy (sat + uniform unsat) | hard negatives | all test traces |",
+        "|---|---|---|---|",
+        f"| MLP 512-128 on {r['settings']['pair_features']} | {pct(r['mlp']['accuracy'])} | "
+        f"{pct(r['mlp']['hard_negative_accuracy'])} | {pct(r['mlp']['all_accuracy'])} |",
+        f"| distance d < {r['distance']['tau']:.3g} | {pct(r['distance']['accuracy'])} | "
+        f"{pct(r['distance']['hard_negative_accuracy'])} | {pct(r['distance']['all_accuracy'])} |",
+        "",
+    ]
+    return "\n".join(lines)
