@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -68,3 +70,47 @@ def test_a_formula_in_train_and_test_is_refused(chain, chain_cli, meta_model, tm
     )
     assert result.exit_code == 2
     assert "both train and test" in result.output
+
+
+def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
+    """pipelines/model_checking.mk SMALL=1: gen-formulas to the results table."""
+    tleaf = Path(sys.executable).parent / "tleaf"
+    root = Path(__file__).parent.parent
+    result = subprocess.run(
+        [
+            "make",
+            "-f",
+            "pipelines/model_checking.mk",
+            "SMALL=1",
+            f"TLEAF={tleaf}",
+            f"OUT={tmp_path / 'mc'}",
+        ],
+        cwd=root,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stderr[-2000:]
+    table = (tmp_path / "mc" / "results.md").read_text()
+    assert "| Syntax tree | MLP 512-128 |" in table and "| DFA (T-LEAF) | MLP 512-128 |" in table
+    for embedder in ("syntax", "dfa"):
+        report = json.loads(
+            (tmp_path / "mc/low/seed0" / f"eval-{embedder}/report.json").read_text()
+        )
+        assert report["embedder"] == embedder and report["label"] == "low"
+    # A second make has nothing to do: only what changed is re-run.
+    again = subprocess.run(
+        [
+            "make",
+            "-q",
+            "-f",
+            "pipelines/model_checking.mk",
+            "SMALL=1",
+            f"TLEAF={tleaf}",
+            f"OUT={tmp_path / 'mc'}",
+        ],
+        cwd=root,
+        capture_output=True,
+        text=True,
+    )
+    assert again.returncode == 0

@@ -511,6 +511,20 @@ def eval_model_checking(
     )
 
 
+@eval_app.command("table")
+@_exits
+def eval_table(
+    reports: Annotated[list[Path], typer.Argument(help="report.json files of model-checking.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The markdown table.")] = Path(
+        "results.md"
+    ),
+) -> None:
+    """One table: mean ± s.e. over seeds per embedder and tier, beside the paper's Table I."""
+    from tleaf_cli.tasks.model_checking_table import results_table
+
+    ui.text(results_table(reports, out).rstrip())
+
+
 @app.command("inspect")
 @_exits
 def inspect(

@@ -1,0 +1,60 @@
+# The paper's Table I (issue 5): tiers x seeds x {syntax, dfa} embedders, from gen-formulas to
+# one results table. Re-runs only what changed; `make -j` runs independent branches in parallel.
+#   make -f pipelines/model_checking.mk [TLEAF=tleaf] [SMALL=1] [JOBS=2]
+# SMALL=1: the whole chain on a tiny synthetic set in about a minute (tests, README demo).
+TLEAF ?= tleaf
+JOBS ?= 2
+SMALL ?= 0
+
+ifeq ($(SMALL),1)
+OUT ?= out/model-checking-small
+TIERS ?= low
+SEEDS ?= 0
+N := 40
+K := 8
+EDGE := --epochs 2 --hidden 32 --out-dim 16
+META := --epochs 3 --hidden 32 --layers 2 --out-dim 16
+else
+OUT ?= out/model-checking
+TIERS ?= low moderate high
+SEEDS ?= 0 1 2
+N := 1000
+K := 20
+EDGE := --epochs 5
+META := --epochs 30 --max-minutes 7
+endif
+
+REPORTS := $(foreach t,$(TIERS),$(foreach s,$(SEEDS),$(foreach e,syntax dfa,\
+	$(OUT)/$(t)/seed$(s)/eval-$(e)/report.json)))
+
+.PHONY: all clean
+all: $(OUT)/results.md
+
+$(OUT)/results.md: $(REPORTS)
+	$(TLEAF) eval table $^ -o $@
+
+# data: one synthetic set per tier (seed 0)
+$(OUT)/%/formulas.ltl:
+	@mkdir -p $(@D)
+	$(TLEAF) gen-formulas --tier $* -n $(N) --pairs $(K) --jobs $(JOBS) -q -o $@
+$(OUT)/%/dfas.parquet: $(OUT)/%/formulas.ltl
+	$(TLEAF) compile-dfa $< --jobs $(JOBS) -q -o $@
+$(OUT)/%/traces.parquet: $(OUT)/%/dfas.parquet
+	$(TLEAF) gen-traces $< --per-formula $(K) --split 0.8,0.1,0.1 --jobs $(JOBS) -q -o $@
+
+# models and evaluations per tier and seed
+define RUN
+$(OUT)/$(1)/seed$(2)/edge/metrics.json: $(OUT)/$(1)/dfas.parquet
+	$(TLEAF) train-edge $$< -o $$(@D) $(EDGE) --seed $(2) -q
+$(OUT)/$(1)/seed$(2)/meta-$(3)/metrics.json: $(OUT)/$(1)/traces.parquet $(OUT)/$(1)/seed$(2)/edge/metrics.json
+	$(TLEAF) train-meta $(OUT)/$(1)/dfas.parquet $$< --edge $(OUT)/$(1)/seed$(2)/edge \
+	    --embedder $(3) -o $$(@D) $(META) --seed $(2) -q
+$(OUT)/$(1)/seed$(2)/eval-$(3)/report.json: $(OUT)/$(1)/seed$(2)/meta-$(3)/metrics.json
+	$(TLEAF) eval model-checking $(OUT)/$(1)/dfas.parquet $(OUT)/$(1)/traces.parquet \
+	    --embedder $(OUT)/$(1)/seed$(2)/meta-$(3) -o $$(@D) --label $(1) --seed $(2) -q
+endef
+$(foreach t,$(TIERS),$(foreach s,$(SEEDS),$(foreach e,syntax dfa,$(eval $(call RUN,$(t),$(s),$(e))))))
+
+.SECONDARY:
+clean:
+	rm -rf $(OUT)

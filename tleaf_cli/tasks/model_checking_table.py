@@ -1,0 +1,68 @@
+"""One results table from many model-checking reports: mean ± standard error over seeds,
+one row per embedder, one column per label (tier), next to the paper's Table I."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from pathlib import Path
+
+from tleaf_cli.data.artifacts import write_text_atomic
+from tleaf_cli.errors import UsageError
+
+# Table I of the paper: accuracy %, mean (s.e.) over 3 runs.
+PAPER = {
+    "syntax": {"low": (56.16, 0.92), "moderate": (54.13, 0.62), "high": (50.00, 0.00)},
+    "dfa": {"low": (83.43, 0.73), "moderate": (78.43, 1.54), "high": (66.90, 0.70)},
+}
+ROW_NAMES = {"syntax": "Syntax tree", "dfa": "DFA (T-LEAF)"}
+
+
+def mean_se(values: Sequence[float]) -> tuple[float, float]:
+    n = len(values)
+    mean = sum(values) / n
+    if n < 2:
+        return mean, 0.0
+    var = sum((v - mean) ** 2 for v in values) / (n - 1)
+    return mean, math.sqrt(var / n)
+
+
+def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
+    """Write a markdown table of MLP test accuracy (and the distance rule) by embedder x label."""
+    cells: dict[tuple[str, str, str], list[float]] = defaultdict(list)
+    labels: list[str] = []
+    for path in report_paths:
+        try:
+            r = json.loads(Path(path).read_text())
+            key = (r["embedder"], r["label"])
+            mlp, dist = r["mlp"]["accuracy"], r["distance"]["accuracy"]
+        except (OSError, ValueError, KeyError) as e:
+            raise UsageError(f"{path}: not a model-checking report ({e})") from None
+        cells[(*key, "mlp")].append(100 * mlp)
+        cells[(*key, "distance")].append(100 * dist)
+        if r["label"] not in labels:
+            labels.append(r["label"])
+    embedders = [e for e in ("syntax", "dfa") if any(k[0] == e for k in cells)]
+
+    def fmt(values: list[float]) -> str:
+        if not values:
+            return "–"
+        m, se = mean_se(values)
+        return f"{m:.2f} ± {se:.2f} (n={len(values)})"
+
+    lines = [
+        "| embedder | classifier | " + " | ".join(labels) + " |",
+        "|---|---|" + "---|" * len(labels),
+    ]
+    for e in embedders:
+        for clf, name in (("mlp", "MLP 512-128"), ("distance", "distance rule")):
+            row = [fmt(cells.get((e, lab, clf), [])) for lab in labels]
+            lines.append(f"| {ROW_NAMES[e]} | {name} | " + " | ".join(row) + " |")
+        paper = [PAPER[e].get(lab) for lab in labels]
+        shown = [f"{p[0]:.2f} ± {p[1]:.2f}" if p else "–" for p in paper]
+        lines.append(f"| {ROW_NAMES[e]} | paper (MLP) | " + " | ".join(shown) + " |")
+    text = "\n".join(lines) + "\n"
+    write_text_atomic(out, text)
+    return text
