@@ -34,7 +34,7 @@ class GuardVectors:
         missing = list(dict.fromkeys(k for k in keys if k not in self.cache))
         for i in range(0, len(missing), self.batch):
             part = missing[i : i + self.batch]
-            graphs = [cnf_graph(cnf, self._ids(atoms)) for atoms, cnf in part]
+            graphs = [cnf_graph(cnf, self.ids(atoms)) for atoms, cnf in part]
             with torch.no_grad():
                 vectors = self.model(Batch.from_data_list(graphs))
             self.cache.update(zip(part, vectors, strict=True))
@@ -42,7 +42,8 @@ class GuardVectors:
             return torch.zeros((0, self.dim))
         return torch.stack([self.cache[k] for k in keys])
 
-    def _ids(self, atoms: Sequence[str]) -> list[int]:
+    def ids(self, atoms: Sequence[str]) -> list[int]:
+        """Vocabulary indices of `atoms`; UsageError naming any the edge model never saw."""
         unknown = [a for a in atoms if a not in self.index]
         if unknown:
             raise UsageError(

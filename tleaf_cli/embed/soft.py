@@ -49,6 +49,8 @@ class Embedder:
         if self.kind == "dfa":
             graphs = [featured_dfa_graph(dfa_from_row(r), self.vectors) for r in rows]
         else:
+            for r in rows:
+                self.vectors.ids(r["atoms"])  # every atom must have features
             graphs = [syntax_graph(parse(r["formula"]), self.vectors.index) for r in rows]
         return self._encode(self.model.embed_formulas, graphs, batch)
 

@@ -110,6 +110,7 @@ def train_meta(
         if settings.embedder == "dfa":
             formula_graphs[fid] = featured_dfa_graph(dfa_from_row(row), vectors)
         else:
+            vectors.ids(row["atoms"])  # every atom must have features
             formula_graphs[fid] = syntax_graph(parse(row["formula"]), vocab_index)
     by_split: dict[str, dict[str, dict[bool, list]]] = defaultdict(
         lambda: defaultdict(lambda: {True: [], False: []})
