@@ -72,24 +72,25 @@ def test_a_formula_in_train_and_test_is_refused(chain, chain_cli, meta_model, tm
     assert "both train and test" in result.output
 
 
+def _make_small(out: Path, *flags: str) -> subprocess.CompletedProcess:
+    """make -f pipelines/model_checking.mk SMALL=1 with this venv's tleaf, output in `out`."""
+    tleaf = Path(sys.executable).parent / "tleaf"
+    command = [
+        "make",
+        *flags,
+        "-f",
+        "pipelines/model_checking.mk",
+        "SMALL=1",
+        f"TLEAF={tleaf}",
+        f"OUT={out}",
+    ]
+    root = Path(__file__).parent.parent
+    return subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=600)
+
+
 def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
     """pipelines/model_checking.mk SMALL=1: gen-formulas to the results table."""
-    tleaf = Path(sys.executable).parent / "tleaf"
-    root = Path(__file__).parent.parent
-    result = subprocess.run(
-        [
-            "make",
-            "-f",
-            "pipelines/model_checking.mk",
-            "SMALL=1",
-            f"TLEAF={tleaf}",
-            f"OUT={tmp_path / 'mc'}",
-        ],
-        cwd=root,
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+    result = _make_small(tmp_path / "mc")
     assert result.returncode == 0, result.stderr[-2000:]
     table = (tmp_path / "mc" / "results.md").read_text()
     assert "| Syntax tree | MLP 512-128 |" in table and "| DFA (T-LEAF) | MLP 512-128 |" in table
@@ -99,18 +100,4 @@ def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
         )
         assert report["embedder"] == embedder and report["label"] == "low"
     # A second make has nothing to do: only what changed is re-run.
-    again = subprocess.run(
-        [
-            "make",
-            "-q",
-            "-f",
-            "pipelines/model_checking.mk",
-            "SMALL=1",
-            f"TLEAF={tleaf}",
-            f"OUT={tmp_path / 'mc'}",
-        ],
-        cwd=root,
-        capture_output=True,
-        text=True,
-    )
-    assert again.returncode == 0
+    assert _make_small(tmp_path / "mc", "-q").returncode == 0

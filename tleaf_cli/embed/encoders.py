@@ -61,6 +61,15 @@ def _text_features(vocabulary: Sequence[str]) -> torch.Tensor:
     return torch.tensor(model.encode(names, normalize_embeddings=True), dtype=torch.float32)
 
 
+def typed_atom_features(
+    node_type: torch.Tensor, n_types: int, atom: torch.Tensor, atom_table: torch.Tensor
+) -> torch.Tensor:
+    """[onehot(type) ; atom_table[atom]] per node, the atom part zero where atom is -1."""
+    kinds = nn.functional.one_hot(node_type, n_types).float()
+    feats = atom_table[atom.clamp(min=0)] * (atom >= 0).unsqueeze(1).float()
+    return torch.cat([kinds, feats], dim=1)
+
+
 class PropositionEncoder(nn.Module):
     """q_e: propositional graph -> R^out_dim (GCN, mean readout, linear head)."""
 
@@ -74,13 +83,8 @@ class PropositionEncoder(nn.Module):
         self.convs = nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims))
         self.head = nn.Linear(hidden, out_dim)
 
-    def node_features(self, node_type: torch.Tensor, atom: torch.Tensor) -> torch.Tensor:
-        kinds = nn.functional.one_hot(node_type, PROP_TYPES).float()
-        feats = self.atom_table[atom.clamp(min=0)] * (atom >= 0).unsqueeze(1).float()
-        return torch.cat([kinds, feats], dim=1)
-
     def forward(self, batch) -> torch.Tensor:
-        x = self.node_features(batch.node_type, batch.atom)
+        x = typed_atom_features(batch.node_type, PROP_TYPES, batch.atom, self.atom_table)
         edge_index = to_undirected(batch.edge_index, num_nodes=x.shape[0])
         for conv in self.convs:
             x = torch.relu(conv(x, edge_index))

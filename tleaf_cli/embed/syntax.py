@@ -17,6 +17,7 @@ from torch import nn
 from torch_geometric.nn import GCNConv, global_mean_pool
 from torch_geometric.utils import to_undirected
 
+from tleaf_cli.embed.encoders import typed_atom_features
 from tleaf_cli.embed.graphs import SYNTAX_TYPES
 
 
@@ -33,9 +34,7 @@ class SyntaxEncoder(nn.Module):
         self.head = nn.Linear(hidden, out_dim)
 
     def forward(self, batch) -> torch.Tensor:
-        kinds = nn.functional.one_hot(batch.node_type, SYNTAX_TYPES).float()
-        feats = self.atom_table[batch.atom.clamp(min=0)] * (batch.atom >= 0).unsqueeze(1).float()
-        x = torch.cat([kinds, feats], dim=1)
+        x = typed_atom_features(batch.node_type, SYNTAX_TYPES, batch.atom, self.atom_table)
         edge_index = to_undirected(batch.edge_index, num_nodes=x.shape[0])
         for conv in self.convs:
             x = torch.relu(conv(x, edge_index))
