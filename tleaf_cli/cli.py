@@ -328,6 +328,118 @@ def gen_traces(
     )
 
 
+@app.command("gen-activities")
+@_exits
+def gen_activities(
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="The activities.parquet to write.")
+    ] = Path("activities.parquet"),
+    kb_out: Annotated[
+        Path, typer.Option(help="Where to write the knowledge base that generated the data.")
+    ] = Path("kb.ltl"),
+    actions: Annotated[int, typer.Option(help="Actions (at most the paper's 64).")] = 16,
+    ingredients: Annotated[int, typer.Option(help="Ingredients (at most the paper's 155).")] = 24,
+    feature_dim: Annotated[
+        int, typer.Option(help="Feature size per step (2048 like ResNet).")
+    ] = 128,
+    noise: Annotated[float, typer.Option(help="Std of the per-step Gaussian noise.")] = 1.0,
+    confusable: Annotated[
+        float, typer.Option(help="0..1: how far paired classes' means are pulled together.")
+    ] = 0.5,
+    train: Annotated[int, typer.Option(help="Training videos.")] = 60,
+    val: Annotated[int, typer.Option(help="Validation videos.")] = 40,
+    test: Annotated[int, typer.Option(help="Test videos.")] = 200,
+    min_steps: Annotated[int, typer.Option(help="Fewest steps in a video.")] = 5,
+    max_steps: Annotated[int, typer.Option(help="Most steps in a video.")] = 15,
+    seed: Seed = 0,
+    quiet: Quiet = False,
+) -> None:
+    """Generate SYNTHETIC procedural activity videos and the knowledge base they satisfy.
+
+    A hidden process (affordances, recipe-stage orderings) yields labelled (action, ingredient)
+    steps; features are class-conditional Gaussians with confusable class pairs.
+    """
+    from tleaf_cli.data.activity_gen import ActivitySettings, generate_activities
+
+    settings = ActivitySettings(
+        actions=actions,
+        ingredients=ingredients,
+        feature_dim=feature_dim,
+        noise=noise,
+        confusable=confusable,
+        train=train,
+        val=val,
+        test=test,
+        min_steps=min_steps,
+        max_steps=max_steps,
+        seed=seed,
+    )
+    with ui.progress("generating videos", quiet) as update:
+        report = generate_activities(settings, out, kb_out, update)
+    ui.summary(
+        f"{out}: {report.videos} synthetic videos ({train} train, {val} val, {test} test), "
+        f"{report.rows} steps; {kb_out}: {report.affordances} affordances, "
+        f"{report.orderings} orderings ({report.seconds:.1f} s)",
+        quiet,
+    )
+
+
+@app.command("kb-extract")
+@_exits
+def kb_extract(
+    inputs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="[KB.ltl] ACTIVITIES.parquet: a knowledge base (optional with --mine), "
+            "then the labelled activities."
+        ),
+    ],
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="Folder for samples.parquet and dfas.parquet.")
+    ] = Path("kb"),
+    formula_from: Annotated[
+        str, typer.Option(help="Which pairs give a video its rules: labels.")
+    ] = "labels",
+    mine: Annotated[
+        bool,
+        typer.Option("--mine", help="Mine rules from the train split (written to OUT/kb.ltl)."),
+    ] = False,
+    min_support: Annotated[
+        int, typer.Option(min=1, help="Train videos that must show an ordering to mine it.")
+    ] = 3,
+    jobs: Jobs = 1,
+    timeout: Annotated[
+        float, typer.Option(min=0.1, help="Seconds MONA may spend on one rule set.")
+    ] = COMPILE_TIMEOUT,
+    cache_dir: CacheDir = None,
+    no_cache: NoCache = False,
+    quiet: Quiet = False,
+) -> None:
+    """Give every video the conjunction of the rules whose atoms all occur in it; compile each
+    distinct rule set once (one-hot DFAs).
+
+    Writes OUT/samples.parquet (video -> rule set) and OUT/dfas.parquet (one row per rule set).
+    """
+    from tleaf_cli.data.knowledge import extract_knowledge
+
+    if not 1 <= len(inputs) <= 2:
+        raise UsageError("give [KB.ltl] ACTIVITIES.parquet: one or two files")
+    kb = inputs[0] if len(inputs) == 2 else None
+    settings = _compile_settings(True, timeout, cache_dir, no_cache, jobs)
+    with ui.progress("compiling rule sets", quiet) as update:
+        report = extract_knowledge(
+            kb, inputs[-1], out, settings, mine, min_support, formula_from, update
+        )
+    mined = f"; {report.mined} rules mined" if report.mined is not None else ""
+    _finish(
+        report.failures,
+        f"{out}: {report.videos} videos, {report.rule_sets} distinct rule sets "
+        f"({report.compiled} compiled, {report.cache_hits} from cache); {report.rules_used} of "
+        f"{report.rules_total} rules apply to some video{mined} ({report.seconds:.1f} s)",
+        quiet,
+    )
+
+
 @app.command("train-edge")
 @_exits
 def train_edge(

@@ -1,0 +1,347 @@
+"""Knowledge bases of (action, ingredient) rules, per-video extraction, mining, and `kb-extract`.
+
+A knowledge base (docs/knowledge.md) is a `.ltl` formula file whose names carry the rule kind:
+`affordance.<rest>` (a pair that cannot happen: `G !cut_milk`) or `ordering.<rest>` (if both
+happen, the first before the second: `(!cook_cabbage U rinse_cabbage) | G !cook_cabbage`), over
+atoms `action_ingredient`.
+
+The paper (Sec. VI) gives each video the conjunction of the rules whose atoms ALL occur in it
+(`rules_for`, `sample_formula`); a rule set is named by a hash of its rule names (`rule_set_id`),
+so every video with the same rules shares one DFA. `kb-extract` does this for the LABELLED pairs
+of every video and compiles each distinct rule set once.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import time
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Literal
+
+import pyarrow as pa
+
+from tleaf_cli.data.activities import Activities, atom, read_activities
+from tleaf_cli.data.artifacts import (
+    check_writable,
+    describe_inputs,
+    write_artifact,
+    write_text_atomic,
+)
+from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
+from tleaf_cli.data.dfa_table import KIND as DFA_KIND
+from tleaf_cli.data.dfa_table import SCHEMA_VERSION as DFA_SCHEMA
+from tleaf_cli.data.dfa_table import rows_to_table
+from tleaf_cli.data.formula_files import FormulaSource, read_formulas
+from tleaf_cli.errors import UsageError
+from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
+from tleaf_cli.logic.mona import MonaError, mona_binary
+
+RuleKind = Literal["affordance", "ordering"]
+RULE_KINDS: tuple[RuleKind, ...] = ("affordance", "ordering")
+# Where the per-video formulas come from; train-time extraction from predictions is the loss's job.
+FORMULA_SOURCES = ("labels",)
+
+SAMPLES_KIND = "kb-samples"
+SAMPLES_SCHEMA = 1
+SAMPLES_COLUMNS = pa.schema(
+    [
+        ("video_id", pa.string()),
+        ("split", pa.string()),
+        ("formula_id", pa.string()),  # the rule_set_id: a row of dfas.parquet
+        ("num_rules", pa.int32()),
+        ("rules", pa.list_(pa.string())),  # the rule names, sorted (added by tleaf)
+    ]
+)
+
+
+@dataclass(frozen=True)
+class Rule:
+    """One named rule: its kind (from the name), formula text, and the sorted atoms it mentions."""
+
+    name: str
+    kind: RuleKind
+    formula: str
+    atoms: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class KnowledgeBase:
+    """Rules in file order, indexed by atom so `rules_for` looks only at rules that can apply."""
+
+    rules: tuple[Rule, ...] = ()
+    _by_atom: dict[str, list[int]] = field(init=False, repr=False, compare=False, hash=False)
+    _always: tuple[int, ...] = field(init=False, repr=False, compare=False, hash=False)
+
+    def __post_init__(self) -> None:
+        index: dict[str, list[int]] = {}
+        for k, rule in enumerate(self.rules):
+            for a in rule.atoms:
+                index.setdefault(a, []).append(k)
+        object.__setattr__(self, "_by_atom", index)
+        object.__setattr__(
+            self, "_always", tuple(k for k, r in enumerate(self.rules) if not r.atoms)
+        )
+
+    def __len__(self) -> int:
+        return len(self.rules)
+
+    def __iter__(self) -> Iterator[Rule]:
+        return iter(self.rules)
+
+    def of_kind(self, kind: RuleKind) -> list[Rule]:
+        return [r for r in self.rules if r.kind == kind]
+
+    def merged(self, other: KnowledgeBase) -> KnowledgeBase:
+        """These rules, then `other`'s whose names are new."""
+        names = {r.name for r in self.rules}
+        return KnowledgeBase(self.rules + tuple(r for r in other.rules if r.name not in names))
+
+
+def affordance_rule(action: str, ingredient: str) -> Rule:
+    """`action` is never applied to `ingredient`: `G !action_ingredient`."""
+    a = atom(action, ingredient)
+    return Rule(f"affordance.{a}", "affordance", f"G !{a}", (a,))
+
+
+def ordering_rule(ingredient: str, first: str, then: str) -> Rule:
+    """If both happen to `ingredient`, `first` happens before `then`: `(!y U x) | G !y`."""
+    x, y = atom(first, ingredient), atom(then, ingredient)
+    return Rule(f"ordering.{x}.{y}", "ordering", f"(!{y} U {x}) | G !{y}", tuple(sorted((x, y))))
+
+
+def rules_for(kb: KnowledgeBase, present_atoms: Iterable[str]) -> list[Rule]:
+    """The rules whose atoms ALL occur among `present_atoms` (the paper's extraction), KB order.
+
+    A rule without atoms (e.g. `true`) always applies.
+    """
+    present = set(present_atoms)
+    candidates = {k for a in present for k in kb._by_atom.get(a, ())}
+    candidates.update(kb._always)
+    return [kb.rules[k] for k in sorted(candidates) if present.issuperset(kb.rules[k].atoms)]
+
+
+def sample_formula(rules: Sequence[Rule]) -> str:
+    """The conjunction of the rules, each parenthesised; `true` when there are none."""
+    if not rules:
+        return "true"
+    return " & ".join(f"({r.formula})" for r in rules)
+
+
+def rule_set_id(rules: Iterable[Rule]) -> str:
+    """A stable short id of a set of rules: a hash of their sorted names (`rs-` + 12 hex)."""
+    names = "\n".join(sorted({r.name for r in rules}))
+    return "rs-" + hashlib.sha256(names.encode()).hexdigest()[:12]
+
+
+def read_knowledge_base(path: str | os.PathLike) -> KnowledgeBase:
+    """Rules from a `.ltl` file; UsageError naming the file and line of the first bad rule."""
+    rules = []
+    for src in read_formulas(path):
+        where = f"{src.path}: {src.location}"
+        if src.problem is not None:
+            raise UsageError(f"{src.path}: {src.located(src.problem)}")
+        kind, _, rest = src.formula_id.partition(".")
+        if kind not in RULE_KINDS or not rest:
+            raise UsageError(
+                f"{where}: rule '{src.formula_id}' needs a name 'affordance.<rest>' or "
+                "'ordering.<rest>' (the kind of rule)"
+            )
+        try:
+            formula = parse(src.text)
+        except FormulaSyntaxError as e:
+            raise UsageError(f"{src.path}: {src.located(e.message, e.column)}") from None
+        rules.append(Rule(src.formula_id, kind, src.text, atoms(formula)))  # type: ignore[arg-type]
+    return KnowledgeBase(tuple(rules))
+
+
+def write_knowledge_base(
+    kb: KnowledgeBase, path: str | os.PathLike, header: Sequence[str] = ()
+) -> None:
+    """Write `kb` as a `.ltl` file (atomically), `header` lines as comments on top."""
+    lines = [f"# {h}" for h in header]
+    lines += [f"{r.name}: {r.formula}" for r in kb.rules]
+    write_text_atomic(path, "\n".join(lines) + "\n")
+
+
+def mine_knowledge_base(
+    sequences: Iterable[Sequence[tuple[str, str]]],
+    vocabulary: tuple[Sequence[str], Sequence[str]],
+    min_support: int,
+) -> KnowledgeBase:
+    """Rules that the labelled `sequences` of (action, ingredient) pairs never break.
+
+    Affordances: every (action, ingredient) of the `vocabulary` (actions, ingredients) whose
+    action and ingredient were each seen but never together. Orderings: for two actions on the
+    same ingredient, "a before b" (first a before first b, what the formula says) when at least
+    `min_support` sequences contain both, a first, and none contains both with b first.
+    Rules come in vocabulary order: affordances, then orderings by ingredient, a, b.
+    """
+    if min_support < 1:
+        raise ValueError("min_support must be at least 1")
+    actions, ingredients = list(vocabulary[0]), list(vocabulary[1])
+    a_rank = {a: k for k, a in enumerate(actions)}
+    i_rank = {i: k for k, i in enumerate(ingredients)}
+    seen_pairs: set[tuple[str, str]] = set()
+    before: Counter[tuple[str, str, str]] = Counter()  # (ingredient, a, b): sequences, a first
+    for sequence in sequences:
+        first: dict[tuple[str, str], int] = {}
+        for t, (a, i) in enumerate(sequence):
+            if a not in a_rank or i not in i_rank:
+                raise ValueError(f"pair ({a}, {i}) is outside the vocabulary")
+            first.setdefault((i, a), t)
+        seen_pairs.update((a, i) for i, a in first)
+        for (i, a), ta in first.items():
+            for (j, b), tb in first.items():
+                if i == j and ta < tb:
+                    before[(i, a, b)] += 1
+    seen_actions = {a for a, _ in seen_pairs}
+    seen_ingredients = {i for _, i in seen_pairs}
+    rules = [
+        affordance_rule(a, i)
+        for a in actions
+        for i in ingredients
+        if a in seen_actions and i in seen_ingredients and (a, i) not in seen_pairs
+    ]
+    orderings = [
+        key
+        for key, n in before.items()
+        if n >= min_support and (key[0], key[2], key[1]) not in before
+    ]
+    orderings.sort(key=lambda k: (i_rank[k[0]], a_rank[k[1]], a_rank[k[2]]))
+    rules += [ordering_rule(i, a, b) for i, a, b in orderings]
+    return KnowledgeBase(tuple(rules))
+
+
+def _mine_train_split(activities: Activities, min_support: int) -> KnowledgeBase:
+    train = activities.split("train")
+    if not train:
+        raise UsageError(f"{activities.path}: no train videos to mine a knowledge base from")
+    return mine_knowledge_base(
+        (activities.pairs(v) for v in train),
+        (activities.actions, activities.ingredients),
+        min_support,
+    )
+
+
+@dataclass
+class ExtractReport:
+    """What `kb-extract` did, for its summary line and exit status."""
+
+    videos: int
+    rule_sets: int
+    compiled: int
+    cache_hits: int
+    rules_total: int
+    rules_used: int
+    mined: int | None  # rules mined from the train split; None when not mining
+    failures: list[tuple[str, str]]
+    seconds: float
+
+
+def video_rule_sets(
+    kb: KnowledgeBase, activities: Activities
+) -> tuple[list[tuple[str, list[Rule]]], dict[str, list[Rule]]]:
+    """Per video (id, its rules from the labelled pairs); and each distinct rule set by id."""
+    per_video = [(v.video_id, rules_for(kb, activities.atoms(v))) for v in activities.videos]
+    distinct: dict[str, list[Rule]] = {}
+    for _, rules in per_video:
+        distinct.setdefault(rule_set_id(rules), rules)
+    return per_video, distinct
+
+
+def extract_knowledge(
+    kb_path: str | os.PathLike | None,
+    activities_path: str | os.PathLike,
+    out_dir: str | os.PathLike,
+    settings: CompileSettings,
+    mine: bool = False,
+    min_support: int = 3,
+    formula_from: str = "labels",
+    on_progress: Callable[[int, int], None] | None = None,
+) -> ExtractReport:
+    """The `kb-extract` stage: OUT/samples.parquet, OUT/dfas.parquet (one-hot, one row per
+    distinct rule set), and OUT/kb.ltl when mining. UsageError when the call is unusable."""
+    start = time.perf_counter()
+    if formula_from not in FORMULA_SOURCES:
+        raise UsageError(f"--formula-from must be one of {', '.join(FORMULA_SOURCES)}")
+    if kb_path is None and not mine:
+        raise UsageError("give a knowledge base file, or --mine to mine one from the train split")
+    try:
+        mona_binary()
+    except MonaError as e:
+        raise UsageError(str(e)) from None
+    out = Path(out_dir)
+    for name in ("samples.parquet", "dfas.parquet", "kb.ltl"):
+        check_writable(out / name)
+    kb = read_knowledge_base(kb_path) if kb_path is not None else KnowledgeBase()
+    activities = read_activities(activities_path)
+
+    mined = None
+    if mine:
+        found = _mine_train_split(activities, min_support)
+        read = f", merged after the {len(kb)} rules of {kb_path}" if kb_path else ""
+        kb, mined = kb.merged(found), len(found)
+        header = [
+            f"knowledge base mined by tleaf kb-extract from the train split of {activities_path}",
+            f"min support {min_support}: {mined} rules mined{read}; {len(kb)} rules in all",
+        ]
+        write_knowledge_base(kb, out / "kb.ltl", header)
+    kb_source = str(kb_path) if kb_path is not None else str(out / "kb.ltl")
+
+    per_video, distinct = video_rule_sets(kb, activities)
+    sources = [
+        FormulaSource(rid, sample_formula(rules), kb_source, f"rule set {rid}")
+        for rid, rules in distinct.items()
+    ]
+    report = compile_sources(sources, replace(settings, alphabet="one-hot"), on_progress)
+    inputs = describe_inputs([p for p in (kb_path, activities_path) if p is not None])
+    params = {
+        "alphabet": "one-hot",
+        "timeout": settings.timeout,
+        "formula_from": formula_from,
+        "mine": mine,
+        "min_support": min_support if mine else None,
+    }
+    write_artifact(
+        rows_to_table(report.rows),
+        out / "dfas.parquet",
+        kind=DFA_KIND,
+        schema=DFA_SCHEMA,
+        params=params,
+        inputs=inputs,
+    )
+    split_of = {v.video_id: v.split for v in activities.videos}
+    samples = [
+        {
+            "video_id": vid,
+            "split": split_of[vid],
+            "formula_id": rule_set_id(rules),
+            "num_rules": len(rules),
+            "rules": sorted(r.name for r in rules),
+        }
+        for vid, rules in per_video
+    ]
+    write_artifact(
+        pa.Table.from_pylist(samples, schema=SAMPLES_COLUMNS),
+        out / "samples.parquet",
+        kind=SAMPLES_KIND,
+        schema=SAMPLES_SCHEMA,
+        params=params,
+        inputs=inputs,
+    )
+    used = {r.name for _, rules in per_video for r in rules}
+    return ExtractReport(
+        videos=len(per_video),
+        rule_sets=len(distinct),
+        compiled=report.compiled,
+        cache_hits=report.cache_hits,
+        rules_total=len(kb),
+        rules_used=len(used),
+        mined=mined,
+        failures=report.failures,
+        seconds=time.perf_counter() - start,
+    )
