@@ -1,0 +1,291 @@
+"""Knowledge bases: the file format, per-video extraction, mining, and `tleaf kb-extract`."""
+
+from __future__ import annotations
+
+import random
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+from typer.testing import CliRunner
+
+from tleaf_cli.cli import app
+from tleaf_cli.data.activities import read_activities
+from tleaf_cli.data.artifacts import read_provenance
+from tleaf_cli.data.dfa_table import read_dfas
+from tleaf_cli.data.knowledge import (
+    KnowledgeBase,
+    Rule,
+    affordance_rule,
+    mine_knowledge_base,
+    ordering_rule,
+    read_knowledge_base,
+    rule_set_id,
+    rules_for,
+    sample_formula,
+    write_knowledge_base,
+)
+from tleaf_cli.errors import UsageError
+from tleaf_cli.logic import mona
+from tleaf_cli.logic.checker import check
+from tleaf_cli.logic.formulas import parse
+from tleaf_cli.logic.semantics import satisfies
+
+runner = CliRunner()
+KB_TEXT = """\
+# kitchen rules
+affordance.cut_milk: G !cut_milk
+ordering.rinse_cabbage.cook_cabbage: (!cook_cabbage U rinse_cabbage) | G !cook_cabbage
+ordering.cut_onion.fry_onion: (!fry_onion U cut_onion) | G !fry_onion
+"""
+
+
+def tleaf(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture
+def kb(tmp_path: Path) -> KnowledgeBase:
+    path = tmp_path / "kb.ltl"
+    path.write_text(KB_TEXT, encoding="utf-8")
+    return read_knowledge_base(path)
+
+
+def test_reads_kinds_formulas_and_atoms(kb: KnowledgeBase) -> None:
+    assert [r.kind for r in kb] == ["affordance", "ordering", "ordering"]
+    assert kb.rules[1] == ordering_rule("cabbage", "rinse", "cook")
+    assert kb.rules[0] == affordance_rule("cut", "milk")
+    assert kb.rules[2].atoms == ("cut_onion", "fry_onion")
+
+
+def test_extraction_picks_exactly_the_rules_whose_atoms_all_occur(kb: KnowledgeBase) -> None:
+    present = ["rinse_cabbage", "cut_onion", "cook_cabbage", "stir_soup"]  # fry_onion absent
+    assert [r.name for r in rules_for(kb, present)] == ["ordering.rinse_cabbage.cook_cabbage"]
+    assert [r.name for r in rules_for(kb, [*present, "fry_onion", "cut_milk"])] == [
+        r.name for r in kb
+    ]
+    assert rules_for(kb, ["cook_cabbage"]) == []
+
+
+def test_extraction_agrees_with_its_definition_on_random_sets() -> None:
+    rng = random.Random(3)
+    names = [f"a{k}_x" for k in range(8)]
+    rules = [
+        Rule(
+            f"ordering.r{k}",
+            "ordering",
+            "true",
+            tuple(sorted(rng.sample(names, rng.randint(0, 3)))),
+        )
+        for k in range(30)
+    ]
+    kb = KnowledgeBase(tuple(rules))
+    for _ in range(200):
+        present = set(rng.sample(names, rng.randint(0, 8)))
+        expected = [r for r in rules if set(r.atoms) <= present]
+        assert rules_for(kb, present) == expected
+
+
+def test_sample_formula_is_the_conjunction(kb: KnowledgeBase) -> None:
+    assert sample_formula([]) == "true"
+    formula = parse(sample_formula(kb.rules))
+    parts = [parse(r.formula) for r in kb]
+    rng = random.Random(0)
+    atoms = ["cut_milk", "rinse_cabbage", "cook_cabbage", "cut_onion", "fry_onion", "other_x"]
+    for _ in range(300):
+        trace = [{rng.choice(atoms)} for _ in range(rng.randint(1, 6))]
+        assert satisfies(trace, formula) == all(satisfies(trace, p) for p in parts)
+
+
+def test_rule_set_id_is_stable_and_order_free(kb: KnowledgeBase) -> None:
+    a, b, c = kb.rules
+    assert rule_set_id([a, b]) == rule_set_id([b, a])
+    assert len({rule_set_id(s) for s in ([], [a], [b], [a, b], [a, b, c])}) == 5
+    assert rule_set_id([a]).startswith("rs-") and len(rule_set_id([a])) == 15
+
+
+def test_write_then_read_round_trips(kb: KnowledgeBase, tmp_path: Path) -> None:
+    write_knowledge_base(kb, tmp_path / "again.ltl", ["a header"])
+    assert read_knowledge_base(tmp_path / "again.ltl") == kb
+    assert (tmp_path / "again.ltl").read_text().startswith("# a header\n")
+
+
+@pytest.mark.parametrize(
+    ("line", "expected"),
+    [
+        ("G !cut_milk", "line 2: rule 'L2' needs a name 'affordance.<rest>' or 'ordering.<rest>'"),
+        ("rule.x: G !a", "line 2: rule 'rule.x' needs a name"),
+        ("affordance: G !a", "line 2: rule 'affordance' needs a name"),
+        ("affordance.x: G !(a", "line 2, column 20: formula ends too early"),
+        ("affordance.cut_milk: G !a", "line 2: name 'affordance.cut_milk' already used on line 1"),
+    ],
+)
+def test_bad_knowledge_base_lines_are_located(tmp_path: Path, line: str, expected: str) -> None:
+    path = tmp_path / "kb.ltl"
+    path.write_text(f"affordance.cut_milk: G !cut_milk\n{line}\n", encoding="utf-8")
+    with pytest.raises(UsageError) as e:
+        read_knowledge_base(path)
+    assert str(e.value).startswith(f"{path}: ") and expected in str(e.value)
+
+
+# Mining.
+
+VOCAB = (["wash", "cut", "fry", "pour"], ["onion", "milk", "rice"])
+
+
+def test_mining_finds_planted_rules_and_respects_min_support() -> None:
+    onion = [("wash", "onion"), ("cut", "onion"), ("fry", "onion")]
+    sequences = [
+        onion,
+        [("pour", "milk"), *onion],
+        [("wash", "onion"), ("pour", "milk"), ("cut", "onion")],
+        [("wash", "rice"), ("fry", "rice"), ("wash", "rice")],  # repeats: first occurrences count
+        [("fry", "rice"), ("wash", "rice")],  # breaks wash-before-fry on rice
+    ]
+    kb = mine_knowledge_base(sequences, VOCAB, min_support=2)
+    names = {r.name for r in kb}
+    orderings = {r.name for r in kb.of_kind("ordering")}
+    assert orderings == {
+        "ordering.wash_onion.cut_onion",  # support 3
+        "ordering.wash_onion.fry_onion",  # support 2
+        "ordering.cut_onion.fry_onion",  # support 2
+    }
+    assert kb.of_kind("ordering")[0] == ordering_rule("onion", "wash", "cut")
+    # pour was seen, on milk only; every seen action and ingredient pair never seen is forbidden.
+    assert {"affordance.pour_onion", "affordance.cut_milk", "affordance.pour_rice"} <= names
+    assert "affordance.wash_onion" not in names and "affordance.fry_rice" not in names
+    strict = mine_knowledge_base(sequences, VOCAB, min_support=3)
+    assert {r.name for r in strict.of_kind("ordering")} == {"ordering.wash_onion.cut_onion"}
+
+
+def test_mining_ignores_unseen_actions_and_ingredients() -> None:
+    kb = mine_knowledge_base([[("cut", "onion")]], (["cut", "fry"], ["onion", "milk"]), 1)
+    assert [r.name for r in kb] == []  # fry and milk never seen: no evidence about them
+
+
+def test_mining_recovers_the_generating_knowledge_base(tmp_path: Path) -> None:
+    data_path, kb_path = tmp_path / "a.parquet", tmp_path / "kb.ltl"
+    args = ["--actions", 8, "--ingredients", 6, "--feature-dim", 4, "--train", 120, "--seed", 2]
+    assert tleaf("gen-activities", "-o", data_path, "--kb-out", kb_path, *args).exit_code == 0
+    data, planted = read_activities(data_path), read_knowledge_base(kb_path)
+    train = [data.pairs(v) for v in data.split("train")]
+    mined = mine_knowledge_base(train, (data.actions, data.ingredients), min_support=3)
+    # Sound: nothing mined is broken by a training video.
+    for steps in train:
+        atoms = [f"{a}_{i}" for a, i in steps]
+        assert satisfies([{a} for a in atoms], parse(sample_formula(rules_for(mined, atoms))))
+    # Complete for what the data shows: planted orderings seen >= 3 times, planted affordances
+    # over actions and ingredients that occur.
+    mined_names = {r.name for r in mined}
+    support = {
+        r.name: sum(set(r.atoms) <= {f"{a}_{i}" for a, i in s} for s in train)
+        for r in planted.of_kind("ordering")
+    }
+    assert any(n >= 3 for n in support.values())
+    assert {n for n, k in support.items() if k >= 3} <= mined_names
+    assert {r.name for r in planted.of_kind("affordance")} <= mined_names
+
+
+# kb-extract.
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("kbx")
+    paths = {"data": d / "act.parquet", "kb": d / "kb.ltl"}
+    args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 4]
+    args += ["--train", 12, "--val", 4, "--test", 4, "--min-steps", 2, "--max-steps", 6]
+    result = tleaf("gen-activities", "-o", paths["data"], "--kb-out", paths["kb"], *args)
+    assert result.exit_code == 0, result.output
+    return paths
+
+
+def _count_mona(monkeypatch) -> list[int]:
+    calls = [0]
+    real = mona.run_mona
+
+    def counting(*args, **kwargs):
+        calls[0] += 1
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(mona, "run_mona", counting)
+    return calls
+
+
+def test_kb_extract_writes_samples_and_one_dfa_per_rule_set(tiny, tmp_path, monkeypatch) -> None:
+    calls = _count_mona(monkeypatch)
+    out = tmp_path / "out"
+    result = tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", out, "--no-cache")
+    assert result.exit_code == 0, result.output
+    samples = pq.read_table(out / "samples.parquet").to_pylist()
+    dfas = read_dfas(out / "dfas.parquet")
+    data, kb = read_activities(tiny["data"]), read_knowledge_base(tiny["kb"])
+    assert read_provenance(out / "samples.parquet").kind == "kb-samples"
+    assert [s["video_id"] for s in samples] == [v.video_id for v in data.videos]
+    ids = dfas.ids()
+    assert len(ids) == len(set(ids)) == len({s["formula_id"] for s in samples})
+    assert calls[0] == len(ids) < len(samples)  # each distinct rule set compiled exactly once
+    for s, video in zip(samples, data.videos, strict=True):
+        rules = rules_for(kb, data.atoms(video))
+        assert s["formula_id"] == rule_set_id(rules) and s["num_rules"] == len(rules)
+        assert s["split"] == video.split and s["rules"] == sorted(r.name for r in rules)
+        row = dfas.row(s["formula_id"])
+        assert row["alphabet"] == "one-hot" and row["formula"] == sample_formula(rules)
+        assert row["atoms"] == sorted({a for r in rules for a in r.atoms})
+        assert check(dfas.dfa(s["formula_id"]), [[{a} for a in data.atoms(video)]])[0]
+
+    # Again with the cache: no MONA call at all, the same tables.
+    calls[0] = 0
+    again = tmp_path / "again"
+    assert tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", again).exit_code == 0
+    assert tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", again).exit_code == 0
+    assert calls[0] == len(ids)  # the first of the two cached runs filled the cache
+    assert pq.read_table(again / "dfas.parquet").equals(pq.read_table(out / "dfas.parquet"))
+
+
+def test_kb_extract_mines_from_the_train_split(tiny, tmp_path) -> None:
+    out = tmp_path / "out"
+    result = tleaf("kb-extract", tiny["data"], "-o", out, "--mine", "--min-support", 2)
+    assert result.exit_code == 0, result.output
+    assert "rules mined" in result.output
+    mined = read_knowledge_base(out / "kb.ltl")
+    data = read_activities(tiny["data"])
+    expected = mine_knowledge_base(
+        [data.pairs(v) for v in data.split("train")], (data.actions, data.ingredients), 2
+    )
+    assert mined == expected and len(mined) > 0
+    samples = pq.read_table(out / "samples.parquet").to_pylist()
+    assert {s["formula_id"] for s in samples} == set(read_dfas(out / "dfas.parquet").ids())
+
+
+def test_a_rule_set_that_fails_to_compile_exits_1(tiny, tmp_path, monkeypatch) -> None:
+    def timeout(*args, **kwargs):
+        raise mona.MonaTimeout("MONA did not finish within 30 s")
+
+    monkeypatch.setattr(mona, "run_mona", timeout)
+    out = tmp_path / "out"
+    result = tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", out, "--no-cache")
+    assert result.exit_code == 1
+    assert "rule set rs-" in result.output and "did not finish" in result.output
+    rows = read_dfas(out / "dfas.parquet").rows
+    assert rows and all(r["error"].startswith("rule set rs-") for r in rows)
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["{data}"], "give a knowledge base file, or --mine"),
+        (["{kb}", "{data}", "{data}"], "one or two files"),
+        (["{kb}", "{missing}"], "no such file"),
+        (["{data}", "{data}"], "expected columns formula_id and formula"),
+        (["{kb}", "{kb}"], "not a readable Parquet file"),
+        (["{kb}", "{data}", "--formula-from", "predictions"], "--formula-from must be one of"),
+    ],
+)
+def test_kb_extract_bad_calls_exit_2(tiny, tmp_path, args, expected) -> None:
+    paths = {**{k: str(v) for k, v in tiny.items()}, "missing": str(tmp_path / "none.parquet")}
+    out = tmp_path / "out"
+    result = tleaf("kb-extract", *[a.format(**paths) for a in args], "-o", out)
+    assert result.exit_code == 2, result.output
+    assert expected in result.output and "Traceback" not in result.output
+    assert not (out / "samples.parquet").exists()
