@@ -32,6 +32,7 @@ from tleaf_cli.logic.formulas import parse
 from tleaf_cli.logic.semantics import satisfies
 
 runner = CliRunner()
+EXAMPLE = Path(__file__).parent.parent / "examples" / "kitchen.kb.ltl"
 KB_TEXT = """\
 # kitchen rules
 affordance.cut_milk: G !cut_milk
@@ -56,6 +57,12 @@ def test_reads_kinds_formulas_and_atoms(kb: KnowledgeBase) -> None:
     assert kb.rules[1] == ordering_rule("cabbage", "rinse", "cook")
     assert kb.rules[0] == affordance_rule("cut", "milk")
     assert kb.rules[2].atoms == ("cut_onion", "fry_onion")
+
+
+def test_the_example_knowledge_base_reads(kb: KnowledgeBase) -> None:
+    example = read_knowledge_base(EXAMPLE)
+    assert len(example.of_kind("affordance")) == 3 and len(example.of_kind("ordering")) == 3
+    assert set(kb.rules) <= set(example.rules)
 
 
 def test_extraction_picks_exactly_the_rules_whose_atoms_all_occur(kb: KnowledgeBase) -> None:
