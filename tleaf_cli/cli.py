@@ -390,8 +390,8 @@ def kb_extract(
     inputs: Annotated[
         list[Path],
         typer.Argument(
-            help="[KB.ltl] ACTIVITIES.parquet: a knowledge base (optional with --mine), "
-            "then the labelled activities."
+            metavar="[KB.ltl] ACTIVITIES.parquet",
+            help="A knowledge base (optional with --mine), then the labelled activities.",
         ),
     ],
     out: Annotated[
