@@ -3,8 +3,9 @@
 Episodes come from the registered environment (`tleaf/CreativeCooking-v0`, its TimeLimit
 included), seeded once with `reset(seed=seed)` and then drawn in sequence, so the first k
 episodes of a longer run are the k episodes of a shorter one. The expert plans each episode from
-its reset state (`expert.plan`, shortest plans) and the plan is played in the environment; rows
-are what the environment returned, so the rewards and `terminated` are the environment's own.
+its reset state (`expert.plan`: a shortest plan, ties between equally short ones broken by a
+generator seeded with the same seed) and the plan is played in the environment; rows are what the
+environment returned, so the rewards and `terminated` are the environment's own.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
+import numpy as np
 import pyarrow as pa
 
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_artifact
@@ -63,12 +65,13 @@ def generate_demos(
     domain = load_domain(settings.domain)
     check_writable(out)
     env = gym.make(ENV_ID, domain=domain)
+    ties = np.random.default_rng(settings.seed)  # which of the equally short plans is shown
     columns: dict[str, list] = {name: [] for name in DEMO_SCHEMA.names}
     returns, lengths, successes, planning = [], [], 0, 0.0
     for episode in range(settings.episodes):
         observation, _ = env.reset(seed=settings.seed if episode == 0 else None)
         started = time.perf_counter()
-        actions = plan(env.unwrapped.rules)
+        actions = plan(env.unwrapped.rules, rng=ties)
         planning += time.perf_counter() - started
         total, steps, terminated = 0.0, 0, False
         for step, action in enumerate(actions):
@@ -98,7 +101,7 @@ def generate_demos(
         "domain": str(settings.domain),
         "env": ENV_ID,
         "max_episode_steps": MAX_EPISODE_STEPS,
-        "expert": "A* shortest plans over the exact rules",
+        "expert": "A* shortest plans over the exact rules, ties broken at random (seeded)",
         "success_rate": report.success_rate,
         "mean_return": report.mean_return,
         "mean_length": report.mean_length,

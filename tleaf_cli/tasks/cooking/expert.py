@@ -2,7 +2,7 @@
 
 The environment is deterministic and an episode's state space is finite (6 slot statuses and the
 mixture's properties), so an optimal plan is a shortest path from the reset state to a goal state.
-A* with a consistent heuristic returns one while expanding far fewer states than breadth-first
+A* with an admissible heuristic returns one while expanding far fewer states than breadth-first
 search (docs/cooking.md has the numbers).
 
 The heuristic counts, for each ingredient still in its own slot and not at its required status,
@@ -21,6 +21,8 @@ import math
 from collections import deque
 from collections.abc import Iterable
 
+import numpy as np
+
 from tleaf_cli.tasks.cooking.rules import EMPTY, NUM_SLOTS, EpisodeRules, State
 
 INF = math.inf
@@ -30,13 +32,19 @@ class NoPlan(RuntimeError):
     """The goal cannot be reached from the state (never for a checked domain's reset state)."""
 
 
-def plan(rules: EpisodeRules, start: State | None = None) -> list[int]:
-    """A shortest list of action ids from `start` (default: the reset state) to a goal state."""
+def plan(
+    rules: EpisodeRules, start: State | None = None, rng: np.random.Generator | None = None
+) -> list[int]:
+    """A shortest list of action ids from `start` (default: the reset state) to a goal state.
+
+    Many plans are equally short (wash or rinse; dress or fry before plating). Without `rng` the
+    lowest action ids win ties; with it, ties are broken at random (still a shortest plan), so
+    demonstrations show the variety the rules allow. Deterministic for a given `rng` state.
+    """
     start = rules.initial_state() if start is None else start
     bound = _LowerBound(rules)
-    # Among equal f = g + h, deeper states first (they are nearer a goal), then FIFO: the result
-    # is deterministic.
-    tie = itertools.count()
+    # Among equal f = g + h, deeper states first (they are nearer a goal), then the tie key.
+    tie = itertools.count() if rng is None else iter(rng.random, None)
     frontier = [(bound(start), 0, next(tie), start)]
     parent: dict[State, tuple[State, int] | None] = {start: None}
     cost = {start: 0}
@@ -47,7 +55,10 @@ def plan(rules: EpisodeRules, start: State | None = None) -> list[int]:
             continue  # a stale entry: the state was reached more cheaply since
         if rules.is_goal(state):
             return _walk_back(parent, state)
-        for action, nxt in rules.successors(state):
+        successors = list(rules.successors(state))
+        if rng is not None:  # which of several equivalent actions labels a step
+            successors = [successors[i] for i in rng.permutation(len(successors))]
+        for action, nxt in successors:
             if cost.get(nxt, INF) <= g + 1:
                 continue
             cost[nxt], parent[nxt] = g + 1, (state, action)
