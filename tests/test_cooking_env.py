@@ -8,6 +8,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import pyarrow.parquet as pq
 import pytest
 
 from tleaf_cli.errors import UsageError
@@ -366,3 +367,18 @@ def test_whole_domain_knowledge_base():
     assert "cut_milk" in atoms and not any("mixture" in a for a in atoms)
     with pytest.raises(UsageError, match="no ingredient 'unicorn'"):
         knowledge_base(DOMAIN, ["unicorn"])
+
+
+def test_cooking_kb_cli_writes_rules_compile_dfa_compiles(chain_cli, tmp_path: Path):
+    kb, dfas = tmp_path / "kb.ltl", tmp_path / "dfas.parquet"
+    result = chain_cli("cooking-kb", "--ingredients", "lettuce,beef,milk,salt,almond", "-o", kb)
+    assert result.exit_code == 0, result.output
+    expected = knowledge_base(DOMAIN, ("lettuce", "beef", "milk", "salt", "almond"))
+    assert f"{len(expected)} rules" in result.output
+    result = chain_cli("compile-dfa", kb, "--one-hot", "-o", dfas, "-j", 2, "-q")
+    assert result.exit_code == 0, result.output
+    table = pq.read_table(dfas).to_pylist()
+    assert [r["formula_id"] for r in table] == [r.name for r in expected]
+    assert all(r["error"] is None and r["alphabet"] == "one-hot" for r in table)
+    result = chain_cli("cooking-kb", "--ingredients", "lettuce,unicorn", "-o", kb)
+    assert result.exit_code == 2 and "no ingredient 'unicorn'" in result.output

@@ -55,6 +55,7 @@ def test_expert_plans_are_shortest():
         except RuntimeError:
             continue  # a dead end (over-processed): breadth-first search would roam it all
         assert len(best) == len(plan_breadth_first(rules, state))
+        assert len(plan(rules, state, rng=np.random.default_rng(checked))) == len(best)
         checked += 1
     assert checked >= 5
 

@@ -622,6 +622,42 @@ def gen_demos(
     )
 
 
+@app.command("cooking-kb")
+@_exits
+def cooking_kb(
+    out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
+        "cooking_kb.ltl"
+    ),
+    ingredients: Annotated[
+        str | None,
+        typer.Option(help="Comma-separated ingredients (an episode's five) [default: all]."),
+    ] = None,
+    mixture: Annotated[
+        bool, typer.Option("--mixture/--no-mixture", help="Include rules on the mixture's actions.")
+    ] = True,
+    domain: Annotated[
+        Path | None,
+        typer.Option(help="Domain TOML [default: examples/creative_cooking.toml]."),
+    ] = None,
+    quiet: Quiet = False,
+) -> None:
+    """Write Creative Cooking's rules as LTLf (affordance.* and ordering.* formulas).
+
+    Atoms are the environment's action names (cut_lettuce); compile with `compile-dfa --one-hot`.
+    """
+    from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN
+    from tleaf_cli.tasks.cooking.knowledge import write_cooking_kb
+
+    names = [n.strip() for n in ingredients.split(",")] if ingredients else None
+    rules = write_cooking_kb(out, domain or DEFAULT_DOMAIN, names, mixture)
+    orderings = sum(r.kind == "ordering" for r in rules)
+    ui.summary(
+        f"{out}: {len(rules)} rules ({len(rules) - orderings} affordance, {orderings} ordering) "
+        f"over {len(names) if names else 'all'} ingredients",
+        quiet,
+    )
+
+
 eval_app = typer.Typer(help="Evaluate embedders and trained models.", no_args_is_help=True)
 app.add_typer(eval_app, name="eval")
 

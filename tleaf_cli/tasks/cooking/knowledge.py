@@ -26,8 +26,17 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from tleaf_cli.data.artifacts import write_text_atomic
-from tleaf_cli.tasks.cooking.domain import MIXTURE, READY, Action, ArgumentRule, Domain
+from tleaf_cli.data.artifacts import check_writable, write_text_atomic
+from tleaf_cli.errors import UsageError
+from tleaf_cli.tasks.cooking.domain import (
+    DEFAULT_DOMAIN,
+    MIXTURE,
+    READY,
+    Action,
+    ArgumentRule,
+    Domain,
+    load_domain,
+)
 
 KINDS = ("affordance", "ordering")
 
@@ -53,7 +62,30 @@ def knowledge_base(
     names = [i.name for i in domain.ingredients] if ingredients is None else list(ingredients)
     for name in names:
         domain.ingredient(name)  # UsageError for an unknown name
+    if len(set(names)) != len(names):
+        raise UsageError(f"{domain.source}: an ingredient is named twice in {', '.join(names)}")
     return _Builder(domain, names).rules(mixture)
+
+
+def write_cooking_kb(
+    out: str | Path,
+    domain_path: str | Path = DEFAULT_DOMAIN,
+    ingredients: Sequence[str] | None = None,
+    mixture: bool = True,
+) -> list[Rule]:
+    """Write the knowledge base for `ingredients` (default: all) of a domain file to `out`."""
+    domain = load_domain(domain_path)
+    check_writable(out)
+    rules = knowledge_base(domain, ingredients, mixture)
+    header = (
+        "Creative Cooking knowledge base (synthetic environment built from the paper's appendix)\n"
+        f"domain: {domain_path}\n"
+        f"ingredients: {', '.join(ingredients) if ingredients else 'all'}\n"
+        "affordance.<atom>: G !<atom>\n"
+        "ordering.<atom>[.<argument>]: (!<atom> U (enablers)) | G !<atom>"
+    )
+    write_knowledge_base(out, rules, header)
+    return rules
 
 
 def format_knowledge_base(rules: Iterable[Rule], header: str = "") -> str:
