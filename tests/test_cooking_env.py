@@ -138,7 +138,9 @@ def test_affordance_infeasible_leaves_state_and_costs_two():
         ("beef", ["cut", "fry"], "marinate", None),  # marinate only before cooking
         ("lettuce", ["wash"], "plate", None),  # serve needs seasoned or cooked
         ("lettuce", ["wash", "dress"], "plate", POST),
-        ("lettuce", ["wash", "fry", "dress", "plate"], "plate", None),  # fried before seasoned
+        ("lettuce", ["wash", "dress", "fry"], "plate", POST),  # Fig. 5A: seasoned, then fried
+        ("lettuce", ["wash", "fry", "dress"], "plate", POST),  # or fried before seasoned
+        ("lettuce", ["wash", "fry", "dress", "plate"], "plate", None),  # served already
     ],
 )
 def test_prerequisites(ingredient, prepare, action, result):
