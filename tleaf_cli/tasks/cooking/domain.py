@@ -31,6 +31,11 @@ MIXTURE = "mixture"
 _NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 
+def atom(action: str, *arguments: str) -> str:
+    """The LTLf atom of an action on its arguments: `cut_lettuce`, `top_with_beef_salt`."""
+    return "_".join((action, *arguments))
+
+
 @dataclass(frozen=True)
 class ArgumentRule:
     """Affordance and pre-requisite for one argument of an action."""
@@ -213,11 +218,11 @@ def _check_atoms_unique(check, domain: Domain) -> None:
             else [(x, y) for x in names for y in names if x != y]
         )
         for args in argument_lists:
-            atom = "_".join((action.name, *args))
+            name = atom(action.name, *args)
             where = f"{action.name}({', '.join(args)})"
-            if atom in seen:
-                check.fail(f"actions.{action.name}: atom '{atom}' means {where} and {seen[atom]}")
-            seen[atom] = where
+            if name in seen:
+                check.fail(f"actions.{action.name}: atom '{name}' means {where} and {seen[name]}")
+            seen[name] = where
 
 
 def _check_goals_reachable(check, domain: Domain) -> None:

@@ -37,6 +37,7 @@ from tleaf_cli.tasks.cooking.domain import (
     Domain,
     load_domain,
 )
+from tleaf_cli.tasks.cooking.domain import atom as atom_of
 
 KINDS = ("affordance", "ordering")
 
@@ -132,13 +133,13 @@ class _Builder:
         return out
 
     def _unary(self, action: Action, x: str) -> list[Rule]:
-        atom = f"{action.name}_{x}"
+        atom = atom_of(action.name, x)
         if not action.first.affords(self.props[x]):
             return [_affordance(atom)]
         return self._ordering(atom, action.first, x, f"ordering.{atom}")
 
     def _binary(self, action: Action, x: str, y: str) -> list[Rule]:
-        atom = f"{action.name}_{x}_{y}"
+        atom = atom_of(action.name, x, y)
         if not (action.first.affords(self.props[x]) and action.second.affords(self.props[y])):
             return [_affordance(atom)]
         return self._ordering(atom, action.first, x, f"ordering.{atom}.{x}") + self._ordering(
@@ -147,7 +148,7 @@ class _Builder:
 
     def _on_mixture(self, action: Action, args: tuple[str, ...]) -> list[Rule]:
         """Rules for an action whose arguments include the mixture (always the first, if any)."""
-        atom = "_".join((action.name, *args))
+        atom = atom_of(action.name, *args)
         topping = args[1] if len(args) == 2 else None
         if (
             action.category in ("add", "combine")
@@ -157,7 +158,7 @@ class _Builder:
             return [_affordance(atom)]  # the mixture is never added, combined or a topping
         # Any action on the mixture needs something in it: an add or a combine came first.
         merges = [
-            "_".join((a.name, *merged))
+            atom_of(a.name, *merged)
             for a in self.domain.actions
             if a.category in ("add", "combine")
             for merged in self._arguments(a)
@@ -199,10 +200,10 @@ class _Builder:
                 continue
             if action.arity == 1:
                 if action.first.affords(self.props[x]):
-                    out.append(f"{action.name}_{x}")
+                    out.append(atom_of(action.name, x))
             else:  # top-with: x is the topped ingredient
                 out += [
-                    f"{action.name}_{x}_{y}"
+                    atom_of(action.name, x, y)
                     for y in self.names
                     if y != x
                     and action.first.affords(self.props[x])

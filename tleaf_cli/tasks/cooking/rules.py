@@ -19,7 +19,14 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
-from tleaf_cli.tasks.cooking.domain import MIXTURE, Action, ArgumentRule, Domain, Ingredient
+from tleaf_cli.tasks.cooking.domain import (
+    MIXTURE,
+    Action,
+    ArgumentRule,
+    Domain,
+    Ingredient,
+    atom,
+)
 
 NUM_SLOTS = 6  # the mixture and 5 ingredients
 NUM_INGREDIENTS = NUM_SLOTS - 1
@@ -106,7 +113,7 @@ class EpisodeRules:
     def action_name(self, action_id: int) -> str:
         """The action's atom for this episode, e.g. `wash_lettuce`, `top_with_beef_salt`."""
         action, slots = self.codec.decode(action_id)
-        return "_".join((action.name, *(self.slot_name(s) for s in slots)))
+        return atom(action.name, *(self.slot_name(s) for s in slots))
 
     @cached_property
     def action_names(self) -> tuple[str, ...]:
