@@ -1,0 +1,339 @@
+"""Training the action recognizer h with a logic loss (`tleaf train-task action-recognition`).
+
+Objective per batch (the paper's Sec. III): ℓ = ℓ_task + λ · mean_b ℓ_logic(b), with ℓ_task the
+cross-entropy of the action head plus that of the ingredient head (mean over steps), and
+ℓ_logic one of `tleaf_cli.losses` (none, tleaf, exact, checker). The rule set φ of a video is
+the conjunction of the knowledge base's rules whose atoms all occur in its PREDICTED pairs
+(argmax per step, the paper's choice; re-derived every batch) or in its labelled pairs
+(`formula_from="labels"`, fixed for the run).
+
+Adam (lr 1e-4 as in the paper); after every epoch, action accuracy on the val split; the best
+epoch's weights are kept and training stops after `patience` epochs without a better one. The
+test split then gives action, ingredient and pair accuracy and the share of test videos whose
+predicted sequence violates the rules relevant to its predicted pairs (the exact checker).
+
+Same seed, same run: h's initial weights, batch order and dropout masks depend on the seed
+only, so runs that differ only in the logic loss start from the same point (and the checker
+loss, which has no gradient, reproduces the reference run).
+
+Model directory (DESIGN.md): `config.json`, `weights.pt` (best epoch), `metrics.json`.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+from torch.nn import functional as F
+
+from tleaf_cli.data.activities import Activities, Video, read_activities
+from tleaf_cli.data.artifacts import atomic_path, check_writable, describe_inputs, write_text_atomic
+from tleaf_cli.data.knowledge import read_knowledge_base
+from tleaf_cli.embed.training import chunks, device_for
+from tleaf_cli.errors import UsageError
+from tleaf_cli.losses import (
+    LOGIC_LOSSES,
+    RuleSet,
+    RuleSets,
+    checker_loss,
+    exact_loss,
+    no_logic_loss,
+    tleaf_loss,
+    violations,
+)
+from tleaf_cli.tasks.action_recognition.models import MODELS, ActionRecognizer
+
+FORMULA_SOURCES = ("predictions", "labels")
+
+
+@dataclass(frozen=True)
+class TaskSettings:
+    model: str = "lstm"
+    logic_loss: str = "none"
+    lam: float = 5.0  # λ, the paper's value
+    formula_from: str = "predictions"
+    hidden: int = 128
+    head_hidden: int = 64
+    dropout: float = 0.2
+    lr: float = 1e-4  # the paper's
+    batch_size: int = 16
+    epochs: int = 60
+    patience: int = 10
+    seed: int = 0
+    device: str = "cpu"
+
+    def check(self) -> None:
+        """UsageError for option values out of range."""
+        for name, value, allowed in (
+            ("--model", self.model, MODELS),
+            ("--logic-loss", self.logic_loss, LOGIC_LOSSES),
+            ("--formula-from", self.formula_from, FORMULA_SOURCES),
+        ):
+            if value not in allowed:
+                raise UsageError(f"{name} must be one of {', '.join(allowed)}, not '{value}'")
+
+
+@dataclass
+class EpochRecord:
+    epoch: int
+    task_loss: float
+    logic_loss: float
+    seconds: float  # training time of this epoch (forward, losses, backward), without eval
+    val_action_accuracy: float
+
+
+@dataclass
+class Batch:
+    """Padded videos: features [B, T, D], labels [B, T] (-100 on padding), lengths [B]."""
+
+    videos: list[Video]
+    features: torch.Tensor
+    actions: torch.Tensor
+    ingredients: torch.Tensor
+    lengths: torch.Tensor
+
+    @classmethod
+    def of(cls, videos: Sequence[Video], device: torch.device) -> Batch:
+        lengths = torch.tensor([len(v) for v in videos], dtype=torch.long)
+        width, dim = int(lengths.max()), videos[0].features.shape[1]
+        features = torch.zeros((len(videos), width, dim))
+        actions = torch.full((len(videos), width), -100, dtype=torch.long)
+        ingredients = torch.full((len(videos), width), -100, dtype=torch.long)
+        for b, v in enumerate(videos):
+            features[b, : len(v)] = torch.from_numpy(v.features)
+            actions[b, : len(v)] = torch.from_numpy(v.actions)
+            ingredients[b, : len(v)] = torch.from_numpy(v.ingredients)
+        return cls(
+            list(videos),
+            features.to(device),
+            actions.to(device),
+            ingredients.to(device),
+            lengths.to(device),
+        )
+
+
+def pair_index(data: Activities) -> dict[str, int]:
+    """Every (action, ingredient) atom of the vocabularies -> its flat pair index a·I + i."""
+    n = len(data.ingredients)
+    return {data.atom(a, i): a * n + i for a in range(len(data.actions)) for i in range(n)}
+
+
+def predicted_atoms(data: Activities, actions: np.ndarray, ingredients: np.ndarray) -> set[str]:
+    """The atoms of a predicted sequence (action and ingredient indices per step)."""
+    return {data.atom(int(a), int(i)) for a, i in zip(actions, ingredients, strict=True)}
+
+
+class LogicObjective:
+    """ℓ_logic for batches: picks each video's rule set and calls the chosen loss."""
+
+    def __init__(self, settings: TaskSettings, data: Activities, rules: RuleSets) -> None:
+        self.settings = settings
+        self.data = data
+        self.rules = rules
+        self.fixed: dict[str, RuleSet | None] = {}
+        if settings.formula_from == "labels" and settings.logic_loss != "none":
+            videos = data.videos
+            sets = rules.for_videos([set(data.atoms(v)) for v in videos])
+            self.fixed = {v.video_id: r for v, r in zip(videos, sets, strict=True)}
+
+    def __call__(self, batch: Batch, actions: torch.Tensor, ingredients: torch.Tensor):
+        kind = self.settings.logic_loss
+        if kind == "none":
+            return no_logic_loss(actions)
+        if self.settings.formula_from == "labels":
+            sets = [self.fixed[v.video_id] for v in batch.videos]
+        else:
+            a = actions.detach().argmax(-1).cpu().numpy()
+            i = ingredients.detach().argmax(-1).cpu().numpy()
+            sets = self.rules.for_videos(
+                [
+                    predicted_atoms(self.data, a[b, :n], i[b, :n])
+                    for b, n in enumerate(batch.lengths.tolist())
+                ]
+            )
+        args = (actions, ingredients, batch.lengths, sets)
+        if kind == "tleaf":
+            return tleaf_loss(*args, self.rules)
+        if kind == "exact":
+            return exact_loss(*args)
+        return checker_loss(*args)
+
+
+def train_action_recognition(
+    activities_path: str | Path,
+    kb_path: str | Path,
+    embedder_dir: str | Path | None,
+    out_dir: str | Path,
+    settings: TaskSettings,
+    on_epoch: Callable[[EpochRecord], None] | None = None,
+) -> dict:
+    """Train h, keep the best val epoch, score it on test; returns the metrics written."""
+    settings.check()
+    out_dir = Path(out_dir)
+    check_writable(out_dir / "metrics.json")
+    device = device_for(settings.device)
+    data = read_activities(activities_path)
+    kb = read_knowledge_base(kb_path)
+    splits = {s: data.split(s) for s in ("train", "val", "test")}
+    empty = [s for s, videos in splits.items() if not videos]
+    if empty:
+        raise UsageError(f"{activities_path}: no videos in split(s) {', '.join(empty)}")
+
+    pairs = pair_index(data)
+    checker_rules = RuleSets(kb, pairs)  # the violation metric: the same rules for every loss
+    if settings.logic_loss == "tleaf":
+        if embedder_dir is None:
+            raise UsageError("--logic-loss tleaf needs --embedder (a train-meta directory)")
+        from tleaf_cli.embed.soft import load_embedder
+
+        embedder = load_embedder(embedder_dir)
+        embedder.model.to(device)
+        loss_rules = RuleSets(kb, pairs, embedder)
+    else:
+        loss_rules = checker_rules
+    objective = LogicObjective(settings, data, loss_rules)
+
+    torch.manual_seed(settings.seed)  # after the embedder: h starts the same for every loss
+    model = ActionRecognizer(
+        settings.model,
+        data.feature_dim,
+        len(data.actions),
+        len(data.ingredients),
+        settings.hidden,
+        settings.head_hidden,
+        settings.dropout,
+    ).to(device)
+    optimiser = torch.optim.Adam(model.parameters(), lr=settings.lr)
+
+    history: list[dict] = []
+    best = {"epoch": 0, "val_action_accuracy": -1.0}
+    best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+    stale = 0
+    for epoch in range(1, settings.epochs + 1):
+        generator = torch.Generator().manual_seed(settings.seed * 100_003 + epoch)
+        model.train()
+        start = time.perf_counter()
+        task_sum = logic_sum = 0.0
+        batches = 0
+        for videos in chunks(splits["train"], settings.batch_size, generator):
+            batch = Batch.of(videos, device)
+            actions, ingredients = model(batch.features, batch.lengths)
+            task = F.cross_entropy(
+                actions.flatten(0, 1), batch.actions.flatten(), ignore_index=-100
+            ) + F.cross_entropy(
+                ingredients.flatten(0, 1), batch.ingredients.flatten(), ignore_index=-100
+            )
+            logic = objective(batch, actions, ingredients).mean()
+            loss = task + settings.lam * logic
+            optimiser.zero_grad()
+            loss.backward()
+            optimiser.step()
+            task_sum += task.item()
+            logic_sum += logic.item()
+            batches += 1
+        seconds = time.perf_counter() - start
+        val = score(model, data, splits["val"], settings.batch_size, device)
+        record = EpochRecord(
+            epoch, task_sum / batches, logic_sum / batches, seconds, val["action_accuracy"]
+        )
+        history.append(asdict(record))
+        if record.val_action_accuracy > best["val_action_accuracy"]:
+            best = {"epoch": epoch, "val_action_accuracy": record.val_action_accuracy}
+            best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+            stale = 0
+        else:
+            stale += 1
+        if on_epoch:
+            on_epoch(record)
+        if stale >= settings.patience:
+            break
+
+    model.load_state_dict(best_state)
+    test = score(model, data, splits["test"], settings.batch_size, device, checker_rules)
+    metrics = {
+        "task": "action-recognition",
+        "model": settings.model,
+        "logic_loss": settings.logic_loss,
+        "seed": settings.seed,
+        "history": history,
+        "best": best,
+        "mean_epoch_seconds": float(np.mean([h["seconds"] for h in history])),
+        "test": test,
+        "rule_sets": {
+            "compiled": loss_rules.compiled,
+            "rules_left_out_unknown_to_q": loss_rules.skipped_rules,
+        },
+    }
+    config = {
+        "kind": "action-recognizer",
+        "settings": asdict(settings),
+        "actions": list(data.actions),
+        "ingredients": list(data.ingredients),
+        "feature_dim": data.feature_dim,
+        "data": data.params.get("data", "synthetic" if data.params else "unknown"),
+        "inputs": describe_inputs([activities_path, kb_path]),
+        "embedder": None if embedder_dir is None else str(embedder_dir),
+    }
+    out_dir.mkdir(parents=True, exist_ok=True)
+    tmp = atomic_path(out_dir / "weights.pt")
+    try:
+        torch.save(best_state, tmp)
+        os.replace(tmp, out_dir / "weights.pt")
+    finally:
+        tmp.unlink(missing_ok=True)
+    write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
+    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
+    return metrics
+
+
+def predict(
+    model: ActionRecognizer, videos: Sequence[Video], batch_size: int, device: torch.device
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(predicted action indices, predicted ingredient indices) per video, argmax per step."""
+    model.eval()
+    out = []
+    with torch.no_grad():
+        for i in range(0, len(videos), batch_size):
+            batch = Batch.of(videos[i : i + batch_size], device)
+            actions, ingredients = model(batch.features, batch.lengths)
+            a, g = actions.argmax(-1).cpu().numpy(), ingredients.argmax(-1).cpu().numpy()
+            out += [(a[b, :n], g[b, :n]) for b, n in enumerate(batch.lengths.tolist())]
+    return out
+
+
+def score(
+    model: ActionRecognizer,
+    data: Activities,
+    videos: Sequence[Video],
+    batch_size: int,
+    device: torch.device,
+    rules: RuleSets | None = None,
+) -> dict:
+    """Per-step action / ingredient / pair accuracy; with `rules`, the share of videos whose
+    predicted sequence violates the rules relevant to its predicted pairs."""
+    predictions = predict(model, videos, batch_size, device)
+    hit_a = np.concatenate([p[0] == v.actions for p, v in zip(predictions, videos, strict=True)])
+    hit_i = np.concatenate(
+        [p[1] == v.ingredients for p, v in zip(predictions, videos, strict=True)]
+    )
+    out = {
+        "videos": len(videos),
+        "steps": len(hit_a),
+        "action_accuracy": float(hit_a.mean()),
+        "ingredient_accuracy": float(hit_i.mean()),
+        "pair_accuracy": float((hit_a & hit_i).mean()),
+    }
+    if rules is not None:
+        sets = rules.for_videos([predicted_atoms(data, a, i) for a, i in predictions])
+        n = len(data.ingredients)
+        with_rules = [(r, a * n + i) for r, (a, i) in zip(sets, predictions, strict=True) if r]
+        bad = violations([r for r, _ in with_rules], [p for _, p in with_rules])
+        out["violation_fraction"] = float(bad.sum() / len(videos))
+        out["videos_with_rules"] = len(with_rules)
+    return out
