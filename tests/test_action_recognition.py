@@ -1,0 +1,106 @@
+"""Action recognition: the target models, the SMALL pipeline end to end, the eval report."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import torch
+
+from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
+
+
+@pytest.mark.parametrize("backbone", ["lstm", "tcn"])
+def test_padding_does_not_change_a_videos_outputs(backbone: str) -> None:
+    """A video's logits are the same alone and padded beside a longer one."""
+    torch.manual_seed(0)
+    h = ActionRecognizer(backbone, 6, 4, 3, hidden=8, head_hidden=5).eval()
+    short, long = torch.randn(1, 3, 6), torch.randn(1, 7, 6)
+    alone_a, alone_i = h(short, torch.tensor([3]))
+    padded = torch.cat([torch.nn.functional.pad(short, (0, 0, 0, 4)), long])
+    both_a, both_i = h(padded, torch.tensor([3, 7]))
+    assert alone_a.shape == (1, 3, 4) and alone_i.shape == (1, 3, 3)
+    assert torch.allclose(both_a[0, :3], alone_a[0], atol=1e-5)
+    assert torch.allclose(both_i[0, :3], alone_i[0], atol=1e-5)
+
+
+@pytest.fixture(scope="module")
+def small_pipeline(tmp_path_factory) -> Path:
+    """pipelines/action_recognition.mk SMALL=1 for the LSTM, with none, tleaf and checker."""
+    out = tmp_path_factory.mktemp("ar") / "small"
+    tleaf = Path(sys.executable).parent / "tleaf"
+    command = [
+        "make",
+        "-f",
+        "pipelines/action_recognition.mk",
+        "SMALL=1",
+        f"TLEAF={tleaf}",
+        f"OUT={out}",
+        "MODELS=lstm",
+        "LOSSES=none tleaf checker",
+    ]
+    root = Path(__file__).parent.parent
+    result = subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr[-2000:]
+    return out
+
+
+def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
+    report = json.loads((small_pipeline / "report/report.json").read_text())
+    assert {(r["model"], r["logic_loss"]) for r in report["runs"]} == {
+        ("lstm", "none"),
+        ("lstm", "tleaf"),
+        ("lstm", "checker"),
+    }
+    assert all(r["data"].startswith("synthetic") for r in report["runs"])
+    for r in report["runs"]:
+        for key in ("action_accuracy", "ingredient_accuracy", "pair_accuracy"):
+            assert 0.0 <= r[key] <= 1.0
+        assert 0.0 <= r["violation_fraction"] <= 1.0
+    runs = small_pipeline / "runs"
+    tleaf = json.loads((runs / "lstm-tleaf-seed0/metrics.json").read_text())
+    assert any(h["logic_loss"] > 0 for h in tleaf["history"])  # the loss saw rule sets
+    none = json.loads((runs / "lstm-none-seed0/metrics.json").read_text())
+    assert all(h["logic_loss"] == 0 for h in none["history"])
+    saved = torch.load(runs / "lstm-none-seed0/weights.pt", weights_only=True)
+    assert any(k.startswith("action_out") for k in saved)
+
+
+def test_checker_loss_trains_exactly_like_the_reference(small_pipeline: Path) -> None:
+    """No gradient, same seed: the checker run's weights equal the reference run's."""
+    runs = small_pipeline / "runs"
+    ref = torch.load(runs / "lstm-none-seed0/weights.pt", weights_only=True)
+    checker = torch.load(runs / "lstm-checker-seed0/weights.pt", weights_only=True)
+    assert all(torch.equal(ref[k], checker[k]) for k in ref)
+    history = json.loads((runs / "lstm-checker-seed0/metrics.json").read_text())["history"]
+    assert any(h["logic_loss"] > 0 for h in history)  # it did count violations
+
+
+def test_report_pairs_runs_with_their_reference(small_pipeline: Path) -> None:
+    report = json.loads((small_pipeline / "report/report.json").read_text())
+    by_loss = {p["logic_loss"]: p for p in report["pairs"]}
+    assert set(by_loss) == {"tleaf", "checker"}
+    runs = {r["logic_loss"]: r for r in report["runs"]}
+    ref, tleaf = runs["none"]["action_accuracy"], runs["tleaf"]["action_accuracy"]
+    want = 100 * (tleaf - ref) / ref
+    assert by_loss["tleaf"]["action_accuracy_change_pct"] == pytest.approx(want)
+    assert by_loss["checker"]["action_accuracy_change_pct"] == 0.0
+    assert by_loss["tleaf"]["reference"].endswith("lstm-none-seed0")
+    table = (small_pipeline / "report/report.md").read_text()
+    assert "| lstm | tleaf | 1 |" in table and "synthetic" in table
+    png = (small_pipeline / "report/report.png").read_bytes()
+    assert png.startswith(b"\x89PNG")
+
+
+def test_bad_options_and_runs_exit_2(chain_cli, tmp_path: Path, small_pipeline: Path) -> None:
+    act, kb = small_pipeline / "activities.parquet", small_pipeline / "kb.ltl"
+    args = ("train-task", "action-recognition", act, "--kb", kb, "-o", tmp_path / "r")
+    result = chain_cli(*args, "--logic-loss", "tleaf")
+    assert result.exit_code == 2 and "needs --embedder" in result.output
+    result = chain_cli(*args, "--model", "gru")
+    assert result.exit_code == 2 and "--model must be one of lstm, tcn" in result.output
+    result = chain_cli("eval", "action-recognition", tmp_path, "-o", tmp_path / "rep")
+    assert result.exit_code == 2 and "not a finished train-task run" in result.output
