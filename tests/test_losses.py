@@ -160,3 +160,13 @@ def test_same_rule_set_same_vector(kb) -> None:
     r = rules.for_videos([{"cut_egg"}])[0]
     assert rules.formula_vector(r) is rules.formula_vector(r)
     assert np.isfinite(rules.formula_vector(r).numpy()).all()
+
+
+def test_rule_set_dfa_is_the_conjunctions_dfa(kb) -> None:
+    """The product of the rules' DFAs is the minimal DFA MONA gives for the conjunction."""
+    rules = RuleSets(kb, PAIRS)
+    r = rules.for_videos([{"fry_egg", "rinse_egg", "cut_egg", "fry_onion", "cut_onion"}])[0]
+    assert r.num_rules == 3
+    direct = compile_formula(r.formula, "one-hot")
+    assert r.dfa.atoms == direct.atoms and r.dfa.equivalent(direct)
+    assert r.dfa.num_states == direct.num_states

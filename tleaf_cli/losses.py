@@ -92,6 +92,7 @@ class RuleSets:
         self.by_id: dict[str, RuleSet | None] = {}
         self._vectors: dict[str, torch.Tensor] = {}
         self._letters: dict[str, torch.Tensor] = {}
+        self._rule_dfas: dict[str, DFA] = {}  # each rule's DFA, by rule name
         self.compiled = 0  # rule sets compiled (each distinct set once)
         self.skipped_rules = 0
 
@@ -115,15 +116,28 @@ class RuleSets:
         return [self.by_id[i] if i is not None else None for i in ids]
 
     def _compile(self, fresh: dict[str, list]) -> None:
-        sources = [
-            FormulaSource(i, sample_formula(rules), "knowledge base", f"rule set {i}")
-            for i, rules in fresh.items()
-        ]
-        report = compile_sources(sources, self.settings)
-        for src, row, rules in zip(sources, report.rows, fresh.values(), strict=True):
-            if row["error"] is not None:
-                raise UsageError(f"knowledge base: {row['error']} (formula {src.text})")
-            dfa = dfa_from_row(row)
+        """Build each fresh rule set's DFA as the product of its rules' DFAs.
+
+        Each rule is compiled by MONA once (through the compile cache); a rule set is then a
+        product of small DFAs, minimised — the same minimal DFA MONA gives for the conjunction,
+        without a MONA call per set (predicted pairs bring new sets every batch early on).
+        """
+        rules = {r.name: r for rs in fresh.values() for r in rs if r.name not in self._rule_dfas}
+        if rules:
+            sources = [
+                FormulaSource(n, r.formula, "knowledge base", f"rule {n}") for n, r in rules.items()
+            ]
+            report = compile_sources(sources, self.settings)
+            for src, row in zip(sources, report.rows, strict=True):
+                if row["error"] is not None:
+                    raise UsageError(f"knowledge base: rule {src.formula_id}: {row['error']}")
+                self._rule_dfas[src.formula_id] = dfa_from_row(row)
+        for rid, rs in fresh.items():
+            names = sorted(r.name for r in rs)
+            dfa = self._rule_dfas[names[0]]
+            for name in names[1:]:
+                dfa = dfa.intersect(self._rule_dfas[name])
+            dfa = dfa.minimize_nonempty()
             missing = [a for a in dfa.atoms if a not in self.pair_index]
             if missing:
                 raise UsageError(
@@ -132,10 +146,8 @@ class RuleSets:
                 )
             pairs = torch.tensor([self.pair_index[a] for a in dfa.atoms], dtype=torch.long)
             satisfiable = bool(len(_reachable_accepting(dfa)))
-            self.by_id[src.formula_id] = RuleSet(
-                src.formula_id, src.text, len(rules), dfa, pairs, satisfiable
-            )
-        self.compiled += len(sources)
+            self.by_id[rid] = RuleSet(rid, sample_formula(rs), len(rs), dfa, pairs, satisfiable)
+        self.compiled += len(fresh)
 
     def formula_vector(self, rule_set: RuleSet) -> torch.Tensor:
         """q(A_φ) [d], embedded once per rule set (no gradient: q is frozen)."""
