@@ -1,0 +1,105 @@
+"""GAIL's discriminator D(s, a) and the VecEnv wrapper that pays its reward instead of the env's.
+
+D is a small MLP on one-hot (observation, action) pairs that outputs the logit of "expert".
+It is trained by binary cross-entropy, expert pairs labelled 1 and the policy's 0.
+
+Reward choice: r(s, a) = log D(s, a) = −softplus(−logit) ≤ 0. An episode of Creative Cooking
+ends (terminated) when the goal is reached, so a negative reward per step — like the
+environment's own −1 — pays the policy to finish; the other common form, −log(1 − D) ≥ 0,
+pays it for every step it survives, i.e. to dawdle until the 50-step time limit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+from torch import nn
+
+
+class Discriminator(nn.Module):
+    """D(s, a): an MLP on [one-hot of each observation entry, one-hot action] -> expert logit."""
+
+    def __init__(self, nvec: np.ndarray, num_actions: int, hidden: int = 64) -> None:
+        super().__init__()
+        self.register_buffer("nvec", torch.as_tensor(np.asarray(nvec), dtype=torch.long))
+        self.num_actions = num_actions
+        width = int(self.nvec.sum()) + num_actions
+        self.net = nn.Sequential(
+            nn.Linear(width, hidden), nn.Tanh(), nn.Linear(hidden, hidden), nn.Tanh()
+        )
+        self.head = nn.Linear(hidden, 1)
+
+    def encode(self, observations: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """[n, Σ nvec + A] one-hot features of integer observations [n, 12] and actions [n]."""
+        obs = observations.long()
+        parts = [F.one_hot(obs[:, k], int(n)) for k, n in enumerate(self.nvec.tolist())]
+        parts.append(F.one_hot(actions.long().flatten(), self.num_actions))
+        return torch.cat(parts, dim=1).float()
+
+    def forward(self, observations: torch.Tensor, actions: torch.Tensor) -> torch.Tensor:
+        """Expert logits [n]."""
+        return self.head(self.net(self.encode(observations, actions))).squeeze(1)
+
+    @torch.no_grad()
+    def reward(self, observations: np.ndarray, actions: np.ndarray) -> np.ndarray:
+        """r = log D(s, a) per pair (float32 [n]); see the module docstring for the choice."""
+        logits = self(torch.as_tensor(observations), torch.as_tensor(actions))
+        return (-F.softplus(-logits)).numpy().astype(np.float32)
+
+
+def discriminator_step(
+    disc: Discriminator,
+    optimizer: torch.optim.Optimizer,
+    expert: tuple[torch.Tensor, torch.Tensor],
+    policy: tuple[torch.Tensor, torch.Tensor],
+) -> tuple[float, float, float]:
+    """One BCE step on a batch of expert pairs (label 1) and policy pairs (label 0).
+
+    Returns (loss, accuracy on expert pairs, accuracy on policy pairs) of the batch.
+    """
+    expert_logits = disc(*expert)
+    policy_logits = disc(*policy)
+    loss = F.binary_cross_entropy_with_logits(
+        expert_logits, torch.ones_like(expert_logits)
+    ) + F.binary_cross_entropy_with_logits(policy_logits, torch.zeros_like(policy_logits))
+    optimizer.zero_grad()
+    loss.backward()
+    optimizer.step()
+    return (
+        float(loss.detach()),
+        float((expert_logits > 0).float().mean()),
+        float((policy_logits < 0).float().mean()),
+    )
+
+
+class DiscriminatorReward(VecEnvWrapper):
+    """Replaces each step's reward with the discriminator's r(s, a) = log D(s, a).
+
+    s is the observation the action was chosen in (kept from the previous step or reset; after
+    an automatic reset it is the new episode's first observation). The environment's own reward
+    goes to `info["env_reward"]`; Monitor wrappers below this one still record true returns.
+    """
+
+    def __init__(self, venv: VecEnv, disc: Discriminator) -> None:
+        super().__init__(venv)
+        self.disc = disc
+        self._obs: np.ndarray | None = None
+        self._actions: np.ndarray | None = None
+
+    def reset(self) -> np.ndarray:
+        self._obs = self.venv.reset()
+        return self._obs
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = np.asarray(actions)
+        self.venv.step_async(actions)
+
+    def step_wait(self):
+        obs, env_rewards, dones, infos = self.venv.step_wait()
+        rewards = self.disc.reward(self._obs, self._actions)
+        for info, r in zip(infos, env_rewards, strict=True):
+            info["env_reward"] = float(r)
+        self._obs = obs
+        return obs, rewards, dones, infos

@@ -1,0 +1,456 @@
+"""GAIL with a logic loss on Creative Cooking (paper Sec. VII): `tleaf train-task cooking`.
+
+Read top to bottom:
+
+1. The demos (gen-demos) give the expert (s, a) pairs and the POOL of ingredient sets: every
+   training and evaluation episode is one of the demos' sets, so each has a known expert return.
+2. The generator is SB3's PPO on `tleaf/CreativeCooking-v0` (n_envs copies), whose rewards are
+   replaced by the discriminator's r(s, a) = log D(s, a) (`DiscriminatorReward`).
+3. After each rollout (`GailCallback._on_rollout_end`) D takes `disc_steps` BCE steps: expert
+   pairs from the demos against the rollout's pairs.
+4. PPO's update (`LogicPPO.train`) minimises, per minibatch,
+       ℓ_PPO + λ · ℓ_logic,
+   ℓ_PPO SB3's clipped surrogate + vf_coef · value loss − ent_coef · entropy, and ℓ_logic the
+   logic term (logic_term.py) on `logic_episodes` episodes of the same rollout drawn at random
+   for that minibatch (whole episodes, as the rules read sequences). checker has no gradient:
+   its value (the rollout's violation rate) is logged, and the updates are those of `none`.
+5. Every `eval_every` environment steps the policy plays `eval_episodes` seeded episodes with
+   the TRUE environment reward (actions sampled from π with a seeded generator; the ingredient
+   set of evaluation episode i is pool[i mod |pool|]); the curve goes to metrics.json.
+
+Outputs: config.json, metrics.json, policy.zip (SB3 `PPO.load`-able), discriminator.pt.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import torch
+import torch.nn.functional as F
+from stable_baselines3 import PPO
+from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.utils import explained_variance, set_random_seed
+from stable_baselines3.common.vec_env import VecNormalize
+
+from tleaf_cli.data.artifacts import atomic_path, check_writable, describe_inputs, write_text_atomic
+from tleaf_cli.data.compile_dfas import CompileSettings
+from tleaf_cli.errors import UsageError
+from tleaf_cli.losses import LOGIC_LOSSES
+from tleaf_cli.tasks.cooking import ENV_ID
+from tleaf_cli.tasks.cooking.demo_episodes import DemoEpisode, read_demo_episodes
+from tleaf_cli.tasks.cooking.discriminator import (
+    Discriminator,
+    DiscriminatorReward,
+    discriminator_step,
+)
+from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, Domain, load_domain
+from tleaf_cli.tasks.cooking.logic_term import (
+    GRADIENT_LOSSES,
+    CookingKnowledge,
+    LogicTerm,
+    rollout_episodes,
+)
+
+
+@dataclass(frozen=True)
+class GailSettings:
+    """Everything a run depends on (written to config.json)."""
+
+    logic_loss: str = "none"  # none | tleaf | exact | checker
+    lam: float = 1.0  # λ (the paper's value)
+    total_steps: int = 60_000  # environment steps
+    n_envs: int = 4
+    n_steps: int = 128  # per environment per rollout
+    batch_size: int = 128
+    n_epochs: int = 4
+    lr: float = 1e-3
+    gamma: float = 0.99
+    ent_coef: float = 0.01
+    hidden: int = 64  # policy and value MLPs (two layers)
+    disc_hidden: int = 64
+    disc_lr: float = 1e-3
+    disc_steps: int = 4  # discriminator steps per rollout
+    disc_batch: int = 256  # expert and policy pairs per discriminator step
+    logic_episodes: int = 4  # rollout episodes in each minibatch's logic term
+    eval_every: int = 4096  # environment steps between evaluations
+    eval_episodes: int = 8
+    seed: int = 0
+    device: str = "cpu"
+    threads: int = 1  # torch CPU threads
+    domain: Path = field(default=DEFAULT_DOMAIN)
+
+    def check(self) -> None:
+        if self.logic_loss not in LOGIC_LOSSES:
+            raise UsageError(
+                f"--logic-loss {self.logic_loss!r}: expected one of {', '.join(LOGIC_LOSSES)}"
+            )
+        if self.device not in ("cpu", "cuda") or (
+            self.device == "cuda" and not torch.cuda.is_available()
+        ):
+            raise UsageError(f"--device {self.device!r}: expected cpu (or cuda where available)")
+
+
+# --------------------------------------------------------------------------- environments
+
+
+class IngredientPool(gym.Wrapper):
+    """Each reset draws its five ingredients from `pool` (a seeded choice)."""
+
+    def __init__(self, env: gym.Env, pool: Sequence[tuple[str, ...]]) -> None:
+        super().__init__(env)
+        self.pool = list(pool)
+        self.rng = np.random.default_rng(0)
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        if seed is not None:
+            self.rng = np.random.default_rng(seed)
+        chosen = self.pool[int(self.rng.integers(len(self.pool)))]
+        return self.env.reset(seed=seed, options={"ingredients": list(chosen)})
+
+
+def evaluate_returns(
+    probabilities: Callable[[np.ndarray], np.ndarray],
+    domain: Domain,
+    pool: Sequence[tuple[str, ...]],
+    episodes: int,
+    seed: int,
+) -> list[float]:
+    """True-reward returns of `episodes` seeded episodes; episode i uses pool[i mod |pool|].
+
+    `probabilities(obs)` is the policy's action distribution; the action is drawn from it with a
+    generator seeded by (seed, i), so the same policy gives the same returns.
+    """
+    env = gym.make(ENV_ID, domain=domain)
+    returns = []
+    for i in range(episodes):
+        rng = np.random.default_rng([seed, i])
+        obs, _ = env.reset(seed=seed + i, options={"ingredients": list(pool[i % len(pool)])})
+        total, done = 0.0, False
+        while not done:
+            p = probabilities(obs)
+            obs, reward, terminated, truncated, _ = env.step(int(rng.choice(len(p), p=p)))
+            total += float(reward)
+            done = terminated or truncated
+        returns.append(total)
+    env.close()
+    return returns
+
+
+def policy_probabilities(model: PPO) -> Callable[[np.ndarray], np.ndarray]:
+    def probabilities(obs: np.ndarray) -> np.ndarray:
+        with torch.no_grad():
+            tensor, _ = model.policy.obs_to_tensor(obs)
+            p = model.policy.get_distribution(tensor).distribution.probs[0].cpu().numpy()
+        p = p.astype(np.float64)
+        return p / p.sum()
+
+    return probabilities
+
+
+def uniform_probabilities(num_actions: int) -> Callable[[np.ndarray], np.ndarray]:
+    return lambda obs: np.full(num_actions, 1.0 / num_actions)
+
+
+# --------------------------------------------------------------------------- PPO + logic
+
+
+class LogicPPO(PPO):
+    """PPO whose update adds λ · ℓ_logic (on whole rollout episodes) to every minibatch's loss.
+
+    The update is SB3's PPO.train (clipped surrogate, unclipped value loss, entropy bonus,
+    gradient clipping, optional target_kl) written out so the logic term can join the loss.
+    """
+
+    def setup_logic(self, logic: LogicTerm | None, lam: float, episodes: int, seed: int) -> None:
+        self.logic, self.lam, self.logic_episodes = logic, lam, episodes
+        self.logic_rng = np.random.default_rng(seed)
+        self.logic_log: list[dict] = []
+
+    def train(self) -> None:
+        self.policy.set_training_mode(True)
+        self._update_learning_rate(self.policy.optimizer)
+        clip_range = self.clip_range(self._current_progress_remaining)
+        buffer = self.rollout_buffer
+        episodes = (
+            rollout_episodes(
+                buffer.observations,
+                buffer.actions,
+                buffer.episode_starts,
+                self.logic.knowledge.domain,
+            )
+            if self.logic is not None
+            else []
+        )
+        violation_rate = self.logic.violation_rate(episodes) if self.logic is not None else None
+        with_gradient = self.logic is not None and self.logic.kind in GRADIENT_LOSSES and episodes
+        stats: dict[str, list[float]] = {"policy": [], "value": [], "entropy": [], "logic": []}
+        for _ in range(self.n_epochs):
+            for data in buffer.get(self.batch_size):
+                actions = data.actions.long().flatten()
+                values, log_prob, entropy = self.policy.evaluate_actions(data.observations, actions)
+                advantages = data.advantages
+                if self.normalize_advantage and len(advantages) > 1:
+                    advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8)
+                ratio = torch.exp(log_prob - data.old_log_prob)
+                policy_loss = -torch.min(
+                    advantages * ratio,
+                    advantages * torch.clamp(ratio, 1 - clip_range, 1 + clip_range),
+                ).mean()
+                value_loss = F.mse_loss(data.returns, values.flatten())
+                entropy_loss = -entropy.mean()
+                loss = policy_loss + self.ent_coef * entropy_loss + self.vf_coef * value_loss
+                if with_gradient:
+                    picked = self.logic_rng.choice(
+                        len(episodes), min(self.logic_episodes, len(episodes)), replace=False
+                    )
+                    logic = self.logic.loss(self.policy, [episodes[i] for i in picked])
+                    loss = loss + self.lam * logic
+                    stats["logic"].append(float(logic.detach()))
+                self.policy.optimizer.zero_grad()
+                loss.backward()
+                torch.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
+                self.policy.optimizer.step()
+                stats["policy"].append(float(policy_loss.detach()))
+                stats["value"].append(float(value_loss.detach()))
+                stats["entropy"].append(float(-entropy_loss.detach()))
+            self._n_updates += 1
+        self.logic_log.append(
+            {
+                "steps": int(self.num_timesteps),
+                "policy_loss": float(np.mean(stats["policy"])),
+                "value_loss": float(np.mean(stats["value"])),
+                "entropy": float(np.mean(stats["entropy"])),
+                "logic_loss": float(np.mean(stats["logic"])) if stats["logic"] else None,
+                "violation_rate": violation_rate,
+                "explained_variance": float(
+                    explained_variance(buffer.values.flatten(), buffer.returns.flatten())
+                ),
+            }
+        )
+
+
+# --------------------------------------------------------------------------- GAIL loop
+
+
+class GailCallback(BaseCallback):
+    """Discriminator updates after each rollout; seeded true-reward evaluations every N steps."""
+
+    def __init__(
+        self,
+        disc: Discriminator,
+        expert_obs: torch.Tensor,
+        expert_actions: torch.Tensor,
+        settings: GailSettings,
+        evaluate: Callable[[], list[float]],
+        update: Callable[[int, int], None],
+    ) -> None:
+        super().__init__()
+        self.disc = disc
+        self.optimizer = torch.optim.Adam(disc.parameters(), lr=settings.disc_lr)
+        self.expert_obs, self.expert_actions = expert_obs, expert_actions
+        self.settings = settings
+        self.rng = np.random.default_rng([settings.seed, 1])
+        self.evaluate = evaluate
+        self.update = update
+        self.curve: list[dict] = []
+        self.disc_log: list[dict] = []
+        self.started = time.perf_counter()
+        self.next_eval = 0
+
+    def record(self) -> None:
+        returns = self.evaluate()
+        self.curve.append(
+            {
+                "steps": int(self.num_timesteps),
+                "mean_return": float(np.mean(returns)),
+                "returns": returns,
+                "seconds": round(time.perf_counter() - self.started, 2),
+            }
+        )
+        self.next_eval += self.settings.eval_every
+        self.update(min(self.num_timesteps, self.settings.total_steps), self.settings.total_steps)
+
+    def _on_training_start(self) -> None:
+        self.record()
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps >= self.next_eval:
+            self.record()
+        return True
+
+    def _on_rollout_end(self) -> None:
+        buffer = self.model.rollout_buffer
+        obs = torch.as_tensor(buffer.observations.reshape(-1, buffer.observations.shape[-1]))
+        actions = torch.as_tensor(buffer.actions.reshape(-1))
+        s = self.settings
+        for _ in range(s.disc_steps):
+            e = self.rng.integers(len(self.expert_obs), size=s.disc_batch)
+            p = self.rng.integers(len(obs), size=s.disc_batch)
+            loss, acc_e, acc_p = discriminator_step(
+                self.disc,
+                self.optimizer,
+                (self.expert_obs[e], self.expert_actions[e]),
+                (obs[p], actions[p]),
+            )
+        true_returns = [ep["r"] for ep in self.model.ep_info_buffer]
+        self.disc_log.append(
+            {
+                "steps": int(self.num_timesteps),
+                "disc_loss": loss,
+                "disc_expert_accuracy": acc_e,
+                "disc_policy_accuracy": acc_p,
+                "train_return": float(np.mean(true_returns)) if true_returns else None,
+            }
+        )
+
+
+def train_gail(
+    demos: str | Path,
+    out_dir: str | Path,
+    settings: GailSettings,
+    embedder_dir: str | Path | None = None,
+    compile_settings: CompileSettings | None = None,
+    update: Callable[[int, int], None] = lambda done, total: None,
+) -> dict:
+    """Train one GAIL run (a variant and a seed); write the run directory; return metrics."""
+    settings.check()
+    out_dir = Path(out_dir)
+    check_writable(out_dir / "metrics.json")
+    if settings.logic_loss == "tleaf" and embedder_dir is None:
+        raise UsageError("--logic-loss tleaf needs --embedder (a train-meta directory)")
+    domain = load_domain(settings.domain)
+    expert = read_demo_episodes(demos, domain)
+    pool = list(dict.fromkeys(e.ingredients for e in expert))
+    set_random_seed(settings.seed)
+    torch.set_num_threads(settings.threads)  # tiny MLPs: more threads only contend
+
+    embedder = None
+    if settings.logic_loss == "tleaf":
+        from tleaf_cli.embed.soft import load_embedder
+
+        embedder = load_embedder(embedder_dir)
+    knowledge = CookingKnowledge(domain, embedder, compile_settings)
+    logic = LogicTerm(settings.logic_loss, knowledge) if settings.logic_loss != "none" else None
+
+    venv = make_vec_env(
+        lambda: IngredientPool(gym.make(ENV_ID, domain=domain), pool),
+        n_envs=settings.n_envs,
+        seed=settings.seed,
+    )
+    disc = Discriminator(venv.observation_space.nvec, venv.action_space.n, settings.disc_hidden)
+    model = LogicPPO(
+        "MlpPolicy",
+        # log D is unbounded below: scale it by the running std of the discounted return, or the
+        # value loss's gradient dominates the clipped gradient norm and the policy never moves
+        VecNormalize(DiscriminatorReward(venv, disc), norm_obs=False, gamma=settings.gamma),
+        learning_rate=settings.lr,
+        n_steps=settings.n_steps,
+        batch_size=settings.batch_size,
+        n_epochs=settings.n_epochs,
+        gamma=settings.gamma,
+        ent_coef=settings.ent_coef,
+        policy_kwargs={"net_arch": [settings.hidden, settings.hidden]},
+        seed=settings.seed,
+        device=settings.device,
+        verbose=0,
+    )
+    model.setup_logic(logic, settings.lam, settings.logic_episodes, settings.seed)
+
+    eval_seed = 10_000 + settings.seed
+    expert_obs = torch.as_tensor(np.concatenate([e.observations for e in expert]))
+    expert_actions = torch.as_tensor(np.concatenate([e.actions for e in expert]))
+    callback = GailCallback(
+        disc,
+        expert_obs,
+        expert_actions,
+        settings,
+        lambda: evaluate_returns(
+            policy_probabilities(model), domain, pool, settings.eval_episodes, eval_seed
+        ),
+        update,
+    )
+    started = time.perf_counter()
+    model.learn(total_timesteps=settings.total_steps, callback=callback)
+    if callback.curve[-1]["steps"] < model.num_timesteps:
+        callback.record()
+    seconds = time.perf_counter() - started
+
+    metrics = _metrics(expert, pool, settings, callback, model, seconds)
+    metrics["random_return"] = float(
+        np.mean(
+            evaluate_returns(
+                uniform_probabilities(venv.action_space.n),
+                domain,
+                pool,
+                settings.eval_episodes,
+                eval_seed,
+            )
+        )
+    )
+    _write_run(out_dir, demos, embedder_dir, settings, pool, model, disc, metrics)
+    venv.close()
+    return metrics
+
+
+def _metrics(
+    expert: list[DemoEpisode],
+    pool: list[tuple[str, ...]],
+    settings: GailSettings,
+    callback: GailCallback,
+    model: LogicPPO,
+    seconds: float,
+) -> dict:
+    """The evaluation curve with the expert's return on the same ingredient sets beside it."""
+    by_set = {}
+    for e in expert:
+        by_set.setdefault(e.ingredients, []).append(e.episode_return)
+    eval_sets = [pool[i % len(pool)] for i in range(settings.eval_episodes)]
+    return {
+        "variant": settings.logic_loss,
+        "seed": settings.seed,
+        "curve": callback.curve,
+        "expert_return": float(np.mean([np.mean(by_set[s]) for s in eval_sets])),
+        "expert_return_all_demos": float(np.mean([e.episode_return for e in expert])),
+        "final_return": callback.curve[-1]["mean_return"],
+        "rollouts": [{**d, **u} for d, u in zip(callback.disc_log, model.logic_log, strict=False)],
+        "environment_steps": int(model.num_timesteps),
+        "seconds": round(seconds, 2),
+        "reward": "log D(s, a) (discriminator), true env reward for evaluation only",
+    }
+
+
+def _write_run(out_dir, demos, embedder_dir, settings, pool, model, disc, metrics) -> None:
+    inputs = describe_inputs([demos, settings.domain])
+    if embedder_dir is not None:
+        inputs += describe_inputs([Path(embedder_dir) / "config.json"])
+    config = {
+        "task": "cooking-gail",
+        "env": ENV_ID,
+        "settings": {k: str(v) if isinstance(v, Path) else v for k, v in asdict(settings).items()},
+        "pool": [list(p) for p in pool],
+        "embedder": str(embedder_dir) if embedder_dir is not None else None,
+        "inputs": inputs,
+        "data": "synthetic: Creative Cooking environment built from the paper's appendix",
+    }
+    tmp = atomic_path(out_dir / "policy.zip")
+    try:
+        with open(tmp, "wb") as f:
+            model.save(f)
+        tmp.replace(out_dir / "policy.zip")
+    finally:
+        tmp.unlink(missing_ok=True)
+    tmp = atomic_path(out_dir / "discriminator.pt")
+    try:
+        torch.save(disc.state_dict(), tmp)
+        tmp.replace(out_dir / "discriminator.pt")
+    finally:
+        tmp.unlink(missing_ok=True)
+    write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
+    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
