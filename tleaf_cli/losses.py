@@ -42,7 +42,7 @@ from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row, dfa_payload
 from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.data.knowledge import KnowledgeBase, rule_set_id, rules_for, sample_formula
-from tleaf_cli.embed.graphs import trace_graph
+from tleaf_cli.embed.graphs import dfa_graph, letter_cnf, trace_graph
 from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.checker import PackedDFAs
@@ -149,19 +149,41 @@ class RuleSets:
             self.by_id[rid] = RuleSet(rid, sample_formula(rs), len(rs), dfa, pairs, satisfiable)
         self.compiled += len(fresh)
 
+    def embed(self, rule_sets: Sequence[RuleSet | None]) -> None:
+        """Embed every rule set not seen before: q(A_φ) and q_e of its letters, in one batch.
+
+        The guards and letters of all fresh sets go through q_e together and their DFAs through
+        q_m together, so a batch full of new rule sets costs two encoder calls, not two per set.
+        """
+        fresh = list(
+            {r.id: r for r in rule_sets if r is not None and r.id not in self._vectors}.values()
+        )
+        if not fresh:
+            return
+        q = self._need_embedder()
+        keys = []
+        for r in fresh:
+            atoms = r.dfa.atoms
+            keys += [(atoms, g) for g in dfa_graph(r.dfa)[1]]
+            letters = [()] + [(a,) for a in atoms]
+            keys += [(atoms, tuple(map(tuple, letter_cnf(x, atoms)))) for x in letters]
+        q.vectors(keys)  # fills q_e's cache in one batch
+        rows = [
+            {"formula_id": r.id, "formula": r.formula, "error": None, **dfa_payload(r.dfa)}
+            for r in fresh
+        ]
+        for r, vector in zip(fresh, q.embed_formula_rows(rows), strict=True):
+            self._vectors[r.id] = vector
+            self._letters[r.id] = q.letter_vectors(r.dfa.atoms, "one-hot")[1]
+
     def formula_vector(self, rule_set: RuleSet) -> torch.Tensor:
         """q(A_φ) [d], embedded once per rule set (no gradient: q is frozen)."""
-        if rule_set.id not in self._vectors:
-            row = {"formula_id": rule_set.id, "formula": rule_set.formula, "error": None}
-            row.update(dfa_payload(rule_set.dfa))
-            self._vectors[rule_set.id] = self._need_embedder().embed_formula_rows([row])[0]
+        self.embed([rule_set])
         return self._vectors[rule_set.id]
 
     def letter_vectors(self, rule_set: RuleSet) -> torch.Tensor:
         """q_e of the letters (none, atoms[0], ...) [k+1, d_e], once per rule set."""
-        if rule_set.id not in self._letters:
-            _, table = self._need_embedder().letter_vectors(rule_set.dfa.atoms, "one-hot")
-            self._letters[rule_set.id] = table
+        self.embed([rule_set])
         return self._letters[rule_set.id]
 
     def _need_embedder(self) -> Embedder:
@@ -282,6 +304,7 @@ def tleaf_loss(
     if not which:
         return out
     embedder = cache._need_embedder()
+    cache.embed([rule_sets[b] for b in which])
     device = action_logits.device
     log_pairs = pair_log_probs(action_logits[which], ingredient_logits[which])
     graphs, targets = [], []
