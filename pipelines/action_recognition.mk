@@ -7,6 +7,9 @@ TLEAF ?= tleaf
 JOBS ?= 2
 SMALL ?= 0
 LOSSES ?= none tleaf exact checker
+# one torch thread per process: the models are small, and `make -j` runs several at once
+OMP_NUM_THREADS ?= 1
+export OMP_NUM_THREADS
 
 ifeq ($(SMALL),1)
 OUT ?= out/action-recognition-small
