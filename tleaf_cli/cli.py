@@ -522,6 +522,19 @@ def train_meta(
     layers: Layers = 4,
     out_dim: OutDim = 200,
     steps: Annotated[int, typer.Option(min=1, help="Random-walk steps of the readout.")] = 24,
+    readout: Annotated[
+        str,
+        typer.Option(help="walk: expected visits of the walk; steps: one projection per step."),
+    ] = "walk",
+    directed: Annotated[
+        bool,
+        typer.Option(
+            "--directed/--undirected", help="Messages along and against arcs, weights apart."
+        ),
+    ] = False,
+    norm: Annotated[
+        bool, typer.Option("--norm/--no-norm", help="Batch-normalise inputs and every layer.")
+    ] = False,
     margin: Margin = 1.0,
     lr: Lr = 1e-3,
     batch_size: BatchSize = 64,
@@ -545,6 +558,9 @@ def train_meta(
         layers=layers,
         out_dim=out_dim,
         steps=steps,
+        readout=readout,
+        directed=directed,
+        norm=norm,
         margin=margin,
         lr=lr,
         batch_size=batch_size,
@@ -693,6 +709,38 @@ def eval_model_checking(
     )
 
 
+@eval_app.command("tsne")
+@_exits
+def eval_tsne(
+    dfas: Annotated[Path, typer.Argument(help="The dfas.parquet of the formulas.")],
+    traces: Annotated[Path, typer.Argument(help="The traces.parquet (its split picks a formula).")],
+    embedder: Annotated[
+        list[Path], typer.Option(help="A meta model directory; repeat for side-by-side panels.")
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The PNG to write.")] = Path("tsne.png"),
+    formula: Annotated[
+        str | None, typer.Option(help="Formula id [default: the test formula with most traces].")
+    ] = None,
+    pairs: Annotated[int, typer.Option(min=2, help="Satisfying/violating pairs to draw.")] = 150,
+    seed: Seed = 0,
+    quiet: Quiet = False,
+) -> None:
+    """The paper's Fig. 3: a test formula and its traces, embedded, projected with t-SNE."""
+    from tleaf_cli.tasks.model_checking_figure import FigureSettings, tsne_figure
+
+    settings = FigureSettings(formula_id=formula, pairs=pairs, seed=seed)
+    with ui.progress("t-SNE", quiet):
+        shown = tsne_figure(embedder, dfas, traces, out, settings)
+    nearer = ", ".join(
+        f"{e['kind']} {e['sat_nearer_than_violating']:.2f}" for e in shown["embedders"]
+    )
+    ui.summary(
+        f"{out}: formula {shown['formula_id']}, {sum(shown['points'].values())} traces; "
+        f"satisfying nearer than violating: {nearer}",
+        quiet,
+    )
+
+
 @eval_app.command("table")
 @_exits
 def eval_table(
@@ -803,6 +851,122 @@ def eval_action_recognition(
         "their reference",
         quiet,
     )
+
+
+@app.command("demos-kb")
+@_exits
+def demos_kb(
+    demos: Annotated[Path, typer.Argument(help="A demos.parquet (gen-demos).")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
+        "demos_kb.ltl"
+    ),
+    domain: Annotated[
+        Path | None,
+        typer.Option(help="Domain TOML [default: examples/creative_cooking.toml]."),
+    ] = None,
+    quiet: Quiet = False,
+) -> None:
+    """Write the Creative Cooking rules of the demos' ingredient sets (no mixture rules).
+
+    The training formulas of the embedder q for `train-task cooking --logic-loss tleaf`; compile
+    them with `compile-dfa --one-hot`.
+    """
+    from tleaf_cli.tasks.cooking.demo_episodes import write_demos_knowledge_base
+    from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
+
+    rules = write_demos_knowledge_base(demos, out, load_domain(domain or DEFAULT_DOMAIN))
+    orderings = sum(r.kind == "ordering" for r in rules)
+    ui.summary(
+        f"{out}: {len(rules)} rules ({len(rules) - orderings} affordance, {orderings} ordering)",
+        quiet,
+    )
+
+
+@train_task_app.command("cooking")
+@_exits
+def train_task_cooking(
+    demos: Annotated[Path, typer.Argument(help="Expert demonstrations (gen-demos).")],
+    embedder: Annotated[
+        Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path(
+        "run"
+    ),
+    logic_loss: Annotated[
+        str, typer.Option(help="none (plain GAIL), tleaf, exact, or checker (no gradient).")
+    ] = "none",
+    lam: Annotated[float, typer.Option("--lambda", help="Weight λ of the logic loss.")] = 1.0,
+    steps: Annotated[int, typer.Option(min=1, help="Environment steps to train.")] = 60_000,
+    envs: Annotated[int, typer.Option(min=1, help="Environments per rollout.")] = 4,
+    rollout: Annotated[int, typer.Option(min=8, help="Steps per environment per rollout.")] = 128,
+    eval_every: Annotated[
+        int, typer.Option(min=1, help="Environment steps between evaluations.")
+    ] = 4096,
+    eval_episodes: Annotated[
+        int, typer.Option(min=1, help="Seeded episodes per evaluation (true reward).")
+    ] = 8,
+    lr: Lr = 1e-3,
+    domain: Annotated[
+        Path | None,
+        typer.Option(help="Domain TOML [default: examples/creative_cooking.toml]."),
+    ] = None,
+    cache_dir: CacheDir = None,
+    no_cache: NoCache = False,
+    seed: Seed = 0,
+    device: Device = "cpu",
+    quiet: Quiet = False,
+) -> None:
+    """GAIL (PPO + discriminator) imitating the demos, with λ·ℓ_logic on the policy.
+
+    Writes config.json, metrics.json (true-reward return vs environment steps, the expert's and
+    a uniform policy's return), policy.zip (SB3) and discriminator.pt.
+    """
+    from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN
+    from tleaf_cli.tasks.cooking.gail import GailSettings, train_gail
+
+    settings = GailSettings(
+        logic_loss=logic_loss,
+        lam=lam,
+        total_steps=steps,
+        n_envs=envs,
+        n_steps=rollout,
+        eval_every=eval_every,
+        eval_episodes=eval_episodes,
+        lr=lr,
+        seed=seed,
+        device=device,
+        domain=domain or DEFAULT_DOMAIN,
+    )
+    compile_settings = _compile_settings(True, COMPILE_TIMEOUT, cache_dir, no_cache, 1)
+    with ui.progress(f"GAIL ({logic_loss})", quiet) as update:
+        m = train_gail(demos, out, settings, embedder, compile_settings, update)
+    ui.summary(
+        f"{out}: return {m['curve'][0]['mean_return']:.2f} -> {m['final_return']:.2f} after "
+        f"{m['environment_steps']} steps (expert {m['expert_return']:.2f}, uniform policy "
+        f"{m['random_return']:.2f}; {m['seconds']:.0f} s)",
+        quiet,
+    )
+
+
+@eval_app.command("cooking")
+@_exits
+def eval_cooking(
+    runs: Annotated[list[Path], typer.Argument(help="train-task cooking run directories.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder.")] = Path("report"),
+    quiet: Quiet = False,
+) -> None:
+    """Return vs environment steps per variant (mean ± s.e. over seeds), like the paper's Fig. 5B.
+
+    Writes report.png, report.json and report.md (steps to reach 90 % of the expert's return).
+    """
+    from tleaf_cli.tasks.cooking.gail_report import evaluate_cooking_runs
+
+    report = evaluate_cooking_runs(runs, out)
+    reached = ", ".join(
+        f"{name} {v['steps_to_90'] if v['steps_to_90'] is not None else 'not reached'}"
+        for name, v in report["variants"].items()
+    )
+    ui.summary(f"{out}/report.md: {len(runs)} runs; steps to 90% of expert: {reached}", quiet)
 
 
 @app.command("inspect")
