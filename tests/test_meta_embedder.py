@@ -11,17 +11,45 @@ from torch_geometric.data import Batch
 from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
-from tleaf_cli.embed.automaton import walk_weights
+from tleaf_cli.embed.automaton import walk_distributions, walk_weights
 from tleaf_cli.embed.meta_data import featured_trace_graph
 from tleaf_cli.embed.soft import load_embedder
 from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
 runner = CliRunner()
-SMALL_META = MetaSettings(hidden=32, layers=2, out_dim=16, epochs=4, patience=4, batch_size=32)
+SMALL_META = MetaSettings(
+    hidden=32, layers=2, out_dim=16, epochs=6, patience=6, batch_size=32, lr=3e-3, norm=True
+)
 
 
 def cli(*args) -> object:
     return runner.invoke(app, [str(a) for a in args])
+
+
+def test_walk_distributions_follow_a_chain_step_by_step() -> None:
+    # chain 0 -> 1 -> 2: after k steps the walker is at node min(k, 2)
+    p = walk_distributions(torch.tensor([[0, 1], [1, 2]]), torch.tensor([0]), 3, steps=4)
+    assert torch.equal(p.argmax(dim=1), torch.tensor([0, 1, 2, 2, 2]))
+    assert torch.allclose(p.sum(dim=1), torch.ones(5))
+
+
+@pytest.mark.parametrize("options", [{"readout": "steps"}, {"directed": True}, {"norm": True}])
+def test_encoder_options_tell_a_trace_from_its_reverse(chain, options) -> None:
+    from tleaf_cli.embed.automaton import AutomatonEncoder
+    from tleaf_cli.embed.meta_data import GuardVectors
+    from tleaf_cli.embed.train_edge import load_edge_model
+
+    edge, config = load_edge_model(chain["edge"])
+    vectors = GuardVectors(edge, config["vocabulary"])
+    torch.manual_seed(0)
+    encoder = AutomatonEncoder(vectors.dim, hidden=16, layers=2, out_dim=8, **options).eval()
+    atoms = ("a", "b", "c")
+    trace = [{"a"}, {"b"}, {"c"}, set()]
+    forward, backward = (
+        encoder(_batch(featured_trace_graph(t, atoms, vectors))) for t in (trace, trace[::-1])
+    )
+    assert forward.shape == (1, 8) and torch.isfinite(forward).all()
+    assert not torch.allclose(forward, backward, atol=1e-4)
 
 
 def test_walk_readout_starts_at_the_initial_state_and_sums_to_one() -> None:
@@ -37,7 +65,7 @@ def test_dfa_embedder_learns_and_writes_a_loadable_model(chain, tmp_path: Path) 
     curve = metrics["history"]
     assert curve[-1]["loss"] < curve[0]["loss"]
     assert metrics["test"]["pairs"] > 0 and 0.0 <= metrics["test"]["triplet_accuracy"] <= 1.0
-    assert max(h["train_accuracy"] for h in curve) > 0.55  # above chance on what it trains on
+    assert max(h["train_accuracy"] for h in curve) > 0.6  # above chance on what it trains on
     embedder = load_embedder(tmp_path / "m")
     assert embedder.kind == "dfa"
 

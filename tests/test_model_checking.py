@@ -101,3 +101,18 @@ def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
         assert report["embedder"] == embedder and report["label"] == "low"
     # A second make has nothing to do: only what changed is re-run.
     assert _make_small(tmp_path / "mc", "-q").returncode == 0
+
+
+def test_tsne_figure_shows_a_test_formula_for_each_embedder(chain, chain_cli, meta_model, tmp_path):
+    png = tmp_path / "fig.png"
+    args = ["eval", "tsne", chain["dfas"], chain["traces"], "-o", png, "--pairs", 12]
+    result = chain_cli(*args, "--embedder", meta_model, "--embedder", meta_model)
+    assert result.exit_code == 0, result.output
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    rows = pq.read_table(chain["traces"]).to_pylist()
+    test_ids = {r["formula_id"] for r in rows if r["split"] == "test"}
+    train_ids = {r["formula_id"] for r in rows if r["split"] == "train"}
+    shown = result.output.split("formula ")[1].split(",")[0]
+    assert shown in test_ids and shown not in train_ids
+    unknown = chain_cli(*args, "--embedder", meta_model, "--formula", "no-such-id")
+    assert unknown.exit_code == 2 and "no-such-id" in unknown.output

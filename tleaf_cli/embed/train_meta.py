@@ -29,7 +29,7 @@ from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.automaton import AutomatonEncoder
 from tleaf_cli.embed.encoders import triplet_accuracy
-from tleaf_cli.embed.graphs import syntax_graph
+from tleaf_cli.embed.graphs import EDGE, syntax_graph
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
 from tleaf_cli.embed.syntax import SyntaxEncoder
 from tleaf_cli.embed.train_edge import load_edge_model
@@ -38,6 +38,7 @@ from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.formulas import parse
 
 EMBEDDERS = ("dfa", "syntax")
+GROUP = 4  # triplets of one formula that share its embedding within a batch
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,9 @@ class MetaSettings:
     layers: int = 4
     out_dim: int = 200
     steps: int = 24  # random-walk steps of the readout
+    readout: str = "walk"  # walk: expected visits; steps: one projection per walk step
+    directed: bool = False  # messages forwards and backwards through separate weights
+    norm: bool = False  # batch normalisation of inputs and layers
     margin: float = 1.0
     lr: float = 1e-3
     batch_size: int = 64
@@ -74,7 +78,14 @@ class TripletEmbedder(nn.Module):
 
 def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor) -> TripletEmbedder:
     trace = AutomatonEncoder(
-        edge_dim, settings.hidden, settings.layers, settings.out_dim, settings.steps
+        edge_dim,
+        settings.hidden,
+        settings.layers,
+        settings.out_dim,
+        settings.steps,
+        settings.directed,
+        settings.readout,
+        settings.norm,
     )
     if settings.embedder == "dfa":
         return TripletEmbedder(trace, trace)
@@ -135,23 +146,36 @@ def train_meta(
         raise UsageError(f"{traces_path}: needs satisfying and violating traces in train and val")
 
     # ---- model and the shared triplet loop
-    model = build_model(settings, vectors.dim, edge_model.atom_table).to(device)
+    model = build_model(settings, vectors.dim, edge_model.atom_table)
+    if settings.norm:
+        seen = [g for sides in by_split["train"].values() for g, _ in sides[True] + sides[False]]
+        if settings.embedder == "dfa":
+            seen += [formula_graphs[f] for f in train_formulas]
+        model.trace.set_edge_statistics(torch.cat([g.edge_vec[g.node_kind == EDGE] for g in seen]))
+    model = model.to(device)
 
     def epoch_triplets(generator: torch.Generator):
-        triplets = []
+        # Triplets travel in groups of GROUP from one formula, the groups shuffled: a batch still
+        # mixes many formulas, and each formula graph is embedded once per group, not per triplet.
+        groups = []
         for fid in train_formulas:
             sides = by_split["train"][fid]
             picks = torch.randint(len(sides[False]), (len(sides[True]),), generator=generator)
-            triplets += [
+            triplets = [
                 (formula_graphs[fid], sat, sides[False][k][0])
                 for (sat, _), k in zip(sides[True], picks.tolist(), strict=True)
             ]
-        return chunks(triplets, settings.batch_size, generator)
+            groups += [triplets[i : i + GROUP] for i in range(0, len(triplets), GROUP)]
+        for chunk in chunks(groups, max(1, settings.batch_size // GROUP), generator):
+            yield [t for group in chunk for t in group]
 
     def embed(chunk):
         formulas, sats, negs = zip(*chunk, strict=True)
+        distinct = {id(g): g for g in formulas}
+        row = {key: i for i, key in enumerate(distinct)}
+        z_formulas = model.embed_formulas(Batch.from_data_list(list(distinct.values())).to(device))
         return (
-            model.embed_formulas(Batch.from_data_list(list(formulas)).to(device)),
+            z_formulas[torch.tensor([row[id(g)] for g in formulas], device=device)],
             model.embed_traces(Batch.from_data_list(list(sats)).to(device)),
             model.embed_traces(Batch.from_data_list(list(negs)).to(device)),
         )
