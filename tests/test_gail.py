@@ -1,0 +1,250 @@
+"""GAIL on Creative Cooking: reward wrapper, discriminator, logic term, a short run, the report."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pyarrow as pa
+import pytest
+import torch
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+from tleaf_cli.data.artifacts import write_artifact
+from tleaf_cli.tasks.cooking import ENV_ID
+from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
+from tleaf_cli.tasks.cooking.demos import DEMO_SCHEMA, KIND, SCHEMA, DemoSettings, generate_demos
+from tleaf_cli.tasks.cooking.discriminator import (
+    Discriminator,
+    DiscriminatorReward,
+    discriminator_step,
+)
+from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
+from tleaf_cli.tasks.cooking.expert import plan
+from tleaf_cli.tasks.cooking.gail import GailSettings, IngredientPool, train_gail
+from tleaf_cli.tasks.cooking.gail_report import evaluate_cooking_runs
+from tleaf_cli.tasks.cooking.logic_term import (
+    CookingKnowledge,
+    LogicTerm,
+    RolloutEpisode,
+    rollout_episodes,
+)
+
+# Four ingredients already at their required status (liquids, seasonings) and parsley, which
+# needs one wash/rinse/chop: the expert's plan is a single step (return 19).
+EASY = ("parsley", "water", "vinegar", "salt", "black_pepper")
+
+
+@pytest.fixture(scope="module")
+def domain():
+    return load_domain(DEFAULT_DOMAIN)
+
+
+def write_demos(path: Path, ingredients: tuple[str, ...], episodes: int = 2) -> Path:
+    """Expert episodes on fixed ingredients, as gen-demos writes them."""
+    env = gym.make(ENV_ID)
+    columns: dict[str, list] = {n: [] for n in DEMO_SCHEMA.names}
+    for e in range(episodes):
+        obs, _ = env.reset(seed=e, options={"ingredients": list(ingredients)})
+        for step, action in enumerate(plan(env.unwrapped.rules, rng=np.random.default_rng(e))):
+            nxt, reward, terminated, _, info = env.step(action)
+            row = (e, step, obs.tolist(), action, info["action_name"], reward, terminated)
+            for name, value in zip(DEMO_SCHEMA.names, row, strict=True):
+                columns[name].append(value)
+            obs = nxt
+    table = pa.Table.from_pydict(columns, schema=DEMO_SCHEMA)
+    write_artifact(table, path, kind=KIND, schema=SCHEMA, params={}, inputs=[])
+    return path
+
+
+def random_episode(ingredients, steps: int, seed: int) -> RolloutEpisode:
+    """A uniformly random episode prefix of `steps` actions on fixed ingredients."""
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=seed, options={"ingredients": list(ingredients)})
+    rng = np.random.default_rng(seed)
+    observations, actions = [], []
+    for _ in range(steps):
+        action = int(rng.integers(env.action_space.n))
+        observations.append(obs)
+        actions.append(action)
+        obs, *_ = env.step(action)
+    names = env.unwrapped.ingredients  # domain order, as in the observation
+    return RolloutEpisode(names, np.array(observations), np.array(actions))
+
+
+def test_reward_wrapper_pays_the_discriminators_reward_not_the_envs() -> None:
+    venv = DummyVecEnv([lambda: IngredientPool(gym.make(ENV_ID), [EASY])])
+    venv.seed(0)
+    torch.manual_seed(0)
+    disc = Discriminator(venv.observation_space.nvec, venv.action_space.n, hidden=8)
+    wrapped = DiscriminatorReward(venv, disc)
+    obs = wrapped.reset()
+    for action in (5, 17, 100):
+        actions = np.array([action])
+        expected = disc.reward(obs, actions)
+        obs, rewards, _, infos = wrapped.step(actions)
+        assert np.allclose(rewards, expected)
+        assert (rewards < 0).all()  # log D
+        assert infos[0]["env_reward"] in (-1.0, -2.0, 19.0)
+        assert not np.isclose(rewards[0], infos[0]["env_reward"])
+
+
+def test_discriminator_separates_expert_from_random_pairs(tmp_path: Path, domain) -> None:
+    generate_demos(tmp_path / "demos.parquet", DemoSettings(episodes=6, seed=0))
+    expert = read_demo_episodes(tmp_path / "demos.parquet", domain)
+    e_obs = torch.as_tensor(np.concatenate([e.observations for e in expert]))
+    e_act = torch.as_tensor(np.concatenate([e.actions for e in expert]))
+    space = gym.make(ENV_ID).observation_space
+    space.seed(1)
+    rng = np.random.default_rng(1)
+
+    def random_pairs(n: int):
+        obs = torch.as_tensor(np.array([space.sample() for _ in range(n)]))
+        return obs, torch.as_tensor(rng.integers(234, size=n))
+
+    torch.manual_seed(0)
+    disc = Discriminator(space.nvec, 234, hidden=32)
+    optimizer = torch.optim.Adam(disc.parameters(), lr=3e-3)
+    for _ in range(150):
+        pick = torch.as_tensor(rng.integers(len(e_obs), size=64))
+        discriminator_step(disc, optimizer, (e_obs[pick], e_act[pick]), random_pairs(64))
+    with torch.no_grad():
+        assert (disc(e_obs, e_act) > 0).float().mean() > 0.9
+        assert (disc(*random_pairs(500)) < 0).float().mean() > 0.9
+
+
+def test_rollout_episodes_keep_only_episodes_that_start_in_the_rollout(domain) -> None:
+    ep = random_episode(EASY, 6, seed=0)
+    observations = np.stack([ep.observations, ep.observations], axis=1)  # [6, 2 envs, 12]
+    actions = np.stack([ep.actions, ep.actions], axis=1)[..., None]
+    starts = np.zeros((6, 2))
+    starts[[0, 4], 0] = 1  # env 0: an episode of 4 steps, then one cut after 2
+    starts[3, 1] = 1  # env 1: steps 0-2 belong to an earlier episode
+    episodes = rollout_episodes(observations, actions, starts, domain)
+    assert [len(e.actions) for e in episodes] == [4, 2, 3]
+    assert episodes[2].actions.tolist() == ep.actions[3:].tolist()
+    assert episodes[0].ingredients == ep.ingredients and set(ep.ingredients) == set(EASY)
+
+
+def logic_gradient(kind: str, domain, ingredients, embedder=None) -> tuple[torch.Tensor, float]:
+    """ℓ_logic of a fresh policy on two random episodes, and the gradient norm it sends back."""
+    venv = DummyVecEnv([lambda: gym.make(ENV_ID)])
+    torch.manual_seed(0)
+    policy = PPO("MlpPolicy", venv, n_steps=16, batch_size=16, seed=0).policy
+    term = LogicTerm(kind, CookingKnowledge(domain, embedder))
+    loss = term.loss(policy, [random_episode(ingredients, 8, seed=s) for s in (0, 1)])
+    if not loss.requires_grad:
+        return loss, 0.0
+    loss.backward()
+    return loss, float(sum(p.grad.norm() for p in policy.parameters() if p.grad is not None))
+
+
+def test_exact_logic_term_sends_gradient_into_the_policy_and_checker_none(domain) -> None:
+    loss, grad = logic_gradient("exact", domain, EASY)
+    assert float(loss.detach()) > 0 and grad > 0
+    loss, grad = logic_gradient("checker", domain, EASY)
+    assert not loss.requires_grad and grad == 0.0
+    assert 0.0 <= float(loss) <= 1.0
+
+
+def test_a_short_gail_run_learns_the_easy_episode(tmp_path: Path) -> None:
+    """Plain GAIL on one fixed one-step episode: the return rises well above its start."""
+    demos = write_demos(tmp_path / "demos.parquet", EASY)
+    settings = GailSettings(
+        total_steps=3072, n_envs=2, batch_size=64, eval_every=1024, eval_episodes=4, seed=0
+    )
+    metrics = train_gail(demos, tmp_path / "run", settings)
+    curve = [p["mean_return"] for p in metrics["curve"]]
+    assert metrics["expert_return"] == 19.0
+    assert curve[-1] > curve[0] + 30
+    assert (tmp_path / "run/policy.zip").exists()
+    saved = torch.load(tmp_path / "run/discriminator.pt", weights_only=True)
+    assert "head.weight" in saved
+
+
+def fake_run(path: Path, variant: str, seed: int, returns: list[float]) -> Path:
+    curve = [{"steps": 100 * k, "mean_return": r} for k, r in enumerate(returns)]
+    metrics = {"variant": variant, "seed": seed, "curve": curve, "expert_return": 10.0}
+    metrics["random_return"] = -90.0
+    path.mkdir(parents=True)
+    (path / "metrics.json").write_text(json.dumps(metrics))
+    return path
+
+
+def test_eval_report_curves_stderr_and_steps_to_90(tmp_path: Path, chain_cli) -> None:
+    runs = [
+        fake_run(tmp_path / "n0", "none", 0, [-90, -50, 0, 9, 10]),
+        fake_run(tmp_path / "n1", "none", 1, [-90, -30, 2, 10, 10]),
+        fake_run(tmp_path / "t0", "tleaf", 0, [-90, 9, 10, 10, 10]),
+        fake_run(tmp_path / "t1", "tleaf", 1, [-90, 10, 10, 10, 10]),
+    ]
+    report = evaluate_cooking_runs(runs, tmp_path / "report")
+    none, tleaf = report["variants"]["none"], report["variants"]["tleaf"]
+    assert none["mean_return"] == [-90, -40, 1, 9.5, 10]
+    assert none["stderr"][1] == pytest.approx(np.std([-50, -30], ddof=1) / np.sqrt(2))
+    assert none["steps_to_90"] == 300 and none["steps_to_90_per_seed"] == [300, 300]
+    assert tleaf["steps_to_90"] == 100
+    assert report["tleaf_over_none_steps_to_90"] == pytest.approx(1 / 3)
+    # normalised: (R + 90) / 100 >= 0.9 -> R >= 0: none's mean reaches it at step 200
+    assert none["steps_to_90_normalised"] == 200
+    assert (tmp_path / "report/report.png").read_bytes()[:4] == b"\x89PNG"
+    md = (tmp_path / "report/report.md").read_text()
+    assert "| none | 2 |" in md and "| tleaf | 2 |" in md
+    # a folder without metrics.json is a usage error (exit 2), not a traceback
+    (tmp_path / "empty").mkdir()
+    result = chain_cli("eval", "cooking", tmp_path / "empty", "-o", tmp_path / "r2")
+    assert result.exit_code == 2 and "metrics.json" in result.output
+
+
+@pytest.fixture(scope="module")
+def small_pipeline(tmp_path_factory) -> Path:
+    """pipelines/cooking.mk SMALL=1 (2 seeds) with none, tleaf and checker."""
+    out = tmp_path_factory.mktemp("cooking") / "small"
+    tleaf = Path(sys.executable).parent / "tleaf"
+    command = [
+        "make",
+        "-f",
+        "pipelines/cooking.mk",
+        "SMALL=1",
+        f"TLEAF={tleaf}",
+        f"OUT={out}",
+        "LOSSES=none tleaf checker",
+    ]
+    root = Path(__file__).parent.parent
+    result = subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=900)
+    assert result.returncode == 0, result.stderr[-2000:]
+    return out
+
+
+def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
+    report = json.loads((small_pipeline / "report/report.json").read_text())
+    assert set(report["variants"]) == {"none", "tleaf", "checker"}
+    for v in report["variants"].values():
+        assert v["seeds"] == [0, 1] and len(v["steps"]) == len(v["mean_return"]) >= 2
+    tleaf = json.loads((small_pipeline / "runs/tleaf-seed0/metrics.json").read_text())
+    assert any(r["logic_loss"] and r["logic_loss"] > 0 for r in tleaf["rollouts"])
+    config = json.loads((small_pipeline / "runs/tleaf-seed0/config.json").read_text())
+    assert config["data"].startswith("synthetic")
+
+
+def test_checker_trains_exactly_like_plain_gail(small_pipeline: Path) -> None:
+    """No gradient, same seed: the checker run's curve equals plain GAIL's."""
+    runs = small_pipeline / "runs"
+    plain = json.loads((runs / "none-seed0/metrics.json").read_text())
+    checker = json.loads((runs / "checker-seed0/metrics.json").read_text())
+    assert [p["returns"] for p in plain["curve"]] == [p["returns"] for p in checker["curve"]]
+    assert all(r["violation_rate"] is not None for r in checker["rollouts"])
+
+
+def test_tleaf_logic_term_sends_gradient_into_the_policy(small_pipeline: Path, domain) -> None:
+    from tleaf_cli.embed.soft import load_embedder
+
+    ingredients = read_demo_episodes(small_pipeline / "demos.parquet", domain)[0].ingredients
+    embedder = load_embedder(small_pipeline / "meta")
+    loss, grad = logic_gradient("tleaf", domain, ingredients, embedder)
+    assert float(loss.detach()) > 0 and grad > 0
