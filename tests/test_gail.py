@@ -18,7 +18,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from tleaf_cli.data.artifacts import write_artifact
 from tleaf_cli.tasks.cooking import ENV_ID
 from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
-from tleaf_cli.tasks.cooking.demos import DEMO_SCHEMA, KIND, SCHEMA, DemoSettings, generate_demos
+from tleaf_cli.tasks.cooking.demos import DEMO_SCHEMA, KIND, SCHEMA
 from tleaf_cli.tasks.cooking.discriminator import (
     Discriminator,
     DiscriminatorReward,
@@ -95,8 +95,12 @@ def test_reward_wrapper_pays_the_discriminators_reward_not_the_envs() -> None:
 
 
 def test_discriminator_separates_expert_from_random_pairs(tmp_path: Path, domain) -> None:
-    generate_demos(tmp_path / "demos.parquet", DemoSettings(episodes=6, seed=0))
-    expert = read_demo_episodes(tmp_path / "demos.parquet", domain)
+    sets = [EASY, ("salmon", "lentils", "cheese", "vinegar", "cilantro")]
+    expert = [
+        e
+        for k, s in enumerate(sets)
+        for e in read_demo_episodes(write_demos(tmp_path / f"d{k}.parquet", s, 3), domain)
+    ]
     e_obs = torch.as_tensor(np.concatenate([e.observations for e in expert]))
     e_act = torch.as_tensor(np.concatenate([e.actions for e in expert]))
     space = gym.make(ENV_ID).observation_space
