@@ -137,3 +137,15 @@ def test_embed_is_deterministic_for_dfas_and_traces(chain, embedder, tmp_path: P
 
 def _batch(graph):
     return Batch.from_data_list([graph])
+
+
+def test_pair_head_is_trained_saved_and_loaded(chain, tmp_path: Path) -> None:
+    settings = MetaSettings(**{**SMALL_META.__dict__, "epochs": 2, "pair_weight": 1.0})
+    train_meta(chain["dfas"], chain["traces"], chain["edge"], tmp_path / "p", settings)
+    state = torch.load(tmp_path / "p" / "weights.pt", weights_only=True)
+    assert any(k.startswith("pair_head.") for k in state)
+    q = load_embedder(tmp_path / "p")
+    assert q.model.pair_head is not None
+    anchor, pos, neg = torch.zeros(3, 16), torch.zeros(3, 16), torch.ones(3, 16)
+    loss = q.model.pair_loss((anchor, pos, neg))
+    assert loss.ndim == 0 and torch.isfinite(loss)

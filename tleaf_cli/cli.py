@@ -533,8 +533,15 @@ def train_meta(
         ),
     ] = False,
     norm: Annotated[
-        bool, typer.Option("--norm/--no-norm", help="Batch-normalise inputs and every layer.")
+        bool,
+        typer.Option("--norm/--no-norm", help="Standardise edge vectors; LayerNorm every layer."),
     ] = False,
+    pair_weight: Annotated[
+        float,
+        typer.Option(
+            min=0.0, help="Weight of an auxiliary (z_formula, z_trace) classifier's loss; 0: none."
+        ),
+    ] = 0.0,
     margin: Margin = 1.0,
     lr: Lr = 1e-3,
     batch_size: BatchSize = 64,
@@ -561,6 +568,7 @@ def train_meta(
         readout=readout,
         directed=directed,
         norm=norm,
+        pair_weight=pair_weight,
         margin=margin,
         lr=lr,
         batch_size=batch_size,

@@ -50,7 +50,8 @@ class MetaSettings:
     steps: int = 24  # random-walk steps of the readout
     readout: str = "walk"  # walk: expected visits; steps: one projection per walk step
     directed: bool = False  # messages forwards and backwards through separate weights
-    norm: bool = False  # batch normalisation of inputs and layers
+    norm: bool = False  # standardised edge vectors and LayerNorm
+    pair_weight: float = 0.0  # weight of the auxiliary pair classifier's loss (0: none)
     margin: float = 1.0
     lr: float = 1e-3
     batch_size: int = 64
@@ -62,12 +63,26 @@ class MetaSettings:
 
 
 class TripletEmbedder(nn.Module):
-    """A formula encoder and a trace encoder into one space (the same module for q_m)."""
+    """A formula encoder and a trace encoder into one space (the same module for q_m).
 
-    def __init__(self, formula: nn.Module, trace: nn.Module) -> None:
+    With `pair_head`, training also fits a classifier of (z_formula, z_trace) -> satisfies
+    (binary cross-entropy on each triplet's two pairs), so the vectors must carry what decides
+    satisfaction and not only an ordering of distances; the head is kept but not used after.
+    """
+
+    def __init__(self, formula: nn.Module, trace: nn.Module, pair_head: nn.Module | None = None):
         super().__init__()
         self.formula = formula
         self.trace = trace
+        self.pair_head = pair_head
+
+    def pair_loss(self, triplet) -> torch.Tensor:
+        anchor, pos, neg = triplet
+        logits = self.pair_head(
+            torch.cat([torch.cat([anchor, pos], dim=1), torch.cat([anchor, neg], dim=1)])
+        ).squeeze(1)
+        target = torch.cat([torch.ones(len(anchor)), torch.zeros(len(anchor))]).to(logits)
+        return nn.functional.binary_cross_entropy_with_logits(logits, target)
 
     def embed_formulas(self, batch) -> torch.Tensor:
         return self.formula(batch)
@@ -87,10 +102,14 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.readout,
         settings.norm,
     )
+    head = None
+    if settings.pair_weight > 0:
+        d = settings.out_dim
+        head = nn.Sequential(nn.Linear(2 * d, 256), nn.ReLU(), nn.Linear(256, 1))
     if settings.embedder == "dfa":
-        return TripletEmbedder(trace, trace)
+        return TripletEmbedder(trace, trace, head)
     formula = SyntaxEncoder(atom_table, settings.hidden, settings.layers, settings.out_dim)
-    return TripletEmbedder(formula, trace)
+    return TripletEmbedder(formula, trace, head)
 
 
 def train_meta(
@@ -197,6 +216,9 @@ def train_meta(
         out_dir,
         resume,
         on_epoch,
+        extra_loss=(
+            (lambda t: settings.pair_weight * model.pair_loss(t)) if settings.pair_weight else None
+        ),
     )
 
     # ---- test split with the best weights

@@ -55,8 +55,11 @@ def fit(
     out_dir: Path,
     resume: bool = False,
     on_epoch: Callable[[EpochReport], None] | None = None,
+    extra_loss: Callable[[Triplet], torch.Tensor] | None = None,
 ) -> dict:
-    """Train `model` (its state_dict is what is saved); returns {"best", "history"}."""
+    """Train `model` (its state_dict is what is saved); returns {"best", "history"}.
+
+    `extra_loss`, when given, is added to the triplet loss of every batch."""
     start = time.perf_counter()
     optimiser = torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=settings.lr)
     history: list[dict] = []
@@ -80,6 +83,8 @@ def fit(
         for batch in batches(generator):
             anchor, pos, neg = embed(batch)
             loss = triplet_loss(anchor, pos, neg, settings.margin)
+            if extra_loss is not None:
+                loss = loss + extra_loss((anchor, pos, neg))
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()
