@@ -74,6 +74,7 @@ $(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach s,$(SEEDS),\
 $(OUT)/report/report.md: $(RUNS)
 	$(TLEAF) eval action-recognition $(dir $^) -o $(@D) -q
 
-.SECONDARY:
+# no .SECONDARY: every rule here is explicit, and with .SECONDARY a finished report would hide
+# runs added later (a missing secondary prerequisite does not make its parent out of date)
 clean:
 	rm -rf $(OUT)
