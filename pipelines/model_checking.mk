@@ -38,11 +38,21 @@ endif
 REPORTS := $(foreach t,$(TIERS),$(foreach s,$(SEEDS),$(foreach e,syntax dfa,\
 	$(OUT)/$(t)/seed$(s)/eval-$(e)/report.json)))
 
+# The paper's Fig. 3 for the first tier and seed: one test formula, both embedders side by side.
+T1 := $(firstword $(TIERS))
+S1 := $(firstword $(SEEDS))
+FIGURE := $(OUT)/tsne-$(T1)-seed$(S1).png
+
 .PHONY: all clean
-all: $(OUT)/results.md
+all: $(OUT)/results.md $(FIGURE)
 
 $(OUT)/results.md: $(REPORTS)
 	$(TLEAF) eval table $^ -o $@
+
+$(FIGURE): $(OUT)/$(T1)/seed$(S1)/meta-syntax/metrics.json $(OUT)/$(T1)/seed$(S1)/meta-dfa/metrics.json
+	$(TLEAF) eval tsne $(OUT)/$(T1)/dfas.parquet $(OUT)/$(T1)/traces.parquet \
+	    --embedder $(OUT)/$(T1)/seed$(S1)/meta-syntax --embedder $(OUT)/$(T1)/seed$(S1)/meta-dfa \
+	    --seed $(S1) -o $@ -q
 
 # data: one synthetic set per tier (seed 0)
 $(OUT)/%/formulas.ltl:

@@ -94,6 +94,7 @@ def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr[-2000:]
     table = (tmp_path / "mc" / "results.md").read_text()
     assert "| Syntax tree | MLP 512-128 |" in table and "| DFA (T-LEAF) | MLP 512-128 |" in table
+    assert (tmp_path / "mc" / "tsne-low-seed0.png").read_bytes()[:4] == b"\x89PNG"
     for embedder in ("syntax", "dfa"):
         report = json.loads(
             (tmp_path / "mc/low/seed0" / f"eval-{embedder}/report.json").read_text()

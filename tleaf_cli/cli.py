@@ -420,7 +420,7 @@ def kb_extract(
 
     Writes OUT/samples.parquet (video -> rule set) and OUT/dfas.parquet (one row per rule set).
     """
-    from tleaf_cli.data.knowledge import extract_knowledge
+    from tleaf_cli.data.kb_extract import extract_knowledge
 
     if not 1 <= len(inputs) <= 2:
         raise UsageError("give [KB.ltl] ACTIVITIES.parquet: one or two files")

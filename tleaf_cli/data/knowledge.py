@@ -1,4 +1,4 @@
-"""Knowledge bases of (action, ingredient) rules, per-video extraction, mining, and `kb-extract`.
+"""Knowledge bases of (action, ingredient) rules: reading, writing, per-video extraction, mining.
 
 A knowledge base (docs/knowledge.md) is a `.ltl` formula file whose names carry the rule kind:
 `affordance.<rest>` (a pair that cannot happen: `G !cut_milk`) or `ordering.<rest>` (if both
@@ -7,55 +7,29 @@ atoms `action_ingredient`.
 
 The paper (Sec. VI) gives each video the conjunction of the rules whose atoms ALL occur in it
 (`rules_for`, `sample_formula`); a rule set is named by a hash of its rule names (`rule_set_id`),
-so every video with the same rules shares one DFA. `kb-extract` does this for the LABELLED pairs
-of every video and compiles each distinct rule set once.
+so every video with the same rules shares one DFA. The `kb-extract` stage (`kb_extract.py`) does
+this for the LABELLED pairs of every video and compiles each distinct rule set once.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
-import time
 from collections import Counter
-from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass, field, replace
-from pathlib import Path
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass, field
 from typing import Literal
 
-import pyarrow as pa
-
-from tleaf_cli.data.activities import Activities, atom, read_activities
+from tleaf_cli.data.activities import atom
 from tleaf_cli.data.artifacts import (
-    check_writable,
-    describe_inputs,
-    write_artifact,
     write_text_atomic,
 )
-from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
-from tleaf_cli.data.dfa_table import KIND as DFA_KIND
-from tleaf_cli.data.dfa_table import SCHEMA_VERSION as DFA_SCHEMA
-from tleaf_cli.data.dfa_table import rows_to_table
-from tleaf_cli.data.formula_files import FormulaSource, read_formulas
+from tleaf_cli.data.formula_files import read_formulas
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
-from tleaf_cli.logic.mona import MonaError, mona_binary
 
 RuleKind = Literal["affordance", "ordering"]
 RULE_KINDS: tuple[RuleKind, ...] = ("affordance", "ordering")
-# Where the per-video formulas come from; train-time extraction from predictions is the loss's job.
-FORMULA_SOURCES = ("labels",)
-
-SAMPLES_KIND = "kb-samples"
-SAMPLES_SCHEMA = 1
-SAMPLES_COLUMNS = pa.schema(
-    [
-        ("video_id", pa.string()),
-        ("split", pa.string()),
-        ("formula_id", pa.string()),  # the rule_set_id: a row of dfas.parquet
-        ("num_rules", pa.int32()),
-        ("rules", pa.list_(pa.string())),  # the rule names, sorted (added by tleaf)
-    ]
-)
 
 
 @dataclass(frozen=True)
@@ -214,134 +188,3 @@ def mine_knowledge_base(
     orderings.sort(key=lambda k: (i_rank[k[0]], a_rank[k[1]], a_rank[k[2]]))
     rules += [ordering_rule(i, a, b) for i, a, b in orderings]
     return KnowledgeBase(tuple(rules))
-
-
-def _mine_train_split(activities: Activities, min_support: int) -> KnowledgeBase:
-    train = activities.split("train")
-    if not train:
-        raise UsageError(f"{activities.path}: no train videos to mine a knowledge base from")
-    return mine_knowledge_base(
-        (activities.pairs(v) for v in train),
-        (activities.actions, activities.ingredients),
-        min_support,
-    )
-
-
-@dataclass
-class ExtractReport:
-    """What `kb-extract` did, for its summary line and exit status."""
-
-    videos: int
-    rule_sets: int
-    compiled: int
-    cache_hits: int
-    rules_total: int
-    rules_used: int
-    mined: int | None  # rules mined from the train split; None when not mining
-    failures: list[tuple[str, str]]
-    seconds: float
-
-
-def video_rule_sets(
-    kb: KnowledgeBase, activities: Activities
-) -> tuple[list[tuple[str, list[Rule]]], dict[str, list[Rule]]]:
-    """Per video (id, its rules from the labelled pairs); and each distinct rule set by id."""
-    per_video = [(v.video_id, rules_for(kb, activities.atoms(v))) for v in activities.videos]
-    distinct: dict[str, list[Rule]] = {}
-    for _, rules in per_video:
-        distinct.setdefault(rule_set_id(rules), rules)
-    return per_video, distinct
-
-
-def extract_knowledge(
-    kb_path: str | os.PathLike | None,
-    activities_path: str | os.PathLike,
-    out_dir: str | os.PathLike,
-    settings: CompileSettings,
-    mine: bool = False,
-    min_support: int = 3,
-    formula_from: str = "labels",
-    on_progress: Callable[[int, int], None] | None = None,
-) -> ExtractReport:
-    """The `kb-extract` stage: OUT/samples.parquet, OUT/dfas.parquet (one-hot, one row per
-    distinct rule set), and OUT/kb.ltl when mining. UsageError when the call is unusable."""
-    start = time.perf_counter()
-    if formula_from not in FORMULA_SOURCES:
-        raise UsageError(f"--formula-from must be one of {', '.join(FORMULA_SOURCES)}")
-    if kb_path is None and not mine:
-        raise UsageError("give a knowledge base file, or --mine to mine one from the train split")
-    try:
-        mona_binary()
-    except MonaError as e:
-        raise UsageError(str(e)) from None
-    out = Path(out_dir)
-    for name in ("samples.parquet", "dfas.parquet", "kb.ltl"):
-        check_writable(out / name)
-    kb = read_knowledge_base(kb_path) if kb_path is not None else KnowledgeBase()
-    activities = read_activities(activities_path)
-
-    mined = None
-    if mine:
-        found = _mine_train_split(activities, min_support)
-        read = f", merged after the {len(kb)} rules of {kb_path}" if kb_path else ""
-        kb, mined = kb.merged(found), len(found)
-        header = [
-            f"knowledge base mined by tleaf kb-extract from the train split of {activities_path}",
-            f"min support {min_support}: {mined} rules mined{read}; {len(kb)} rules in all",
-        ]
-        write_knowledge_base(kb, out / "kb.ltl", header)
-    kb_source = str(kb_path) if kb_path is not None else str(out / "kb.ltl")
-
-    per_video, distinct = video_rule_sets(kb, activities)
-    sources = [
-        FormulaSource(rid, sample_formula(rules), kb_source, f"rule set {rid}")
-        for rid, rules in distinct.items()
-    ]
-    report = compile_sources(sources, replace(settings, alphabet="one-hot"), on_progress)
-    inputs = describe_inputs([p for p in (kb_path, activities_path) if p is not None])
-    params = {
-        "alphabet": "one-hot",
-        "timeout": settings.timeout,
-        "formula_from": formula_from,
-        "mine": mine,
-        "min_support": min_support if mine else None,
-    }
-    write_artifact(
-        rows_to_table(report.rows),
-        out / "dfas.parquet",
-        kind=DFA_KIND,
-        schema=DFA_SCHEMA,
-        params=params,
-        inputs=inputs,
-    )
-    split_of = {v.video_id: v.split for v in activities.videos}
-    samples = [
-        {
-            "video_id": vid,
-            "split": split_of[vid],
-            "formula_id": rule_set_id(rules),
-            "num_rules": len(rules),
-            "rules": sorted(r.name for r in rules),
-        }
-        for vid, rules in per_video
-    ]
-    write_artifact(
-        pa.Table.from_pylist(samples, schema=SAMPLES_COLUMNS),
-        out / "samples.parquet",
-        kind=SAMPLES_KIND,
-        schema=SAMPLES_SCHEMA,
-        params=params,
-        inputs=inputs,
-    )
-    used = {r.name for _, rules in per_video for r in rules}
-    return ExtractReport(
-        videos=len(per_video),
-        rule_sets=len(distinct),
-        compiled=report.compiled,
-        cache_hits=report.cache_hits,
-        rules_total=len(kb),
-        rules_used=len(used),
-        mined=mined,
-        failures=report.failures,
-        seconds=time.perf_counter() - start,
-    )
