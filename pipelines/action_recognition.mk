@@ -28,7 +28,7 @@ DATA :=
 K := 20
 EDGE := --epochs 5
 META := --epochs 15 --max-minutes 5
-TASK := --epochs 300 --patience 30 --lr 1e-3
+TASK := --epochs 40 --patience 40 --lr 1e-3
 endif
 
 RUNS := $(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach s,$(SEEDS),\
