@@ -21,6 +21,7 @@ from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import TraceSettings, read_traces, traces_for_dfa
 from tleaf_cli.embed.soft import load_embedder
 from tleaf_cli.errors import UsageError
+from tleaf_cli.tasks.figures import pyplot, save_png
 
 STYLE = {  # kind of point -> (marker, colour, legend)
     "sat": ("o", "tab:green", "satisfying"),
@@ -61,10 +62,7 @@ def tsne_figure(
     settings: FigureSettings,
 ) -> dict:
     """Write the PNG; returns what it shows (formula, point counts, per-embedder separation)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     from sklearn.manifold import TSNE
 
     check_writable(Path(out_png))
@@ -120,10 +118,7 @@ def tsne_figure(
         fontsize=9,
     )
     fig.tight_layout()
-    tmp = Path(out_png).with_name(f".{Path(out_png).name}.tmp.png")
-    fig.savefig(tmp, dpi=110)
-    plt.close(fig)
-    tmp.replace(out_png)
+    save_png(fig, out_png, dpi=110)
     return shown
 
 

@@ -19,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tleaf_cli.data.artifacts import atomic_path, check_writable, write_text_atomic
+from tleaf_cli.data.artifacts import check_writable, write_text_atomic
 from tleaf_cli.errors import UsageError
+from tleaf_cli.tasks.figures import pyplot, save_png
 
 LOSS_ORDER = ("tleaf", "exact", "checker")
 MEASURES = ("action_accuracy", "ingredient_accuracy", "pair_accuracy")
@@ -151,10 +152,7 @@ def markdown(runs: Sequence[dict], summary: Sequence[dict]) -> str:
 
 def boxplots(pairs: Sequence[dict], path: Path) -> None:
     """Δ action and Δ ingredient accuracy per model and loss (Fig. 4B's layout), as PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     models = sorted({p["model"] for p in pairs}) or ["(no pairs)"]
     fig, axes = plt.subplots(
@@ -180,13 +178,7 @@ def boxplots(pairs: Sequence[dict], path: Path) -> None:
                 ax.set_ylabel("relative change vs reference (%)")
     fig.suptitle("Logic losses vs reference, same seeds (synthetic data)")
     fig.tight_layout()
-    tmp = atomic_path(path)
-    try:
-        fig.savefig(tmp, format="png", dpi=120)
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
-        plt.close(fig)
+    save_png(fig, path)
 
 
 def evaluate_runs(run_dirs: Sequence[str | Path], out_dir: str | Path) -> dict:

@@ -19,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from tleaf_cli.data.artifacts import atomic_path, write_text_atomic
+from tleaf_cli.data.artifacts import write_text_atomic
 from tleaf_cli.errors import UsageError
+from tleaf_cli.tasks.figures import pyplot, save_png
 
 ORDER = ("none", "checker", "exact", "tleaf")
 
@@ -118,10 +119,7 @@ def _markdown(report: dict) -> str:
 
 
 def _figure(variants: dict, path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
 
     fig, ax = plt.subplots(figsize=(6, 4))
     for name, v in variants.items():
@@ -135,10 +133,4 @@ def _figure(variants: dict, path: Path) -> None:
     ax.set_title("Creative Cooking (synthetic): GAIL with logic losses")
     ax.legend()
     fig.tight_layout()
-    tmp = atomic_path(path)
-    try:
-        fig.savefig(tmp, format="png", dpi=120)
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
-        plt.close(fig)
+    save_png(fig, path)
