@@ -30,7 +30,8 @@ def mean_se(values: Sequence[float]) -> tuple[float, float]:
 
 
 def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
-    """Write a markdown table of MLP test accuracy (and the distance rule) by embedder x label."""
+    """Write a markdown table of MLP test accuracy (also on hard negatives alone, and the distance
+    rule's) by embedder x label."""
     cells: dict[tuple[str, str, str], list[float]] = defaultdict(list)
     labels: list[str] = []
     for path in report_paths:
@@ -38,10 +39,13 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
             r = json.loads(Path(path).read_text())
             key = (r["embedder"], r["label"])
             mlp, dist = r["mlp"]["accuracy"], r["distance"]["accuracy"]
+            hard = r["mlp"]["hard_negative_accuracy"]
         except (OSError, ValueError, KeyError) as e:
             raise UsageError(f"{path}: not a model-checking report ({e})") from None
         cells[(*key, "mlp")].append(100 * mlp)
         cells[(*key, "distance")].append(100 * dist)
+        if hard is not None:
+            cells[(*key, "hard")].append(100 * hard)
         if r["label"] not in labels:
             labels.append(r["label"])
     embedders = [e for e in ("syntax", "dfa") if any(k[0] == e for k in cells)]
@@ -57,7 +61,11 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
         "|---|---|" + "---|" * len(labels),
     ]
     for e in embedders:
-        for clf, name in (("mlp", "MLP 512-128"), ("distance", "distance rule")):
+        for clf, name in (
+            ("mlp", "MLP 512-128"),
+            ("hard", "MLP, hard negatives only"),
+            ("distance", "distance rule"),
+        ):
             row = [fmt(cells.get((e, lab, clf), [])) for lab in labels]
             lines.append(f"| {ROW_NAMES[e]} | {name} | " + " | ".join(row) + " |")
         paper = [PAPER[e].get(lab) for lab in labels]
