@@ -778,9 +778,7 @@ def train_task_action_recognition(
     embedder: Annotated[
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path(
-        "run"
-    ),
+    out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
     model: Annotated[str, typer.Option(help="Backbone of h: lstm or tcn.")] = "lstm",
     logic_loss: Annotated[
         str, typer.Option(help="none (reference), tleaf, exact, or checker (no gradient).")
@@ -897,9 +895,7 @@ def train_task_cooking(
     embedder: Annotated[
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path(
-        "run"
-    ),
+    out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
     logic_loss: Annotated[
         str, typer.Option(help="none (plain GAIL), tleaf, exact, or checker (no gradient).")
     ] = "none",
