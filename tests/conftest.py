@@ -1,8 +1,10 @@
-"""Shared fixtures: an isolated compile cache per test, and exhaustive trace sets."""
+"""Shared fixtures: an isolated compile cache per test, exhaustive trace sets, SMALL pipelines."""
 
 from __future__ import annotations
 
 import itertools
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -62,3 +64,16 @@ def chain(tmp_path_factory, chain_cli) -> dict[str, Path]:
     )
     train_edge(p["dfas"], p["edge"], EdgeSettings(hidden=32, out_dim=16, epochs=3, per_guard=2))
     return p
+
+
+def make_small(
+    makefile: str, out: Path, *args: str, timeout: int = 600
+) -> subprocess.CompletedProcess:
+    """`make -f pipelines/<makefile> SMALL=1` with this venv's tleaf, output in `out`; `args`
+    are further make flags or variables (e.g. "-q", "LOSSES=none tleaf")."""
+    tleaf = Path(sys.executable).parent / "tleaf"
+    command = ["make", "-f", f"pipelines/{makefile}", "SMALL=1", f"TLEAF={tleaf}", f"OUT={out}"]
+    root = Path(__file__).parent.parent
+    return subprocess.run(
+        [*command, *args], cwd=root, capture_output=True, text=True, timeout=timeout
+    )

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import torch
 
+from tests.conftest import make_small
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
 
 
@@ -31,19 +30,7 @@ def test_padding_does_not_change_a_videos_outputs(backbone: str) -> None:
 def small_pipeline(tmp_path_factory) -> Path:
     """pipelines/action_recognition.mk SMALL=1 for the LSTM, with none, tleaf and checker."""
     out = tmp_path_factory.mktemp("ar") / "small"
-    tleaf = Path(sys.executable).parent / "tleaf"
-    command = [
-        "make",
-        "-f",
-        "pipelines/action_recognition.mk",
-        "SMALL=1",
-        f"TLEAF={tleaf}",
-        f"OUT={out}",
-        "MODELS=lstm",
-        "LOSSES=none tleaf checker",
-    ]
-    root = Path(__file__).parent.parent
-    result = subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=600)
+    result = make_small("action_recognition.mk", out, "MODELS=lstm", "LOSSES=none tleaf checker")
     assert result.returncode == 0, result.stderr[-2000:]
     return out
 

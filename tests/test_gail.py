@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import gymnasium as gym
@@ -15,6 +13,7 @@ import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv
 
+from tests.conftest import make_small
 from tleaf_cli.data.artifacts import write_artifact
 from tleaf_cli.tasks.cooking import ENV_ID
 from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
@@ -209,18 +208,7 @@ def test_eval_report_curves_stderr_and_steps_to_90(tmp_path: Path, chain_cli) ->
 def small_pipeline(tmp_path_factory) -> Path:
     """pipelines/cooking.mk SMALL=1 (2 seeds) with none, tleaf and checker."""
     out = tmp_path_factory.mktemp("cooking") / "small"
-    tleaf = Path(sys.executable).parent / "tleaf"
-    command = [
-        "make",
-        "-f",
-        "pipelines/cooking.mk",
-        "SMALL=1",
-        f"TLEAF={tleaf}",
-        f"OUT={out}",
-        "LOSSES=none tleaf checker",
-    ]
-    root = Path(__file__).parent.parent
-    result = subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=900)
+    result = make_small("cooking.mk", out, "LOSSES=none tleaf checker", timeout=900)
     assert result.returncode == 0, result.stderr[-2000:]
     return out
 

@@ -3,13 +3,12 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
 
+from tests.conftest import make_small
 from tleaf_cli.data.artifacts import read_provenance, write_artifact
 from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
@@ -72,25 +71,9 @@ def test_a_formula_in_train_and_test_is_refused(chain, chain_cli, meta_model, tm
     assert "both train and test" in result.output
 
 
-def _make_small(out: Path, *flags: str) -> subprocess.CompletedProcess:
-    """make -f pipelines/model_checking.mk SMALL=1 with this venv's tleaf, output in `out`."""
-    tleaf = Path(sys.executable).parent / "tleaf"
-    command = [
-        "make",
-        *flags,
-        "-f",
-        "pipelines/model_checking.mk",
-        "SMALL=1",
-        f"TLEAF={tleaf}",
-        f"OUT={out}",
-    ]
-    root = Path(__file__).parent.parent
-    return subprocess.run(command, cwd=root, capture_output=True, text=True, timeout=600)
-
-
 def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
     """pipelines/model_checking.mk SMALL=1: gen-formulas to the results table."""
-    result = _make_small(tmp_path / "mc")
+    result = make_small("model_checking.mk", tmp_path / "mc")
     assert result.returncode == 0, result.stderr[-2000:]
     table = (tmp_path / "mc" / "results.md").read_text()
     assert "| Syntax tree | MLP 512-128 |" in table and "| DFA (T-LEAF) | MLP 512-128 |" in table
@@ -101,7 +84,7 @@ def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
         )
         assert report["embedder"] == embedder and report["label"] == "low"
     # A second make has nothing to do: only what changed is re-run.
-    assert _make_small(tmp_path / "mc", "-q").returncode == 0
+    assert make_small("model_checking.mk", tmp_path / "mc", "-q").returncode == 0
 
 
 def test_tsne_figure_shows_a_test_formula_for_each_embedder(chain, chain_cli, meta_model, tmp_path):
