@@ -8,6 +8,9 @@
     q_m(G)  = W_out · sum_v r_v h_v^L                 readout "walk", or
     q_m(G)  = sum_k W_k · sum_v p_k(v) h_v^L          readout "steps"
 
+With `norm`, s_v is standardised with the training graphs' statistics and each layer's output
+passes a LayerNorm before the ReLU.
+
 The readout r is the paper's "aggregate node embeddings along random walks from the initial
 state", taken in expectation so that a graph always gets the same vector: a walker starts at the
 initial state and follows a uniformly chosen outgoing arc (s -> e -> t) for K steps, staying put
@@ -107,7 +110,7 @@ class AutomatonEncoder(nn.Module):
             edge_vec = torch.where(on_edges, (edge_vec - self.edge_mean) / self.edge_std, 0.0)
         x = torch.cat([kinds, batch.flags, edge_vec], dim=1)
         arcs = batch.edge_index
-        both = to_undirected(arcs, num_nodes=x.shape[0])
+        both = to_undirected(arcs, num_nodes=x.shape[0]) if self.back is None else None
         for layer, conv in enumerate(self.convs):
             if self.back is None:
                 x = conv(x, both)
