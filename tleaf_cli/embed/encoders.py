@@ -61,34 +61,44 @@ def _text_features(vocabulary: Sequence[str]) -> torch.Tensor:
     return torch.tensor(model.encode(names, normalize_embeddings=True), dtype=torch.float32)
 
 
-def typed_atom_features(
-    node_type: torch.Tensor, n_types: int, atom: torch.Tensor, atom_table: torch.Tensor
-) -> torch.Tensor:
-    """[onehot(type) ; atom_table[atom]] per node, the atom part zero where atom is -1."""
-    kinds = nn.functional.one_hot(node_type, n_types).float()
-    feats = atom_table[atom.clamp(min=0)] * (atom >= 0).unsqueeze(1).float()
-    return torch.cat([kinds, feats], dim=1)
+class TypedGraphEncoder(nn.Module):
+    """A graph whose nodes have a type and maybe an atom -> R^out_dim.
 
+        h_v^0 = [ onehot(type_v) ; A[atom_v] ]      (atom part zero on operator nodes)
+        h^{l+1} = ReLU( GCNConv_l(h^l) )            (arcs taken both ways)
+        z = W_out · mean_v h_v^L
 
-class PropositionEncoder(nn.Module):
-    """q_e: propositional graph -> R^out_dim (GCN, mean readout, linear head)."""
+    q_e (propositional graphs) and the syntax-tree baseline differ only in their node types.
+    """
 
     def __init__(
-        self, atom_table: torch.Tensor, hidden: int = 256, layers: int = 2, out_dim: int = 100
+        self, num_types: int, atom_table: torch.Tensor, hidden: int, layers: int, out_dim: int
     ) -> None:
         super().__init__()
+        self.num_types = num_types
         self.register_buffer("atom_table", atom_table.float())
-        in_dim = PROP_TYPES + atom_table.shape[1]
-        dims = [in_dim] + [hidden] * layers
+        dims = [num_types + atom_table.shape[1]] + [hidden] * layers
         self.convs = nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims))
         self.head = nn.Linear(hidden, out_dim)
 
     def forward(self, batch) -> torch.Tensor:
-        x = typed_atom_features(batch.node_type, PROP_TYPES, batch.atom, self.atom_table)
+        kinds = nn.functional.one_hot(batch.node_type, self.num_types).float()
+        atom = batch.atom
+        feats = self.atom_table[atom.clamp(min=0)] * (atom >= 0).unsqueeze(1).float()
+        x = torch.cat([kinds, feats], dim=1)
         edge_index = to_undirected(batch.edge_index, num_nodes=x.shape[0])
         for conv in self.convs:
             x = torch.relu(conv(x, edge_index))
         return self.head(global_mean_pool(x, batch.batch))
+
+
+class PropositionEncoder(TypedGraphEncoder):
+    """q_e: propositional graph (AND / OR / NOT / atom / global nodes) -> R^out_dim."""
+
+    def __init__(
+        self, atom_table: torch.Tensor, hidden: int = 256, layers: int = 2, out_dim: int = 100
+    ) -> None:
+        super().__init__(PROP_TYPES, atom_table, hidden, layers, out_dim)
 
 
 def triplet_loss(anchor, positive, negative, margin: float) -> torch.Tensor:
