@@ -33,6 +33,7 @@ from tleaf_cli.tasks.cooking.logic_term import (
     RolloutEpisode,
     rollout_episodes,
 )
+from tleaf_cli.tasks.cooking.packed_rules import chain_batch
 
 # Four ingredients already at their required status (liquids, seasonings) and parsley, which
 # needs one wash/rinse/chop: the expert's plan is a single step (return 19).
@@ -147,6 +148,68 @@ def logic_gradient(kind: str, domain, ingredients, embedder=None) -> tuple[torch
     return loss, float(sum(p.grad.norm() for p in policy.parameters() if p.grad is not None))
 
 
+def reference_and_batched(
+    kind: str, domain, sets: tuple[tuple[str, ...], tuple[str, ...]], embedder=None
+) -> list[tuple[float, float]]:
+    """The logic term (batched) against losses.py's exact_loss / tleaf_loss row by row, on
+    episodes of `sets` (two, or one twice) and three lengths: (batched, reference) for the value and
+    for every parameter's gradient norm."""
+    from tleaf_cli.losses import exact_loss, tleaf_loss
+
+    episodes = [random_episode(sets[0], 7, 0), random_episode(sets[1], 12, 1)]
+    episodes.append(random_episode(sets[0], 3, 2))
+    venv = DummyVecEnv([lambda: gym.make(ENV_ID)])
+    torch.manual_seed(0)
+    policy = PPO("MlpPolicy", venv, n_steps=16, batch_size=16, seed=0).policy
+    knowledge = CookingKnowledge(domain, embedder)
+
+    def gradients() -> list[float]:
+        norms = [float(p.grad.norm()) for p in policy.parameters() if p.grad is not None]
+        policy.zero_grad()
+        return norms
+
+    batched = LogicTerm(kind, knowledge).loss(policy, episodes)
+    batched.backward()
+    batched_grads = gradients()
+    rows = []
+    for e in episodes:
+        rules = knowledge.rules(e.ingredients)
+        sets = [r for r in rules.sets if r is not None and r.satisfiable]
+        obs = torch.as_tensor(e.observations).float()
+        logits = policy.get_distribution(obs).distribution.logits[None].repeat(len(sets), 1, 1)
+        lengths = torch.tensor([len(e.actions)] * len(sets))
+        one = logits.new_zeros(*logits.shape[:2], 1)
+        if kind == "exact":
+            rows.append(exact_loss(logits, one, lengths, sets))
+        else:
+            rows.append(tleaf_loss(logits, one, lengths, sets, rules.cache))
+    reference = torch.cat(rows).mean()
+    reference.backward()
+    pairs = [(float(batched.detach()), float(reference.detach()))]
+    return pairs + list(zip(batched_grads, gradients(), strict=True))
+
+
+def test_chain_batch_is_the_batch_of_trace_graphs() -> None:
+    from torch_geometric.data import Batch
+
+    from tleaf_cli.embed.graphs import trace_graph
+
+    built, edge_nodes = chain_batch([3, 1, 5])
+    expected = Batch.from_data_list([trace_graph(n) for n in (3, 1, 5)])
+    for key in ("node_kind", "flags", "guard", "edge_index", "initial", "batch", "ptr"):
+        assert torch.equal(getattr(built, key), getattr(expected, key)), key
+    assert built.num_nodes == expected.num_nodes == 21
+    assert edge_nodes.tolist() == [4, 5, 6, 9, 16, 17, 18, 19, 20]
+
+
+def test_batched_exact_term_equals_losses_exact_loss(domain) -> None:
+    other = ("salmon", "lentils", "cheese", "vinegar", "cilantro")
+    pairs = reference_and_batched("exact", domain, (EASY, other))
+    assert pairs[0][0] > 0 and len(pairs) > 2
+    for batched, reference in pairs:
+        assert batched == pytest.approx(reference, rel=1e-4, abs=1e-6)
+
+
 def test_exact_logic_term_sends_gradient_into_the_policy_and_checker_none(domain) -> None:
     loss, grad = logic_gradient("exact", domain, EASY)
     assert float(loss.detach()) > 0 and grad > 0
@@ -240,3 +303,10 @@ def test_tleaf_logic_term_sends_gradient_into_the_policy(small_pipeline: Path, d
     embedder = load_embedder(small_pipeline / "meta")
     loss, grad = logic_gradient("tleaf", domain, ingredients, embedder)
     assert float(loss.detach()) > 0 and grad > 0
+    other = read_demo_episodes(small_pipeline / "demos.parquet", domain)[-1].ingredients
+    pairs = reference_and_batched("tleaf", domain, (ingredients, other), embedder)
+    assert pairs[0][0] > 0
+    for batched, reference in pairs:
+        assert batched == pytest.approx(reference, rel=1e-4, abs=1e-6)
+    # the rule sets and q are not pickled into policy.zip (they made it 142 MB)
+    assert (small_pipeline / "runs/tleaf-seed0/policy.zip").stat().st_size < 5_000_000

@@ -22,7 +22,11 @@ violates φ_x violates it for good; episodes are scored from their first step on
 `rollout_episodes`), because a DFA run must start in the initial state.
 
 Everything heavy is cached: one `RuleSets` (losses.py) per ingredient set, which compiles each
-distinct rule set once (MONA, plus compile-dfa's disk cache) and embeds it once for tleaf.
+distinct rule set once (MONA, plus compile-dfa's disk cache) and embeds it once for tleaf, and
+one `PackedRules` (packed_rules.py) per ingredient set, its rule sets padded into tensors. A
+minibatch's term then costs one policy forward over its episodes, one letter-probability gather
+per ingredient set, and one batched forward algorithm (exact) or one q_m call (tleaf) — the
+values of losses.exact_loss / losses.tleaf_loss, without their per-video Python loops.
 """
 
 from __future__ import annotations
@@ -38,9 +42,17 @@ from tleaf_cli.data.knowledge import KnowledgeBase
 from tleaf_cli.data.knowledge import Rule as KbRule
 from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.logic.formulas import atoms, parse
-from tleaf_cli.losses import RuleSet, RuleSets, exact_loss, tleaf_loss, violations
+from tleaf_cli.losses import RuleSet, RuleSets, violations
 from tleaf_cli.tasks.cooking.domain import Domain
 from tleaf_cli.tasks.cooking.knowledge import knowledge_base
+from tleaf_cli.tasks.cooking.packed_rules import (
+    PackedRules,
+    exact_losses,
+    expected_letter_vectors,
+    letter_log_probs,
+    pack_rules,
+    soft_trace_vectors,
+)
 from tleaf_cli.tasks.cooking.rules import NUM_SLOTS, ActionCodec, EpisodeRules
 
 GRADIENT_LOSSES = ("tleaf", "exact")
@@ -57,10 +69,12 @@ class RolloutEpisode:
 
 @dataclass(frozen=True)
 class IngredientRules:
-    """The rule sets of one ingredient set: `sets[k]` for slot k+1 (None: no rule applies)."""
+    """The rule sets of one ingredient set: `sets[k]` for slot k+1 (None: no rule applies);
+    `packed`: the satisfiable ones as tensors (None when there is none)."""
 
     cache: RuleSets
     sets: tuple[RuleSet | None, ...]
+    packed: PackedRules | None
 
 
 class CookingKnowledge:
@@ -98,7 +112,12 @@ class CookingKnowledge:
             [names[i] for i, (_, slots) in enumerate(self.codec.table) if slots[0] == slot]
             for slot in range(1, NUM_SLOTS)
         ]
-        return IngredientRules(cache, tuple(cache.for_videos(on_slot)))
+        sets = tuple(cache.for_videos(on_slot))
+        slots = [k for k, r in enumerate(sets, start=1) if r is not None and r.satisfiable]
+        packed = (
+            pack_rules([sets[k - 1] for k in slots], slots, self.codec.n, cache) if slots else None
+        )
+        return IngredientRules(cache, sets, packed)
 
 
 def rollout_episodes(
@@ -134,21 +153,29 @@ class LogicTerm:
         """Differentiable ℓ_logic (tleaf, exact) of `policy` (an SB3 ActorCriticPolicy)."""
         if self.kind == "checker":
             return torch.tensor(self.violation_rate(episodes))
-        losses = []
-        for ingredients, group in _by_ingredients(episodes).items():
-            rules = self.knowledge.rules(ingredients)
-            slots = [k for k, r in enumerate(rules.sets) if r is not None and r.satisfiable]
-            if not slots:
+        log_policy = _policy_log_probs(policy, episodes)  # [E, T, A], one forward
+        lengths = torch.tensor([len(e.actions) for e in episodes])
+        losses, expected, targets, expected_lengths = [], [], [], []
+        for ingredients, members in _by_ingredients(episodes).items():
+            packed = self.knowledge.rules(ingredients).packed
+            if packed is None:
                 continue
-            # one row per (episode, ingredient): the episode's logits against that rule set
-            logits = _policy_logits(policy, group).repeat(len(slots), 1, 1)  # [S·E, T, A]
-            lengths = torch.tensor([len(e.actions) for e in group] * len(slots))
-            sets = [rules.sets[k] for k in slots for _ in group]
-            one = logits.new_zeros(*logits.shape[:2], 1)  # a one-element "ingredient" head
+            # one row per (episode, ingredient): the episode against that ingredient's rule set
+            sets = len(packed.slots)
+            rows = torch.arange(sets).repeat(len(members))
+            index = torch.tensor(members).repeat_interleave(sets)
+            letters = letter_log_probs(log_policy[index], packed, rows)
             if self.kind == "exact":
-                losses.append(exact_loss(logits, one, lengths, sets))
+                losses.append(exact_losses(letters, lengths[index], packed, rows))
             else:
-                losses.append(tleaf_loss(logits, one, lengths, sets, rules.cache))
+                expected.append(expected_letter_vectors(letters, packed, rows))
+                targets.append(packed.targets[rows])
+                expected_lengths.append(lengths[index])
+        if expected:  # tleaf: every row of every ingredient set through q_m at once
+            z = soft_trace_vectors(
+                torch.cat(expected), torch.cat(expected_lengths), self.knowledge.embedder.model
+            )
+            losses.append((z - torch.cat(targets)).pow(2).sum(dim=1))
         return torch.cat(losses).mean() if losses else torch.zeros(())
 
     def violation_rate(self, episodes: Sequence[RolloutEpisode]) -> float:
@@ -162,21 +189,20 @@ class LogicTerm:
         return float(violations(sets, sequences).mean()) if sets else 0.0
 
 
-def _by_ingredients(
-    episodes: Sequence[RolloutEpisode],
-) -> dict[tuple[str, ...], list[RolloutEpisode]]:
-    groups: dict[tuple[str, ...], list[RolloutEpisode]] = {}
-    for e in episodes:
-        groups.setdefault(e.ingredients, []).append(e)
+def _by_ingredients(episodes: Sequence[RolloutEpisode]) -> dict[tuple[str, ...], list[int]]:
+    """Episode indices grouped by ingredient set, in first-seen order."""
+    groups: dict[tuple[str, ...], list[int]] = {}
+    for i, e in enumerate(episodes):
+        groups.setdefault(e.ingredients, []).append(i)
     return groups
 
 
-def _policy_logits(policy, episodes: Sequence[RolloutEpisode]) -> torch.Tensor:
-    """The policy's action logits at every step, padded with zeros: [E, T_max, A]."""
+def _policy_log_probs(policy, episodes: Sequence[RolloutEpisode]) -> torch.Tensor:
+    """log π(·|s_t) at every step of every episode: [E, T_max, A], padded with log(1/A)."""
     steps = [len(e.actions) for e in episodes]
     obs = torch.as_tensor(np.concatenate([e.observations for e in episodes]), device=policy.device)
     logits = policy.get_distribution(obs.float()).distribution.logits
-    out = logits.new_zeros(len(episodes), max(steps), logits.shape[-1])
-    for k, chunk in enumerate(torch.split(logits, steps)):
-        out[k, : len(chunk)] = chunk
-    return out
+    padded = logits.new_zeros(len(episodes), max(steps), logits.shape[-1])
+    mask = torch.arange(max(steps))[None, :] < torch.tensor(steps)[:, None]
+    padded = padded.masked_scatter(mask[..., None], logits)
+    return torch.log_softmax(padded, dim=-1)
