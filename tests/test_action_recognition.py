@@ -91,3 +91,58 @@ def test_bad_options_and_runs_exit_2(chain_cli, tmp_path: Path, small_pipeline: 
     assert result.exit_code == 2 and "--model must be one of lstm, tcn" in result.output
     result = chain_cli("eval", "action-recognition", tmp_path, "-o", tmp_path / "rep")
     assert result.exit_code == 2 and "not a finished train-task run" in result.output
+
+
+def _train(data: Path, kb: Path, out: Path, **settings) -> dict:
+    from tleaf_cli.tasks.action_recognition.train import TaskSettings, train_action_recognition
+
+    base = {"logic_loss": "exact", "lam": 1.0, "hidden": 8, "head_hidden": 4, "epochs": 2}
+    metrics = train_action_recognition(data, kb, None, out, TaskSettings(**{**base, **settings}))
+    return {"metrics": metrics, "weights": torch.load(out / "weights.pt", weights_only=True)}
+
+
+def test_unlabelled_videos_teach_only_through_the_logic_loss_and_their_labels_are_unread(
+    tmp_path: Path,
+) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+    from tleaf_cli.data.artifacts import read_provenance, write_artifact
+
+    data, kb = tmp_path / "act.parquet", tmp_path / "kb.ltl"
+    args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 8, "--train", 8, "--val", 4]
+    args += ["--test", 4, "--unlabelled", 8, "--min-steps", 3, "--max-steps", 6]
+    result = CliRunner().invoke(app, ["gen-activities", "-o", str(data), "--kb-out", str(kb)]
+                                + [str(a) for a in args])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    # The same file with every unlabelled step relabelled to one other (valid) pair.
+    table = pq.read_table(data)
+    unlabelled = pa.compute.equal(table["split"], "unlabelled").to_pylist()
+    first = table["action"][0].as_py()
+    actions = [
+        first if u else a for u, a in zip(unlabelled, table["action"].to_pylist(), strict=True)
+    ]
+    relabelled = tmp_path / "relabelled.parquet"
+    provenance = read_provenance(data)
+    write_artifact(
+        table.set_column(table.schema.get_field_index("action"), "action", pa.array(actions)),
+        relabelled, kind=provenance.kind, schema=provenance.schema, params=provenance.params,
+        inputs=[],
+    )  # fmt: skip
+
+    used = _train(data, kb, tmp_path / "used", formula_from="labels")
+    same = _train(relabelled, kb, tmp_path / "same", formula_from="labels")
+    unused = _train(data, kb, tmp_path / "unused", formula_from="labels", unlabelled=False)
+    for key, value in used["weights"].items():
+        assert torch.equal(value, same["weights"][key])  # their labels are never read
+    assert any(not torch.equal(v, unused["weights"][k]) for k, v in used["weights"].items())
+    logic = [h["logic_loss"] for h in used["metrics"]["history"]]
+    assert logic != [h["logic_loss"] for h in unused["metrics"]["history"]]
+
+    # The reference never reads them: the same run on the file without them.
+    ref = _train(data, kb, tmp_path / "ref", logic_loss="none")
+    ref_plain = _train(relabelled, kb, tmp_path / "ref2", logic_loss="none", unlabelled=False)
+    for key, value in ref["weights"].items():
+        assert torch.equal(value, ref_plain["weights"][key])

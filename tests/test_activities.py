@@ -277,3 +277,21 @@ def test_foreign_artifact_and_missing_file(tmp_path: Path) -> None:
         read_activities(path)
     with pytest.raises(UsageError, match="no such file"):
         read_activities(tmp_path / "none.parquet")
+
+
+def test_unlabelled_videos_come_last_and_leave_the_others_unchanged(tmp_path: Path) -> None:
+    plain, extra = tmp_path / "plain.parquet", tmp_path / "extra.parquet"
+    assert (
+        tleaf("gen-activities", "-o", plain, "--kb-out", tmp_path / "a.ltl", *SMALL).exit_code == 0
+    )
+    result = tleaf(
+        "gen-activities", "-o", extra, "--kb-out", tmp_path / "b.ltl", *SMALL, "--unlabelled", 7
+    )
+    assert result.exit_code == 0, result.output
+    before, after = read_activities(plain), read_activities(extra)
+    assert [v.split for v in after.videos[len(before.videos) :]] == ["unlabelled"] * 7
+    assert len(after.split("unlabelled")) == 7
+    for a, b in zip(before.videos, after.videos, strict=False):
+        assert a.video_id == b.video_id and a.split == b.split
+        assert np.array_equal(a.features, b.features) and np.array_equal(a.actions, b.actions)
+    assert (tmp_path / "a.ltl").read_text() == (tmp_path / "b.ltl").read_text()

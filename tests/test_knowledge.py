@@ -296,3 +296,15 @@ def test_kb_extract_bad_calls_exit_2(tiny, tmp_path, args, expected) -> None:
     assert result.exit_code == 2, result.output
     assert expected in result.output and "Traceback" not in result.output
     assert not (out / "samples.parquet").exists()
+
+
+def test_kb_extract_never_reads_unlabelled_videos(tmp_path) -> None:
+    data, kb = tmp_path / "act.parquet", tmp_path / "kb.ltl"
+    args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 4, "--train", 6, "--val", 2]
+    args += ["--test", 2, "--unlabelled", 5, "--min-steps", 2, "--max-steps", 6]
+    assert tleaf("gen-activities", "-o", data, "--kb-out", kb, *args).exit_code == 0
+    result = tleaf("kb-extract", kb, data, "-o", tmp_path / "out")
+    assert result.exit_code == 0, result.output
+    samples = pq.read_table(tmp_path / "out" / "samples.parquet").to_pylist()
+    labelled = [v.video_id for v in read_activities(data).videos if v.split != "unlabelled"]
+    assert [s["video_id"] for s in samples] == labelled and len(labelled) == 10

@@ -349,6 +349,10 @@ def gen_activities(
     train: Annotated[int, typer.Option(help="Training videos.")] = 60,
     val: Annotated[int, typer.Option(help="Validation videos.")] = 40,
     test: Annotated[int, typer.Option(help="Test videos.")] = 200,
+    unlabelled: Annotated[
+        int,
+        typer.Option(help="Unlabelled videos (split 'unlabelled'; only logic losses use them)."),
+    ] = 0,
     min_steps: Annotated[int, typer.Option(help="Fewest steps in a video.")] = 5,
     max_steps: Annotated[int, typer.Option(help="Most steps in a video.")] = 15,
     seed: Seed = 0,
@@ -370,6 +374,7 @@ def gen_activities(
         train=train,
         val=val,
         test=test,
+        unlabelled=unlabelled,
         min_steps=min_steps,
         max_steps=max_steps,
         seed=seed,
@@ -377,7 +382,8 @@ def gen_activities(
     with ui.progress("generating videos", quiet) as update:
         report = generate_activities(settings, out, kb_out, update)
     ui.summary(
-        f"{out}: {report.videos} synthetic videos ({train} train, {val} val, {test} test), "
+        f"{out}: {report.videos} synthetic videos ({train} train, {val} val, {test} test, "
+        f"{unlabelled} unlabelled), "
         f"{report.rows} steps; {kb_out}: {report.affordances} affordances, "
         f"{report.orderings} orderings ({report.seconds:.1f} s)",
         quiet,
@@ -788,6 +794,13 @@ def train_task_action_recognition(
         str,
         typer.Option(help="Rules relevant to the predicted pairs (the paper) or to the labels."),
     ] = "predictions",
+    unlabelled: Annotated[
+        bool,
+        typer.Option(
+            help="Also apply the logic loss (tleaf, exact) to the data's unlabelled videos, "
+            "one batch of them per training batch; their labels are never read."
+        ),
+    ] = True,
     hidden: Annotated[int, typer.Option(min=1, help="Backbone width.")] = 128,
     batch_size: Annotated[int, typer.Option(min=1, help="Videos per batch.")] = 16,
     epochs: Epochs = 60,
@@ -809,6 +822,7 @@ def train_task_action_recognition(
         logic_loss=logic_loss,
         lam=lam,
         formula_from=formula_from,
+        unlabelled=unlabelled,
         hidden=hidden,
         batch_size=batch_size,
         epochs=epochs,

@@ -3,7 +3,7 @@
 The format (docs/activities.md) is what `tleaf gen-activities` writes for its **synthetic** data
 and what real data (e.g. Tasty Videos with per-segment ResNet features) is expected in: Parquet
 with `video_id`, `step`, `action`, `ingredient`, `feature` (a list of numbers, the same length on
-every row) and optionally `split` (train|val|test). Rows of a video are together, steps
+every row) and optionally `split` (train|val|test|unlabelled). Rows of a video are together, steps
 consecutive. `read_activities` checks all of that and names the first offending row.
 
 Each step's label is the atom `action_ingredient` of the knowledge base (docs/knowledge.md), so
@@ -33,6 +33,9 @@ from tleaf_cli.errors import UsageError
 KIND = "activities"
 SCHEMA_VERSION = 1
 REQUIRED = ("video_id", "step", "action", "ingredient", "feature")
+# Videos whose labels training never reads: the logic loss (which needs none) may use them.
+UNLABELLED = "unlabelled"
+ACTIVITY_SPLITS = (*SPLITS, UNLABELLED)
 # Used when a file has no split column: train, val, test fractions of the videos.
 DEFAULT_FRACTIONS = (0.6, 0.2, 0.2)
 
@@ -287,9 +290,10 @@ def _splits(
     split_of: dict[str, str] = {}
     for start, end in runs:
         for row in range(start, end):
-            if splits[row] not in SPLITS:
+            if splits[row] not in ACTIVITY_SPLITS:
                 raise UsageError(
-                    f"{name}: row {row}: split '{splits[row]}', expected one of {', '.join(SPLITS)}"
+                    f"{name}: row {row}: split '{splits[row]}', "
+                    f"expected one of {', '.join(ACTIVITY_SPLITS)}"
                 )
             if splits[row] != splits[start]:
                 raise UsageError(

@@ -75,6 +75,7 @@ class ActivitySettings:
     train: int = 60
     val: int = 40
     test: int = 200
+    unlabelled: int = 0
     min_steps: int = 5
     max_steps: int = 15
     seed: int = 0
@@ -91,8 +92,9 @@ class ActivitySettings:
             raise UsageError(f"--feature-dim must be at least 1, got {self.feature_dim}")
         if self.noise < 0 or not 0 <= self.confusable <= 1:
             raise UsageError("need --noise >= 0 and 0 <= --confusable <= 1")
-        if min(self.train, self.val, self.test) < 0 or self.train + self.val + self.test == 0:
-            raise UsageError("--train, --val, --test must be >= 0 and not all 0")
+        sizes = (self.train, self.val, self.test, self.unlabelled)
+        if min(sizes) < 0 or sum(sizes) == 0:
+            raise UsageError("--train, --val, --test, --unlabelled must be >= 0 and not all 0")
         if not 1 <= self.min_steps <= self.max_steps:
             raise UsageError(
                 f"need 1 <= --min-steps <= --max-steps, got {self.min_steps}, {self.max_steps}"
@@ -241,7 +243,14 @@ def generate_activities(
         len(process.ingredients), dim, ingredient_pairs, settings.confusable, streams[1]
     )
 
-    splits = ["train"] * settings.train + ["val"] * settings.val + ["test"] * settings.test
+    # unlabelled videos come last, so adding them leaves the other videos (and their noise) as
+    # they were for the same seed
+    splits = (
+        ["train"] * settings.train
+        + ["val"] * settings.val
+        + ["test"] * settings.test
+        + ["unlabelled"] * settings.unlabelled
+    )
     steps: list[list[tuple[int, int]]] = []
     for k in range(len(splits)):
         steps.append(sample_video(process, streams[2], settings.min_steps, settings.max_steps))

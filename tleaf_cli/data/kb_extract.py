@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pyarrow as pa
 
-from tleaf_cli.data.activities import Activities, read_activities
+from tleaf_cli.data.activities import UNLABELLED, Activities, read_activities
 from tleaf_cli.data.artifacts import (
     check_writable,
     describe_inputs,
@@ -85,8 +85,13 @@ class ExtractReport:
 def video_rule_sets(
     kb: KnowledgeBase, activities: Activities
 ) -> tuple[list[tuple[str, list[Rule]]], dict[str, list[Rule]]]:
-    """Per video (id, its rules from the labelled pairs); and each distinct rule set by id."""
-    per_video = [(v.video_id, rules_for(kb, activities.atoms(v))) for v in activities.videos]
+    """Per labelled video (id, its rules from the labelled pairs); and each distinct rule set by
+    id. Videos of the `unlabelled` split are left out: their labels are never read."""
+    per_video = [
+        (v.video_id, rules_for(kb, activities.atoms(v)))
+        for v in activities.videos
+        if v.split != UNLABELLED
+    ]
     distinct: dict[str, list[Rule]] = {}
     for _, rules in per_video:
         distinct.setdefault(rule_set_id(rules), rules)

@@ -7,6 +7,12 @@ the conjunction of the knowledge base's rules whose atoms all occur in its PREDI
 (argmax per step, the paper's choice; re-derived every batch) or in its labelled pairs
 (`formula_from="labels"`, fixed for the run).
 
+Unlabelled videos (split `unlabelled`, labels never read): with `unlabelled=True` and a loss
+with a gradient (tleaf, exact), every training batch is joined by a batch of them, whose only
+loss is the logic loss, φ from their predicted pairs; ℓ_logic is then the mean over both
+batches' videos. The knowledge needs no labels, so this is where it can add what 60 labelled
+videos do not show. The reference (none) and checker (no gradient) do not read them.
+
 Adam (lr 1e-4 as in the paper); after every epoch, action accuracy on the val split; the best
 epoch's weights are kept and training stops after `patience` epochs without a better one. The
 test split then gives action, ingredient and pair accuracy and the share of test videos whose
@@ -24,7 +30,7 @@ from __future__ import annotations
 import json
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -32,7 +38,7 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from tleaf_cli.data.activities import Activities, Video, read_activities
+from tleaf_cli.data.activities import UNLABELLED, Activities, Video, read_activities
 from tleaf_cli.data.artifacts import atomic_path, check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.knowledge import read_knowledge_base
 from tleaf_cli.embed.training import chunks, device_for
@@ -50,6 +56,7 @@ from tleaf_cli.losses import (
 from tleaf_cli.tasks.action_recognition.models import MODELS, ActionRecognizer
 
 FORMULA_SOURCES = ("predictions", "labels")
+GRADIENT_LOSSES = ("tleaf", "exact")  # the losses unlabelled videos can teach through
 
 
 @dataclass(frozen=True)
@@ -66,6 +73,7 @@ class TaskSettings:
     epochs: int = 60
     patience: int = 10
     seed: int = 0
+    unlabelled: bool = True
     device: str = "cpu"
 
     def check(self) -> None:
@@ -136,27 +144,28 @@ class LogicObjective:
         self.settings = settings
         self.data = data
         self.rules = rules
-        self.fixed: dict[str, RuleSet | None] = {}
+        self.fixed: dict[str, RuleSet | None] = {}  # rule sets from labels, labelled videos only
         if settings.formula_from == "labels" and settings.logic_loss != "none":
-            videos = data.videos
+            videos = [v for v in data.videos if v.split != UNLABELLED]
             sets = rules.for_videos([set(data.atoms(v)) for v in videos])
             self.fixed = {v.video_id: r for v, r in zip(videos, sets, strict=True)}
+            if settings.logic_loss == "tleaf":
+                rules.embed(sets)  # q(A_φ) of every fixed set before training, not in epoch 1
 
     def __call__(self, batch: Batch, actions: torch.Tensor, ingredients: torch.Tensor):
         kind = self.settings.logic_loss
         if kind == "none":
             return no_logic_loss(actions)
-        if self.settings.formula_from == "labels":
-            sets = [self.fixed[v.video_id] for v in batch.videos]
-        else:
-            a = actions.detach().argmax(-1).cpu().numpy()
-            i = ingredients.detach().argmax(-1).cpu().numpy()
-            sets = self.rules.for_videos(
-                [
-                    predicted_atoms(self.data, a[b, :n], i[b, :n])
-                    for b, n in enumerate(batch.lengths.tolist())
-                ]
-            )
+        a = actions.detach().argmax(-1).cpu().numpy()
+        i = ingredients.detach().argmax(-1).cpu().numpy()
+        lengths = batch.lengths.tolist()
+        predicted = [b for b, v in enumerate(batch.videos) if v.video_id not in self.fixed]
+        from_predictions = self.rules.for_videos(
+            [predicted_atoms(self.data, a[b, : lengths[b]], i[b, : lengths[b]]) for b in predicted]
+        )
+        sets = [self.fixed.get(v.video_id) for v in batch.videos]
+        for b, r in zip(predicted, from_predictions, strict=True):
+            sets[b] = r
         args = (actions, ingredients, batch.lengths, sets)
         if kind == "tleaf":
             return tleaf_loss(*args, self.rules)
@@ -185,6 +194,7 @@ def train_action_recognition(
     if empty:
         raise UsageError(f"{activities_path}: no videos in split(s) {', '.join(empty)}")
 
+    setup_start = time.perf_counter()
     pairs = pair_index(data)
     checker_rules = RuleSets(kb, pairs)  # the violation metric: the same rules for every loss
     if settings.logic_loss == "tleaf":
@@ -198,6 +208,7 @@ def train_action_recognition(
     else:
         loss_rules = checker_rules
     objective = LogicObjective(settings, data, loss_rules)
+    setup_seconds = time.perf_counter() - setup_start  # rules compiled, q loaded (and embedded)
 
     torch.manual_seed(settings.seed)  # after the embedder: h starts the same for every loss
     model = ActionRecognizer(
@@ -215,6 +226,7 @@ def train_action_recognition(
     best = {"epoch": 0, "val_action_accuracy": -1.0}
     best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
     stale = 0
+    unlabelled = unlabelled_batches(data, settings, device)
     for epoch in range(1, settings.epochs + 1):
         generator = torch.Generator().manual_seed(settings.seed * 100_003 + epoch)
         model.train()
@@ -229,7 +241,11 @@ def train_action_recognition(
             ) + F.cross_entropy(
                 ingredients.flatten(0, 1), batch.ingredients.flatten(), ignore_index=-100
             )
-            logic = objective(batch, actions, ingredients).mean()
+            per_video = [objective(batch, actions, ingredients)]
+            if unlabelled is not None:
+                extra = next(unlabelled)
+                per_video.append(objective(extra, *model(extra.features, extra.lengths)))
+            logic = torch.cat(per_video).mean()
             loss = task + settings.lam * logic
             optimiser.zero_grad()
             loss.backward()
@@ -264,6 +280,7 @@ def train_action_recognition(
         "history": history,
         "best": best,
         "mean_epoch_seconds": float(np.mean([h["seconds"] for h in history])),
+        "setup_seconds": setup_seconds,
         "test": test,
         "rule_sets": {
             "compiled": loss_rules.compiled,
@@ -290,6 +307,24 @@ def train_action_recognition(
     write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
+
+
+def unlabelled_batches(
+    data: Activities, settings: TaskSettings, device: torch.device
+) -> Iterator[Batch] | None:
+    """Endless batches of the unlabelled videos, reshuffled each pass (their own seeded order,
+    so the labelled batches are the same as without them); None when they are not used."""
+    videos = data.split(UNLABELLED)
+    if not (videos and settings.unlabelled and settings.logic_loss in GRADIENT_LOSSES):
+        return None
+
+    def endless() -> Iterator[Batch]:
+        generator = torch.Generator().manual_seed(settings.seed * 100_003 + 99_991)
+        while True:
+            for chunk in chunks(videos, settings.batch_size, generator):
+                yield Batch.of(chunk, device)
+
+    return endless()
 
 
 def predict(
