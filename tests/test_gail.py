@@ -92,6 +92,11 @@ def test_reward_wrapper_pays_the_discriminators_reward_not_the_envs() -> None:
         assert (rewards < 0).all()  # log D
         assert infos[0]["env_reward"] in (-1.0, -2.0, 19.0)
         assert not np.isclose(rewards[0], infos[0]["env_reward"])
+    # the other reward form: the logit log D − log(1 − D), so log D = −softplus(−logit)
+    logit = disc.reward(obs, np.array([5]), "logit")
+    assert np.allclose(-np.logaddexp(0, -logit), disc.reward(obs, np.array([5])), atol=1e-6)
+    with pytest.raises(ValueError, match="reward form"):
+        disc.reward(obs, np.array([5]), "positive")
 
 
 def test_discriminator_separates_expert_from_random_pairs(tmp_path: Path, domain) -> None:
@@ -261,6 +266,24 @@ def test_eval_report_curves_stderr_and_steps_to_90(tmp_path: Path, chain_cli) ->
     assert (tmp_path / "report/report.png").read_bytes()[:4] == b"\x89PNG"
     md = (tmp_path / "report/report.md").read_text()
     assert "| none | 2 |" in md and "| tleaf | 2 |" in md
+    # what can be compared short of 90 %: return at 25/50/100 % of the budget, steps to half-way
+    at = none["at_fraction"]
+    assert [a["steps"] for a in at] == [100, 200, 400]
+    assert [a["mean"] for a in at] == [-40, 1, 10]
+    assert at[0]["stderr"] == pytest.approx(10.0)
+    assert none["steps_to_half"] == 100 and none["steps_to_half_per_seed"] == [200, 100]
+    assert report["tleaf_over_none_steps_to_half"] == pytest.approx(1.0)
+    assert none["steps_to_quarter"] == 100 and none["steps_to_quarter_per_seed"] == [100, 100]
+    assert "| none | -40.00 ± 10.00 (100) | 1.00 ± 1.00 (200) |" in md
+    slow = [
+        fake_run(tmp_path / "s0", "none", 0, [-90, -60, -50, -40, -40]),
+        fake_run(tmp_path / "s1", "tleaf", 0, [-90, -20, 9, 9, 9]),
+    ]
+    report = evaluate_cooking_runs(slow, tmp_path / "slow")
+    assert report["variants"]["none"]["steps_to_90"] is None
+    assert "tleaf_over_none_steps_to_90" not in report
+    md = (tmp_path / "slow/report.md").read_text()
+    assert "steps to 90 % of the expert: not measurable (none did not reach it" in md
     # a folder without metrics.json is a usage error (exit 2), not a traceback
     (tmp_path / "empty").mkdir()
     result = chain_cli("eval", "cooking", tmp_path / "empty", "-o", tmp_path / "r2")

@@ -43,9 +43,16 @@ class Discriminator(nn.Module):
         return self.head(self.net(self.encode(observations, actions))).squeeze(1)
 
     @torch.no_grad()
-    def reward(self, observations: np.ndarray, actions: np.ndarray) -> np.ndarray:
-        """r = log D(s, a) per pair (float32 [n]); see the module docstring for the choice."""
+    def reward(
+        self, observations: np.ndarray, actions: np.ndarray, form: str = "log_d"
+    ) -> np.ndarray:
+        """r per pair (float32 [n]): log D(s, a) (`log_d`, see the module docstring) or the
+        logit log D − log(1 − D) (`logit`, AIRL's form)."""
         logits = self(torch.as_tensor(observations), torch.as_tensor(actions))
+        if form == "logit":
+            return logits.numpy().astype(np.float32)
+        if form != "log_d":
+            raise ValueError(f"reward form {form!r}: expected log_d or logit")
         return (-F.softplus(-logits)).numpy().astype(np.float32)
 
 
@@ -82,9 +89,10 @@ class DiscriminatorReward(VecEnvWrapper):
     goes to `info["env_reward"]`; Monitor wrappers below this one still record true returns.
     """
 
-    def __init__(self, venv: VecEnv, disc: Discriminator) -> None:
+    def __init__(self, venv: VecEnv, disc: Discriminator, form: str = "log_d") -> None:
         super().__init__(venv)
         self.disc = disc
+        self.form = form
         self._obs: np.ndarray | None = None
         self._actions: np.ndarray | None = None
 
@@ -98,7 +106,7 @@ class DiscriminatorReward(VecEnvWrapper):
 
     def step_wait(self):
         obs, env_rewards, dones, infos = self.venv.step_wait()
-        rewards = self.disc.reward(self._obs, self._actions)
+        rewards = self.disc.reward(self._obs, self._actions, self.form)
         for info, r in zip(infos, env_rewards, strict=True):
             info["env_reward"] = float(r)
         self._obs = obs

@@ -78,6 +78,7 @@ class GailSettings:
     disc_lr: float = 1e-3
     disc_steps: int = 4  # discriminator steps per rollout
     disc_batch: int = 256  # expert and policy pairs per discriminator step
+    reward: str = "log_d"  # log_d: log D(s, a); logit: log D − log(1 − D) (discriminator.py)
     logic_episodes: int = 4  # rollout episodes in each minibatch's logic term
     eval_every: int = 4096  # environment steps between evaluations
     eval_episodes: int = 8
@@ -354,7 +355,9 @@ def train_gail(
         "MlpPolicy",
         # log D is unbounded below: scale it by the running std of the discounted return, or the
         # value loss's gradient dominates the clipped gradient norm and the policy never moves
-        VecNormalize(DiscriminatorReward(venv, disc), norm_obs=False, gamma=settings.gamma),
+        VecNormalize(
+            DiscriminatorReward(venv, disc, settings.reward), norm_obs=False, gamma=settings.gamma
+        ),
         learning_rate=settings.lr,
         n_steps=settings.n_steps,
         batch_size=settings.batch_size,

@@ -10,6 +10,12 @@ Steps to 90 % of the expert: the first evaluation step at which the variant's ME
 and the same per seed. A second, normalised form is reported beside it: the first step at which
 (R − R_random) / (R_expert − R_random) ≥ 0.9, R_random the uniform policy's return on the same
 seeded episodes. "not reached" is written as null.
+
+What can be compared when a variant does not reach 90 %: the return at fixed fractions of the
+budget (mean ± s.e. over seeds at the first evaluation at or after 25 %, 50 % and 100 % of the
+last evaluated step, `at_fraction`), and the steps to a QUARTER and to HALF the way from the
+uniform policy to the expert, (R − R_random) / (R_expert − R_random) ≥ 0.25 or 0.5
+(`steps_to_quarter`, `steps_to_half`; mean curve and per seed).
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from tleaf_cli.errors import UsageError
 from tleaf_cli.tasks.figures import pyplot, save_png
 
 ORDER = ("none", "checker", "exact", "tleaf")
+FRACTIONS = (0.25, 0.5, 1.0)  # of the budget, for the return at fixed steps
 
 
 def read_run(run: str | Path) -> dict:
@@ -62,6 +69,8 @@ def summarise(runs: list[dict]) -> dict:
         mean = returns.mean(axis=0)
         se = returns.std(axis=0, ddof=1) / np.sqrt(len(group)) if len(group) > 1 else 0 * mean
         normalised = (mean - random) / (expert - random) if expert != random else mean * np.nan
+        per_seed_normalised = (returns - random) / (expert - random)
+        at = [int(np.flatnonzero(steps >= f * steps[-1])[0]) for f in FRACTIONS]
         out[name] = {
             "seeds": [m["seed"] for m in group],
             "steps": steps.tolist(),
@@ -73,6 +82,21 @@ def summarise(runs: list[dict]) -> dict:
             "steps_to_90": first_reaching(steps, mean, 0.9 * expert),
             "steps_to_90_per_seed": [first_reaching(steps, r, 0.9 * expert) for r in returns],
             "steps_to_90_normalised": first_reaching(steps, normalised, 0.9),
+            "steps_to_quarter": first_reaching(steps, normalised, 0.25),
+            "steps_to_quarter_per_seed": [
+                first_reaching(steps, r, 0.25) for r in per_seed_normalised
+            ],
+            "steps_to_half": first_reaching(steps, normalised, 0.5),
+            "steps_to_half_per_seed": [first_reaching(steps, r, 0.5) for r in per_seed_normalised],
+            "at_fraction": [
+                {
+                    "fraction": f,
+                    "steps": int(steps[i]),
+                    "mean": float(mean[i]),
+                    "stderr": float(se[i]),
+                }
+                for f, i in zip(FRACTIONS, at, strict=True)
+            ],
         }
     return out
 
@@ -85,8 +109,9 @@ def evaluate_cooking_runs(runs: list[str | Path], out_dir: str | Path) -> dict:
     variants = summarise([read_run(r) for r in runs])
     report = {"runs": [str(r) for r in runs], "variants": variants}
     plain, tleaf = variants.get("none", {}), variants.get("tleaf", {})
-    if plain.get("steps_to_90") and tleaf.get("steps_to_90"):
-        report["tleaf_over_none_steps_to_90"] = tleaf["steps_to_90"] / plain["steps_to_90"]
+    for key in ("steps_to_90", "steps_to_quarter", "steps_to_half"):
+        if plain.get(key) is not None and tleaf.get(key) is not None and plain[key] > 0:
+            report[f"tleaf_over_none_{key}"] = tleaf[key] / plain[key]
     out_dir.mkdir(parents=True, exist_ok=True)
     _figure(variants, out_dir / "report.png")
     write_text_atomic(out_dir / "report.json", json.dumps(report, indent=2))
@@ -112,9 +137,43 @@ def _markdown(report: dict) -> str:
             f"{v['expert_return']:.2f} | {v['random_return']:.2f} | {steps(v['steps_to_90'])} | "
             f"{per_seed} | {steps(v['steps_to_90_normalised'])} |"
         )
-    if "tleaf_over_none_steps_to_90" in report:
-        lines += ["", f"tleaf / none steps to 90 %: {report['tleaf_over_none_steps_to_90']:.2f}"]
-    lines += ["", "Figure: report.png (mean ± s.e. over seeds; dashed: the expert's return)."]
+    lines += [
+        "",
+        "Return at fixed steps (mean ± s.e. over seeds), and steps to a quarter and to half the "
+        "way from the uniform policy to the expert, (R − R_random) / (R_expert − R_random) ≥ "
+        "0.25 or 0.5 (mean curve; per seed):",
+        "",
+        "| variant | "
+        + " | ".join(f"{f:.0%} of the budget" for f in FRACTIONS)
+        + " | steps to a quarter | per seed | steps to half | per seed |",
+        "|---|" + "---|" * (len(FRACTIONS) + 4),
+    ]
+    for name, v in report["variants"].items():
+        cells = [f"{a['mean']:.2f} ± {a['stderr']:.2f} ({a['steps']})" for a in v["at_fraction"]]
+        for key in ("steps_to_quarter", "steps_to_half"):
+            cells += [steps(v[key]), ", ".join(steps(s) for s in v[f"{key}_per_seed"])]
+        lines.append(f"| {name} | {' | '.join(cells)} |")
+    lines.append("")
+    for key, what in (
+        ("steps_to_90", "90 % of the expert"),
+        ("steps_to_quarter", "a quarter of the way"),
+        ("steps_to_half", "half the way"),
+    ):
+        if f"tleaf_over_none_{key}" in report:
+            lines.append(f"tleaf / none steps to {what}: {report[f'tleaf_over_none_{key}']:.2f}")
+        elif "none" in report["variants"] and "tleaf" in report["variants"]:
+            missing = [n for n in ("none", "tleaf") if report["variants"][n][key] is None]
+            why = (
+                f"{' and '.join(missing)} did not reach it within the budget"
+                if missing
+                else "none reached it at the first evaluation"
+            )
+            lines.append(f"tleaf / none steps to {what}: not measurable ({why})")
+    lines += [
+        "",
+        "Figure: report.png (mean ± s.e. over seeds; dashed: the expert's return, dotted: the "
+        "uniform policy's).",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -128,6 +187,9 @@ def _figure(variants: dict, path: Path) -> None:
         ax.fill_between(steps, mean - se, mean + se, alpha=0.25)
     expert = np.mean([v["expert_return"] for v in variants.values()])
     ax.axhline(expert, color="black", linestyle="--", linewidth=1, label="expert")
+    uniform = np.nanmean([v["random_return"] for v in variants.values()])
+    if np.isfinite(uniform):
+        ax.axhline(uniform, color="grey", linestyle=":", linewidth=1, label="uniform policy")
     ax.set_xlabel("environment steps")
     ax.set_ylabel("return (true reward)")
     ax.set_title("Creative Cooking (synthetic): GAIL with logic losses")
