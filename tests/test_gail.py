@@ -238,10 +238,14 @@ def test_a_short_gail_run_learns_the_easy_episode(tmp_path: Path) -> None:
     assert "head.weight" in saved
 
 
-def fake_run(path: Path, variant: str, seed: int, returns: list[float]) -> Path:
+def fake_run(
+    path: Path, variant: str, seed: int, returns: list[float], violations: list | None = None
+) -> Path:
     curve = [{"steps": 100 * k, "mean_return": r} for k, r in enumerate(returns)]
     metrics = {"variant": variant, "seed": seed, "curve": curve, "expert_return": 10.0}
     metrics["random_return"] = -90.0
+    rates = violations or [None] * 12
+    metrics["rollouts"] = [{"violation_rate": v, "entropy": 5.0 - k} for k, v in enumerate(rates)]
     path.mkdir(parents=True)
     (path / "metrics.json").write_text(json.dumps(metrics))
     return path
@@ -251,8 +255,8 @@ def test_eval_report_curves_stderr_and_steps_to_90(tmp_path: Path, chain_cli) ->
     runs = [
         fake_run(tmp_path / "n0", "none", 0, [-90, -50, 0, 9, 10]),
         fake_run(tmp_path / "n1", "none", 1, [-90, -30, 2, 10, 10]),
-        fake_run(tmp_path / "t0", "tleaf", 0, [-90, 9, 10, 10, 10]),
-        fake_run(tmp_path / "t1", "tleaf", 1, [-90, 10, 10, 10, 10]),
+        fake_run(tmp_path / "t0", "tleaf", 0, [-90, 9, 10, 10, 10], [1.0] * 10 + [0.0] * 2),
+        fake_run(tmp_path / "t1", "tleaf", 1, [-90, 10, 10, 10, 10], [0.5] * 12),
     ]
     report = evaluate_cooking_runs(runs, tmp_path / "report")
     none, tleaf = report["variants"]["none"], report["variants"]["tleaf"]
@@ -274,7 +278,17 @@ def test_eval_report_curves_stderr_and_steps_to_90(tmp_path: Path, chain_cli) ->
     assert none["steps_to_half"] == 100 and none["steps_to_half_per_seed"] == [200, 100]
     assert report["tleaf_over_none_steps_to_half"] == pytest.approx(1.0)
     assert none["steps_to_quarter"] == 100 and none["steps_to_quarter_per_seed"] == [100, 100]
+    # per-run summaries, mean ± s.e. over seeds: whole curve, best evaluation, training log
+    assert none["curve_mean"]["mean"] == pytest.approx(-21.9)
+    assert none["curve_mean"]["stderr"] == pytest.approx(np.std([-24.2, -19.6], ddof=1) / 2**0.5)
+    assert none["best"] == {"mean": 10.0, "stderr": 0.0, "n": 2}
+    assert none["violation_rate_first"] is None  # plain GAIL logs no violation rate
+    # first 10 rollouts: 1.0 and 0.5; last 10: (8 · 1.0 + 2 · 0) / 10 and 0.5
+    assert tleaf["violation_rate_first"]["mean"] == pytest.approx(0.75)
+    assert tleaf["violation_rate_last"]["mean"] == pytest.approx(0.65)
+    assert tleaf["entropy_last"]["mean"] == pytest.approx(np.mean([5.0 - k for k in range(2, 12)]))
     assert "| none | -40.00 ± 10.00 (100) | 1.00 ± 1.00 (200) |" in md
+    assert "| tleaf | " in md and "| 0.75 ± 0.25 → 0.65 ± 0.15 |" in md
     slow = [
         fake_run(tmp_path / "s0", "none", 0, [-90, -60, -50, -40, -40]),
         fake_run(tmp_path / "s1", "tleaf", 0, [-90, -20, 9, 9, 9]),

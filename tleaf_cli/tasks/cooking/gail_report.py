@@ -15,7 +15,11 @@ What can be compared when a variant does not reach 90 %: the return at fixed fra
 budget (mean ± s.e. over seeds at the first evaluation at or after 25 %, 50 % and 100 % of the
 last evaluated step, `at_fraction`), and the steps to a QUARTER and to HALF the way from the
 uniform policy to the expert, (R − R_random) / (R_expert − R_random) ≥ 0.25 or 0.5
-(`steps_to_quarter`, `steps_to_half`; mean curve and per seed).
+(`steps_to_quarter`, `steps_to_half`; mean curve and per seed). Beside them, per variant (each
+a mean ± s.e. over seeds of a per-run number): the mean return over the whole curve (the area
+under it, per step), each run's best evaluation, and from the training log the rule violation
+rate of the sampled actions (logged for every variant with a logic term: checker's is plain
+GAIL's) and the policy's entropy, over the first and the last `ROLLOUTS` rollouts.
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ from tleaf_cli.tasks.figures import pyplot, save_png
 
 ORDER = ("none", "checker", "exact", "tleaf")
 FRACTIONS = (0.25, 0.5, 1.0)  # of the budget, for the return at fixed steps
+ROLLOUTS = 10  # first / last rollouts averaged for the violation rate and the entropy
 
 
 def read_run(run: str | Path) -> dict:
@@ -51,6 +56,23 @@ def first_reaching(steps: np.ndarray, values: np.ndarray, threshold: float) -> i
     """The first step whose value is ≥ threshold, or None."""
     hit = np.flatnonzero(values >= threshold)
     return int(steps[hit[0]]) if len(hit) else None
+
+
+def mean_se(values: list[float | None]) -> dict | None:
+    """{"mean", "stderr", "n"} over the values that are not None (None if there are none)."""
+    kept = np.array([v for v in values if v is not None], dtype=float)
+    if not len(kept):
+        return None
+    se = kept.std(ddof=1) / np.sqrt(len(kept)) if len(kept) > 1 else 0.0
+    return {"mean": float(kept.mean()), "stderr": float(se), "n": len(kept)}
+
+
+def rollout_average(metrics: dict, key: str, last: bool) -> float | None:
+    """The mean of `key` over the first (or last) ROLLOUTS rollouts where it was logged."""
+    rows = metrics.get("rollouts", [])
+    rows = rows[-ROLLOUTS:] if last else rows[:ROLLOUTS]
+    values = [r[key] for r in rows if r.get(key) is not None]
+    return float(np.mean(values)) if values else None
 
 
 def summarise(runs: list[dict]) -> dict:
@@ -97,6 +119,13 @@ def summarise(runs: list[dict]) -> dict:
                 }
                 for f, i in zip(FRACTIONS, at, strict=True)
             ],
+            "curve_mean": mean_se(returns.mean(axis=1).tolist()),
+            "best": mean_se(returns.max(axis=1).tolist()),
+            **{
+                f"{key}_{when}": mean_se([rollout_average(m, key, when == "last") for m in group])
+                for key in ("violation_rate", "entropy")
+                for when in ("first", "last")
+            },
         }
     return out
 
@@ -122,6 +151,9 @@ def evaluate_cooking_runs(runs: list[str | Path], out_dir: str | Path) -> dict:
 def _markdown(report: dict) -> str:
     def steps(v: int | None) -> str:
         return "not reached" if v is None else str(v)
+
+    def ms(v: dict | None) -> str:
+        return "—" if v is None else f"{v['mean']:.2f} ± {v['stderr']:.2f}"
 
     lines = [
         "# GAIL on Creative Cooking (synthetic environment): return vs environment steps",
@@ -152,6 +184,21 @@ def _markdown(report: dict) -> str:
         cells = [f"{a['mean']:.2f} ± {a['stderr']:.2f} ({a['steps']})" for a in v["at_fraction"]]
         for key in ("steps_to_quarter", "steps_to_half"):
             cells += [steps(v[key]), ", ".join(steps(s) for s in v[f"{key}_per_seed"])]
+        lines.append(f"| {name} | {' | '.join(cells)} |")
+    lines += [
+        "",
+        f"Per run, then mean ± s.e. over seeds: the mean return over the whole curve, the best "
+        f"evaluation, and (training log, first → last {ROLLOUTS} rollouts) the share of "
+        "(episode, ingredient) rows whose sampled actions violate the rules (logged with a logic "
+        "term; checker's is plain GAIL's) and the policy's entropy:",
+        "",
+        "| variant | mean over the curve | best evaluation | violation rate | entropy |",
+        "|---|---|---|---|---|",
+    ]
+    for name, v in report["variants"].items():
+        cells = [ms(v["curve_mean"]), ms(v["best"])]
+        for key in ("violation_rate", "entropy"):
+            cells.append(f"{ms(v[f'{key}_first'])} → {ms(v[f'{key}_last'])}")
         lines.append(f"| {name} | {' | '.join(cells)} |")
     lines.append("")
     for key, what in (
