@@ -146,3 +146,32 @@ def test_unlabelled_videos_teach_only_through_the_logic_loss_and_their_labels_ar
     ref_plain = _train(relabelled, kb, tmp_path / "ref2", logic_loss="none", unlabelled=False)
     for key, value in ref["weights"].items():
         assert torch.equal(value, ref_plain["weights"][key])
+
+
+def test_rule_sets_per_ingredient_change_the_gradient_losses_only(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    data, kb = tmp_path / "act.parquet", tmp_path / "kb.ltl"
+    args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 8, "--train", 8, "--val", 4]
+    args += ["--test", 4, "--min-steps", 3, "--max-steps", 6]
+    result = CliRunner().invoke(
+        app, ["gen-activities", "-o", str(data), "--kb-out", str(kb), *map(str, args)]
+    )
+    assert result.exit_code == 0, result.output
+    whole = _train(data, kb, tmp_path / "whole", formula_from="labels")
+    parts = _train(data, kb, tmp_path / "parts", formula_from="labels", rule_sets="ingredient")
+    assert all(h["logic_loss"] > 0 for h in parts["metrics"]["history"])
+    assert [h["logic_loss"] for h in whole["metrics"]["history"]] != [
+        h["logic_loss"] for h in parts["metrics"]["history"]
+    ]
+    checker = [_train(data, kb, tmp_path / f"c{k}", logic_loss="checker", formula_from="labels",
+                      rule_sets=k)
+               for k in ("video", "ingredient")]  # fmt: skip
+    for key, value in checker[0]["weights"].items():
+        assert torch.equal(value, checker[1]["weights"][key])
+    assert checker[0]["metrics"]["history"] == [
+        {**h, "seconds": checker[0]["metrics"]["history"][n]["seconds"]}
+        for n, h in enumerate(checker[1]["metrics"]["history"])
+    ]  # the checker always checks the whole rule set: the same loss values

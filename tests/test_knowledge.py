@@ -308,3 +308,22 @@ def test_kb_extract_never_reads_unlabelled_videos(tmp_path) -> None:
     samples = pq.read_table(tmp_path / "out" / "samples.parquet").to_pylist()
     labelled = [v.video_id for v in read_activities(data).videos if v.split != "unlabelled"]
     assert [s["video_id"] for s in samples] == labelled and len(labelled) == 10
+
+
+def test_kb_extract_per_ingredient_splits_each_videos_rule_set(tiny, tmp_path) -> None:
+    out = tmp_path / "out"
+    result = tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", out, "--rule-sets", "ingredient")
+    assert result.exit_code == 0, result.output
+    rows = pq.read_table(out / "samples.parquet").to_pylist()
+    data, kb = read_activities(tiny["data"]), read_knowledge_base(tiny["kb"])
+    dfas = read_dfas(out / "dfas.parquet")
+    for video in data.videos:
+        mine = [r for r in rows if r["video_id"] == video.video_id]
+        assert all(len(r["ingredients"]) == 1 for r in mine)  # this KB: one ingredient per rule
+        assert len({r["ingredients"][0] for r in mine}) == len(mine)
+        whole = sorted(r.name for r in rules_for(kb, data.atoms(video)))
+        assert sorted(n for r in mine for n in r["rules"]) == whole
+        for r in mine:
+            assert {a.split("_", 1)[1] for a in dfas.row(r["formula_id"])["atoms"]} == set(
+                r["ingredients"]
+            )

@@ -20,6 +20,7 @@ from tleaf_cli.losses import (
     RuleSets,
     checker_loss,
     exact_loss,
+    grouped,
     no_logic_loss,
     pair_log_probs,
     tleaf_loss,
@@ -170,3 +171,33 @@ def test_rule_set_dfa_is_the_conjunctions_dfa(kb) -> None:
     direct = compile_formula(r.formula, "one-hot")
     assert r.dfa.atoms == direct.atoms and r.dfa.equivalent(direct)
     assert r.dfa.num_states == direct.num_states
+
+
+def test_rule_sets_per_ingredient_split_the_conjunction(kb) -> None:
+    rules = RuleSets(kb, PAIRS)
+    atoms = {"fry_egg", "rinse_egg", "cut_egg", "fry_onion", "cut_onion"}
+    whole = rules.for_videos([atoms])[0]
+    (parts,) = rules.groups_for_videos([atoms], per_ingredient=True)
+    assert [r.num_rules for r in parts] == [2, 1]  # egg (affordance + ordering), onion
+    assert [sorted({a.split("_")[1] for a in r.dfa.atoms}) for r in parts] == [["egg"], ["onion"]]
+    assert sum(r.num_rules for r in parts) == whole.num_rules
+    assert all(r.dfa.num_states <= whole.dfa.num_states for r in parts)
+    assert rules.groups_for_videos([{"fry_egg"}], per_ingredient=True) == [[]]
+
+
+def test_grouped_loss_is_the_sum_over_a_videos_rule_sets(kb) -> None:
+    rules = RuleSets(kb, PAIRS)
+    videos = [{"fry_egg", "rinse_egg", "cut_egg", "fry_onion", "cut_onion"}, {"rinse_egg"}]
+    groups = rules.groups_for_videos(videos, per_ingredient=True)
+    a, i = logits(2, 4, seed=3)
+    lengths = torch.tensor([4, 3])
+    loss = grouped(exact_loss, a, i, lengths, groups)
+    assert loss[1].item() == 0.0 and groups[1] == []
+    alone = [exact_loss(a[:1], i[:1], lengths[:1], [r])[0] for r in groups[0]]
+    assert len(alone) == 2 and loss[0].item() == pytest.approx(sum(x.item() for x in alone))
+    # one set per video: the same as calling the loss directly
+    whole = rules.for_videos(videos)
+    direct = exact_loss(a, i, lengths, whole)
+    assert torch.allclose(
+        grouped(exact_loss, a, i, lengths, [[r] if r else [] for r in whole]), direct
+    )

@@ -406,6 +406,13 @@ def kb_extract(
     formula_from: Annotated[
         str, typer.Option(help="Which pairs give a video its rules: labels.")
     ] = "labels",
+    rule_sets: Annotated[
+        str,
+        typer.Option(
+            help="video: one rule set per video; ingredient: one per (video, ingredient), the "
+            "formulas of a q for train-task --rule-sets ingredient."
+        ),
+    ] = "video",
     mine: Annotated[
         bool,
         typer.Option("--mine", help="Mine rules from the train split (written to OUT/kb.ltl)."),
@@ -434,7 +441,7 @@ def kb_extract(
     settings = _compile_settings(True, timeout, cache_dir, no_cache, jobs)
     with ui.progress("compiling rule sets", quiet) as update:
         report = extract_knowledge(
-            kb, inputs[-1], out, settings, mine, min_support, formula_from, update
+            kb, inputs[-1], out, settings, mine, min_support, formula_from, rule_sets, update
         )
     mined = f"; {report.mined} rules mined" if report.mined is not None else ""
     _finish(
@@ -794,6 +801,13 @@ def train_task_action_recognition(
         str,
         typer.Option(help="Rules relevant to the predicted pairs (the paper) or to the labels."),
     ] = "predictions",
+    rule_sets: Annotated[
+        str,
+        typer.Option(
+            help="video: one rule set φ per video (the paper); ingredient: φ split into one "
+            "conjunction per ingredient, loss summed over them (tleaf, exact)."
+        ),
+    ] = "video",
     unlabelled: Annotated[
         bool,
         typer.Option(
@@ -822,6 +836,7 @@ def train_task_action_recognition(
         logic_loss=logic_loss,
         lam=lam,
         formula_from=formula_from,
+        rule_sets=rule_sets,
         unlabelled=unlabelled,
         hidden=hidden,
         batch_size=batch_size,

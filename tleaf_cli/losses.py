@@ -31,7 +31,7 @@ rule set id), so the knowledge costs a dictionary lookup per video after the fir
 
 from __future__ import annotations
 
-from collections.abc import Collection, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,7 +41,13 @@ from torch_geometric.data import Batch
 from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row, dfa_payload
 from tleaf_cli.data.formula_files import FormulaSource
-from tleaf_cli.data.knowledge import KnowledgeBase, rule_set_id, rules_for, sample_formula
+from tleaf_cli.data.knowledge import (
+    KnowledgeBase,
+    by_ingredient,
+    rule_set_id,
+    rules_for,
+    sample_formula,
+)
 from tleaf_cli.embed.graphs import dfa_graph, letter_cnf, trace_graph
 from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.errors import UsageError
@@ -107,13 +113,21 @@ class RuleSets:
 
     def for_videos(self, atoms_per_video: Sequence[Collection[str]]) -> list[RuleSet | None]:
         """The rule set of each video (None where no rule applies)."""
+        groups = self.groups_for_videos(atoms_per_video, per_ingredient=False)
+        return [g[0] if g else None for g in groups]
+
+    def groups_for_videos(
+        self, atoms_per_video: Sequence[Collection[str]], per_ingredient: bool
+    ) -> list[list[RuleSet]]:
+        """Each video's rule sets: its whole rule set as one (`per_ingredient=False`) or one per
+        ingredient (`knowledge.by_ingredient`); an empty list where no rule applies."""
         chosen = [self.rules(atoms) for atoms in atoms_per_video]
-        ids = [rule_set_id(rules) if rules else None for rules in chosen]
-        fresh = {i: rules for i, rules in zip(ids, chosen, strict=True) if i not in self.by_id}
-        fresh.pop(None, None)
+        groups = [by_ingredient(rules) if per_ingredient else [rules] for rules in chosen]
+        groups = [[g for g in gs if g] for gs in groups]
+        fresh = {rule_set_id(g): g for gs in groups for g in gs if rule_set_id(g) not in self.by_id}
         if fresh:
             self._compile(fresh)
-        return [self.by_id[i] if i is not None else None for i in ids]
+        return [[self.by_id[rule_set_id(g)] for g in gs] for gs in groups]
 
     def _compile(self, fresh: dict[str, list]) -> None:
         """Build each fresh rule set's DFA as the product of its rules' DFAs.
@@ -320,6 +334,29 @@ def tleaf_loss(
     z_trace = embedder.model.embed_traces(Batch.from_data_list(graphs).to(device))
     out[which] = (z_trace - torch.stack(targets)).pow(2).sum(dim=1)
     return out
+
+
+def grouped(
+    loss: Callable[..., torch.Tensor],
+    action_logits: torch.Tensor,
+    ingredient_logits: torch.Tensor,
+    lengths: torch.Tensor,
+    groups: Sequence[Sequence[RuleSet]],
+    *args,
+) -> torch.Tensor:
+    """Σ over each video's rule sets of `loss` [B] (0 for a video without any): with one set per
+    ingredient, ℓ(φ) = Σ_x ℓ(φ_x). The video's outputs are repeated once per set, so every set
+    is one row of a single call of `loss`."""
+    out = action_logits.new_zeros(action_logits.shape[0])
+    owner = [b for b, sets in enumerate(groups) for _ in sets]
+    if not owner:
+        return out
+    rows = torch.tensor(owner, device=action_logits.device)
+    flat = [r for sets in groups for r in sets]
+    per_set = loss(
+        action_logits[rows], ingredient_logits[rows], lengths[rows.to(lengths.device)], flat, *args
+    )
+    return out.index_add(0, rows, per_set)
 
 
 def checker_loss(

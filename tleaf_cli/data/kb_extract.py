@@ -2,8 +2,11 @@
 compiled once (one-hot DFAs), optionally a knowledge base mined from the train split first.
 
 Writes OUT/samples.parquet (kind `kb-samples`: video_id, split, formula_id = the rule set's id,
-num_rules, rules) and OUT/dfas.parquet (one row per distinct rule set), and OUT/kb.ltl when
-mining. The knowledge-base model itself (rules, extraction, mining) is in `knowledge.py`.
+num_rules, rules, ingredients) and OUT/dfas.parquet (one row per distinct rule set), and
+OUT/kb.ltl when mining. With `rule_sets="ingredient"` a video's rule set is split per ingredient
+(`knowledge.by_ingredient`): one samples row per (video, ingredient), the training formulas of
+a q for `train-task --rule-sets ingredient`. The knowledge-base model itself (rules,
+extraction, mining) is in `knowledge.py`.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.data.knowledge import (
     KnowledgeBase,
     Rule,
+    by_ingredient,
     mine_knowledge_base,
     read_knowledge_base,
     rule_set_id,
@@ -44,7 +48,8 @@ from tleaf_cli.logic.mona import MonaError, mona_binary
 FORMULA_SOURCES = ("labels",)
 
 SAMPLES_KIND = "kb-samples"
-SAMPLES_SCHEMA = 1
+SAMPLES_SCHEMA = 2  # 2: `ingredients` column; several rows per video with --rule-sets ingredient
+RULE_SET_SPLITS = ("video", "ingredient")
 SAMPLES_COLUMNS = pa.schema(
     [
         ("video_id", pa.string()),
@@ -52,6 +57,7 @@ SAMPLES_COLUMNS = pa.schema(
         ("formula_id", pa.string()),  # the rule_set_id: a row of dfas.parquet
         ("num_rules", pa.int32()),
         ("rules", pa.list_(pa.string())),  # the rule names, sorted (added by tleaf)
+        ("ingredients", pa.list_(pa.string())),  # the ingredients the rules name, sorted
     ]
 )
 
@@ -83,15 +89,19 @@ class ExtractReport:
 
 
 def video_rule_sets(
-    kb: KnowledgeBase, activities: Activities
+    kb: KnowledgeBase, activities: Activities, rule_sets: str = "video"
 ) -> tuple[list[tuple[str, list[Rule]]], dict[str, list[Rule]]]:
-    """Per labelled video (id, its rules from the labelled pairs); and each distinct rule set by
-    id. Videos of the `unlabelled` split are left out: their labels are never read."""
+    """Per labelled video (id, its rules from the labelled pairs) — one entry per ingredient
+    with `rule_sets="ingredient"`, none for a video of the ingredient split without rules —
+    and each distinct rule set by id. Videos of the `unlabelled` split are left out: their
+    labels are never read."""
     per_video = [
         (v.video_id, rules_for(kb, activities.atoms(v)))
         for v in activities.videos
         if v.split != UNLABELLED
     ]
+    if rule_sets == "ingredient":
+        per_video = [(vid, group) for vid, rules in per_video for group in by_ingredient(rules)]
     distinct: dict[str, list[Rule]] = {}
     for _, rules in per_video:
         distinct.setdefault(rule_set_id(rules), rules)
@@ -106,6 +116,7 @@ def extract_knowledge(
     mine: bool = False,
     min_support: int = 3,
     formula_from: str = "labels",
+    rule_sets: str = "video",
     on_progress: Callable[[int, int], None] | None = None,
 ) -> ExtractReport:
     """The `kb-extract` stage: OUT/samples.parquet, OUT/dfas.parquet (one-hot, one row per
@@ -113,6 +124,8 @@ def extract_knowledge(
     start = time.perf_counter()
     if formula_from not in FORMULA_SOURCES:
         raise UsageError(f"--formula-from must be one of {', '.join(FORMULA_SOURCES)}")
+    if rule_sets not in RULE_SET_SPLITS:
+        raise UsageError(f"--rule-sets must be one of {', '.join(RULE_SET_SPLITS)}")
     if kb_path is None and not mine:
         raise UsageError("give a knowledge base file, or --mine to mine one from the train split")
     try:
@@ -137,7 +150,7 @@ def extract_knowledge(
         write_knowledge_base(kb, out / "kb.ltl", header)
     kb_source = str(kb_path) if kb_path is not None else str(out / "kb.ltl")
 
-    per_video, distinct = video_rule_sets(kb, activities)
+    per_video, distinct = video_rule_sets(kb, activities, rule_sets)
     sources = [
         FormulaSource(rid, sample_formula(rules), kb_source, f"rule set {rid}")
         for rid, rules in distinct.items()
@@ -148,6 +161,7 @@ def extract_knowledge(
         "alphabet": "one-hot",
         "timeout": settings.timeout,
         "formula_from": formula_from,
+        "rule_sets": rule_sets,
         "mine": mine,
         "min_support": min_support if mine else None,
     }
@@ -167,6 +181,7 @@ def extract_knowledge(
             "formula_id": rule_set_id(rules),
             "num_rules": len(rules),
             "rules": sorted(r.name for r in rules),
+            "ingredients": sorted({a.split("_", 1)[-1] for r in rules for a in r.atoms}),
         }
         for vid, rules in per_video
     ]
@@ -180,7 +195,7 @@ def extract_knowledge(
     )
     used = {r.name for _, rules in per_video for r in rules}
     return ExtractReport(
-        videos=len(per_video),
+        videos=sum(v.split != UNLABELLED for v in activities.videos),
         rule_sets=len(distinct),
         compiled=report.compiled,
         cache_hits=report.cache_hits,

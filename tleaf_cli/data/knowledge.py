@@ -98,6 +98,21 @@ def rules_for(kb: KnowledgeBase, present_atoms: Iterable[str]) -> list[Rule]:
     return [kb.rules[k] for k in sorted(candidates) if present.issuperset(kb.rules[k].atoms)]
 
 
+def by_ingredient(rules: Sequence[Rule]) -> list[list[Rule]]:
+    """`rules` grouped by the ingredients their atoms (`action_ingredient`) name, groups sorted.
+
+    Every affordance and ordering rule is about one ingredient, so a video's rule set splits into
+    one conjunction per ingredient over disjoint atoms: φ = ∧_x φ_x, each φ_x far smaller than φ
+    (the cooking experiment's "related clauses for the current ingredient"). A rule naming
+    several ingredients stays in one group keyed by all of them.
+    """
+    groups: dict[tuple[str, ...], list[Rule]] = {}
+    for r in rules:
+        key = tuple(sorted({a.split("_", 1)[-1] for a in r.atoms}))
+        groups.setdefault(key, []).append(r)
+    return [groups[k] for k in sorted(groups)]
+
+
 def sample_formula(rules: Sequence[Rule]) -> str:
     """The conjunction of the rules, each parenthesised; `true` when there are none."""
     if not rules:
