@@ -12,6 +12,11 @@ Not run by the tests. Two uses, from the repository root (one core: OMP_NUM_THRE
     python benchmarks/cooking_gail_pilots.py out/cooking/demos.parquet --profile tleaf 4096 \\
         --embedder out/cooking/meta
 
+    # stuck: replay each run's 8 evaluation episodes with its final policy (same seeds as the
+    # run's evaluation) and count episodes whose most frequent action is an infeasible one taken
+    # at least 20 times, split by whether a rule forbids it (an affordance) or not
+    python benchmarks/cooking_gail_pilots.py out/cooking/demos.parquet --stuck out/cooking/runs/*/
+
 Runs are written under /tmp/cooking-pilots/<name>.
 """
 
@@ -19,11 +24,22 @@ from __future__ import annotations
 
 import argparse
 import cProfile
+import json
 import pstats
 import time
+from collections import Counter, defaultdict
 from dataclasses import fields, replace
+from pathlib import Path
 
-from tleaf_cli.tasks.cooking.gail import GailSettings, train_gail
+import gymnasium as gym
+import numpy as np
+from stable_baselines3 import PPO
+
+from tleaf_cli.tasks.cooking import ENV_ID
+from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
+from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
+from tleaf_cli.tasks.cooking.gail import GailSettings, policy_probabilities, train_gail
+from tleaf_cli.tasks.cooking.knowledge import knowledge_base
 
 OUT = "/tmp/cooking-pilots"
 
@@ -71,13 +87,53 @@ def profile(demos: str, variant: str, steps: int, embedder: str | None) -> None:
     pstats.Stats(profiler).sort_stats("cumulative").print_stats(30)
 
 
+def stuck(demos: str, runs: list[str], repeats: int = 20) -> None:
+    """Per variant: evaluation episodes of the final policies stuck on one infeasible action."""
+    domain = load_domain(DEFAULT_DOMAIN)
+    pool = list(dict.fromkeys(e.ingredients for e in read_demo_episodes(demos, domain)))
+    forbidden = {
+        p: {r.atom for r in knowledge_base(domain, p, mixture=False) if r.kind == "affordance"}
+        for p in pool
+    }
+    counts: dict[str, Counter] = defaultdict(Counter)
+    env = gym.make(ENV_ID, domain=domain)
+    for run in runs:
+        metrics = json.loads((Path(run) / "metrics.json").read_text())
+        seed, variant = metrics["seed"], metrics["variant"]
+        probabilities = policy_probabilities(PPO.load(Path(run) / "policy.zip", device="cpu"))
+        episodes = len(metrics["curve"][-1]["returns"])
+        for i in range(episodes):  # as gail.evaluate_returns, eval seed 10 000 + seed
+            ingredients = pool[i % len(pool)]
+            obs, _ = env.reset(seed=10_000 + seed + i, options={"ingredients": list(ingredients)})
+            rng = np.random.default_rng([10_000 + seed, i])
+            taken, done = [], False
+            while not done:
+                p = probabilities(obs)
+                action = int(rng.choice(len(p), p=p))
+                obs, _, terminated, truncated, info = env.step(action)
+                taken.append((info["action_name"], info["feasible"]))
+                done = terminated or truncated
+            (name, feasible), k = Counter(taken).most_common(1)[0]
+            counts[variant]["episodes"] += 1
+            counts[variant]["reached the goal"] += bool(terminated)
+            if not feasible and k >= repeats:
+                kind = "affordance" if name in forbidden[ingredients] else "not forbidden"
+                counts[variant][f"stuck ({kind})"] += 1
+    for variant, c in counts.items():
+        print(variant, dict(c))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("demos")
     parser.add_argument("--profile", nargs=2, metavar=("VARIANT", "STEPS"))
     parser.add_argument("--embedder", help="train-meta directory (tleaf)")
+    parser.add_argument("--stuck", nargs="+", metavar="RUN", help="train-task cooking runs")
     parser.add_argument("configs", nargs="*", help="NAME key=value ... [: NAME ...]")
     args = parser.parse_args()
+    if args.stuck:
+        stuck(args.demos, args.stuck)
+        return
     if args.profile:
         profile(args.demos, args.profile[0], int(args.profile[1]), args.embedder)
         return
