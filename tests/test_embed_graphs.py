@@ -95,3 +95,23 @@ def test_graphs_batch_with_pyg() -> None:
     # PyG shifts node indices per graph, so `initial` must be read with batch.ptr offsets.
     starts = batch.ptr[:-1] + batch.initial
     assert torch.all(batch.flags[starts, 0] == 1)
+
+
+def test_one_hot_letters_are_written_like_the_dfa_guards_of_their_alphabet() -> None:
+    """A one-hot letter is the guard `logic.guards` gives that single letter: `b` alone, or
+    every atom negated for the empty letter (the alphabet itself rules out two atoms at once)."""
+    import numpy as np
+
+    from tleaf_cli.logic.alphabet import Alphabet
+    from tleaf_cli.logic.guards import cnf_holds, guard_for
+
+    atoms = ("a", "b", "c")
+    alphabet = Alphabet(atoms, "one-hot")
+    assert letter_cnf({"b"}, atoms, one_hot=True) == [[2]]
+    assert letter_cnf(set(), atoms, one_hot=True) == [[-1], [-2], [-3]]
+    for k in range(alphabet.size):
+        only = np.zeros(alphabet.size, dtype=bool)
+        only[k] = True
+        cnf = letter_cnf(alphabet.letter(k), atoms, one_hot=True)
+        assert [list(c) for c in guard_for(only, alphabet).cnf] == cnf
+        assert cnf_holds(cnf, alphabet).tolist() == only.tolist()  # true on that letter only

@@ -180,7 +180,7 @@ class RuleSets:
             atoms = r.dfa.atoms
             keys += [(atoms, g) for g in dfa_graph(r.dfa)[1]]
             letters = [()] + [(a,) for a in atoms]
-            keys += [(atoms, tuple(map(tuple, letter_cnf(x, atoms)))) for x in letters]
+            keys += [(atoms, tuple(map(tuple, letter_cnf(x, atoms, True)))) for x in letters]
         q.vectors(keys)  # fills q_e's cache in one batch
         rows = [
             {"formula_id": r.id, "formula": r.formula, "error": None, **dfa_payload(r.dfa)}

@@ -28,6 +28,7 @@ class GuardTriplet:
     cnf: tuple[tuple[int, ...], ...]
     sat: frozenset[str]
     unsat: frozenset[str]
+    one_hot: bool = False  # the formula's alphabet: how its letters are written (letter_cnf)
 
 
 def vocabulary(table: DfaTable) -> list[str]:
@@ -59,6 +60,7 @@ def guard_triplets(
                         cnf,
                         alphabet.letter(int(rng.choice(inside))),
                         alphabet.letter(int(rng.choice(outside))),
+                        alphabet.kind == "one-hot",
                     )
                 )
     return out
@@ -90,6 +92,6 @@ def triplet_graphs(t: GuardTriplet, index: dict[str, int]) -> tuple[Data, Data, 
     ids = [index[a] for a in t.atoms]
     return (
         cnf_graph(t.cnf, ids),
-        cnf_graph(letter_cnf(t.sat, t.atoms), ids),
-        cnf_graph(letter_cnf(t.unsat, t.atoms), ids),
+        cnf_graph(letter_cnf(t.sat, t.atoms, t.one_hot), ids),
+        cnf_graph(letter_cnf(t.unsat, t.atoms, t.one_hot), ids),
     )

@@ -67,8 +67,11 @@ def featured_dfa_graph(dfa: DFA, vectors: GuardVectors) -> Data:
 
 
 def featured_trace_graph(
-    trace: Sequence[Collection[str]], atoms: tuple[str, ...], vectors: GuardVectors
+    trace: Sequence[Collection[str]],
+    atoms: tuple[str, ...],
+    vectors: GuardVectors,
+    one_hot: bool = False,
 ) -> Data:
-    """A trace over a formula's atoms (letters as conjunctions of literals over them)."""
-    keys = [(atoms, tuple(map(tuple, letter_cnf(step, atoms)))) for step in trace]
+    """A trace over a formula's atoms (letters written as `letter_cnf` does for the alphabet)."""
+    keys = [(atoms, tuple(map(tuple, letter_cnf(step, atoms, one_hot)))) for step in trace]
     return _with_edge_vectors(trace_graph(len(trace)), vectors(keys))

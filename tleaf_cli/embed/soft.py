@@ -58,11 +58,15 @@ class Embedder:
         self,
         traces: Sequence[Sequence[Collection[str]]],
         atoms: Sequence[tuple[str, ...]],
+        one_hot: Sequence[bool] | None = None,
         batch: int = 256,
     ) -> torch.Tensor:
-        """[len(traces), d] for discrete traces, trace i read over the atoms `atoms[i]`."""
+        """[len(traces), d] for discrete traces, trace i read over the atoms `atoms[i]` of a
+        one-hot alphabet where `one_hot[i]` (default: powerset)."""
+        kinds = one_hot if one_hot is not None else [False] * len(traces)
         graphs = [
-            featured_trace_graph(t, a, self.vectors) for t, a in zip(traces, atoms, strict=True)
+            featured_trace_graph(t, a, self.vectors, h)
+            for t, a, h in zip(traces, atoms, kinds, strict=True)
         ]
         return self._encode(self.model.embed_traces, graphs, batch)
 
@@ -87,7 +91,8 @@ class Embedder:
             ]
         else:
             raise ValueError(f"domain must be one-hot or powerset, not {domain!r}")
-        keys = [(atoms, tuple(map(tuple, letter_cnf(x, atoms)))) for x in letters]
+        one_hot = domain == "one-hot"
+        keys = [(atoms, tuple(map(tuple, letter_cnf(x, atoms, one_hot)))) for x in letters]
         return letters, self.vectors(keys)
 
     def letter_probabilities(

@@ -148,8 +148,10 @@ def train_meta(
     for t in traces.to_pylist():
         if t["formula_id"] not in rows:
             continue
-        atoms = tuple(rows[t["formula_id"]]["atoms"])
-        graph = featured_trace_graph(t["trace"], atoms, vectors)
+        row = rows[t["formula_id"]]
+        graph = featured_trace_graph(
+            t["trace"], tuple(row["atoms"]), vectors, row["alphabet"] == "one-hot"
+        )
         by_split[t["split"]][t["formula_id"]][t["label"]].append((graph, t["source"]))
 
     def fixed_pairs(split: str, source: str | None = None):

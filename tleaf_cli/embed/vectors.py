@@ -49,7 +49,8 @@ def embed_file(
         inputs = [source]
     elif kind == "traces":
         dfas = dfas or _recorded_dfas(source)
-        atoms = {r["formula_id"]: tuple(r["atoms"]) for r in read_dfas(dfas).rows}
+        dfa_rows = {r["formula_id"]: r for r in read_dfas(dfas).rows}
+        atoms = {f: tuple(r["atoms"]) for f, r in dfa_rows.items()}
         traces = read_traces(source).select(["formula_id", "trace_id", "trace"]).to_pylist()
         missing = {t["formula_id"] for t in traces} - atoms.keys()
         if missing:
@@ -58,7 +59,9 @@ def embed_file(
             )
         ids = [f"{t['formula_id']}:{t['trace_id']}" for t in traces]
         matrix = embedder.embed_traces(
-            [t["trace"] for t in traces], [atoms[t["formula_id"]] for t in traces]
+            [t["trace"] for t in traces],
+            [atoms[t["formula_id"]] for t in traces],
+            [dfa_rows[t["formula_id"]]["alphabet"] == "one-hot" for t in traces],
         ).numpy()
         label = "trace"
         inputs = [source, dfas]

@@ -80,7 +80,9 @@ def evaluate_model_checking(
     ids = list(rows)
     z_formulas = dict(zip(ids, embedder.embed_formula_rows([rows[i] for i in ids]), strict=True))
     z_traces = embedder.embed_traces(
-        [t["trace"] for t in traces], [tuple(rows[t["formula_id"]]["atoms"]) for t in traces]
+        [t["trace"] for t in traces],
+        [tuple(rows[t["formula_id"]]["atoms"]) for t in traces],
+        [rows[t["formula_id"]]["alphabet"] == "one-hot" for t in traces],
     )
     splits = {}
     for name in ("train", "val", "test"):

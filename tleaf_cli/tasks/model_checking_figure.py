@@ -84,6 +84,7 @@ def tsne_figure(
         ["sat" if ok else src for ok, src in zip(drawn.labels, drawn.sources, strict=True)]
     )
     atoms = tuple(row["atoms"])
+    one_hot = row["alphabet"] == "one-hot"
 
     fig, axes = plt.subplots(1, len(model_dirs), figsize=(5.2 * len(model_dirs), 5), squeeze=False)
     shown = {"formula_id": fid, "formula": row["formula"], "points": {}, "embedders": []}
@@ -93,7 +94,10 @@ def tsne_figure(
         q = load_embedder(model_dir)
         with torch.no_grad():
             z = torch.cat(
-                [q.embed_formula_rows([row]), q.embed_traces(traces, [atoms] * len(traces))]
+                [
+                    q.embed_formula_rows([row]),
+                    q.embed_traces(traces, [atoms] * len(traces), [one_hot] * len(traces)),
+                ]
             ).numpy()
         xy = TSNE(
             n_components=2,
