@@ -88,11 +88,10 @@ def test_one_hot_soft_trace_equals_the_discrete_trace(embedder) -> None:
     q, _ = embedder
     atoms = ("a", "b", "c")
     trace = [{"b"}, set(), {"a"}]
-    discrete = q.model.embed_traces(_batch(featured_trace_graph(trace, atoms, q.vectors)))[0]
-    for domain, probs in (
-        ("one-hot", torch.tensor([[0.0, 1, 0], [0, 0, 0], [1, 0, 0]])),
-        ("powerset", torch.tensor([[0.0, 1, 0], [0, 0, 0], [1, 0, 0]])),
-    ):
+    probs = torch.tensor([[0.0, 1, 0], [0, 0, 0], [1, 0, 0]])
+    for domain in ("one-hot", "powerset"):
+        graph = featured_trace_graph(trace, atoms, q.vectors, one_hot=domain == "one-hot")
+        discrete = q.model.embed_traces(_batch(graph))[0]
         soft = q.embed_soft_trace(probs, atoms, domain=domain)
         assert torch.allclose(soft, discrete, atol=1e-5), domain
 
