@@ -230,7 +230,8 @@ def _figure(variants: dict, path: Path) -> None:
     fig, ax = plt.subplots(figsize=(6, 4))
     for name, v in variants.items():
         steps, mean, se = (np.array(v[k]) for k in ("steps", "mean_return", "stderr"))
-        ax.plot(steps, mean, label=f"GAIL + {name}" if name != "none" else "GAIL")
+        label = f"GAIL + {name}" if name != "none" else "GAIL"
+        ax.plot(steps, mean, label=f"{label} ({len(v['seeds'])} seeds)")
         ax.fill_between(steps, mean - se, mean + se, alpha=0.25)
     expert = np.mean([v["expert_return"] for v in variants.values()])
     ax.axhline(expert, color="black", linestyle="--", linewidth=1, label="expert")
@@ -240,6 +241,6 @@ def _figure(variants: dict, path: Path) -> None:
     ax.set_xlabel("environment steps")
     ax.set_ylabel("return (true reward)")
     ax.set_title("Creative Cooking (synthetic): GAIL with logic losses")
-    ax.legend()
+    ax.legend(fontsize="small")
     fig.tight_layout()
     save_png(fig, path)
