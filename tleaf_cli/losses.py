@@ -123,11 +123,11 @@ class RuleSets:
         ingredient (`knowledge.by_ingredient`); an empty list where no rule applies."""
         chosen = [self.rules(atoms) for atoms in atoms_per_video]
         groups = [by_ingredient(rules) if per_ingredient else [rules] for rules in chosen]
-        groups = [[g for g in gs if g] for gs in groups]
-        fresh = {rule_set_id(g): g for gs in groups for g in gs if rule_set_id(g) not in self.by_id}
+        ids = [[(rule_set_id(g), g) for g in gs if g] for gs in groups]
+        fresh = {i: g for pairs in ids for i, g in pairs if i not in self.by_id}
         if fresh:
             self._compile(fresh)
-        return [[self.by_id[rule_set_id(g)] for g in gs] for gs in groups]
+        return [[self.by_id[i] for i, _ in pairs] for pairs in ids]
 
     def _compile(self, fresh: dict[str, list]) -> None:
         """Build each fresh rule set's DFA as the product of its rules' DFAs.

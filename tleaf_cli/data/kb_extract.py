@@ -31,9 +31,11 @@ from tleaf_cli.data.dfa_table import SCHEMA_VERSION as DFA_SCHEMA
 from tleaf_cli.data.dfa_table import rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.data.knowledge import (
+    RULE_SET_SPLITS,
     KnowledgeBase,
     Rule,
     by_ingredient,
+    ingredient_of,
     mine_knowledge_base,
     read_knowledge_base,
     rule_set_id,
@@ -49,7 +51,6 @@ FORMULA_SOURCES = ("labels",)
 
 SAMPLES_KIND = "kb-samples"
 SAMPLES_SCHEMA = 2  # 2: `ingredients` column; several rows per video with --rule-sets ingredient
-RULE_SET_SPLITS = ("video", "ingredient")
 SAMPLES_COLUMNS = pa.schema(
     [
         ("video_id", pa.string()),
@@ -91,9 +92,9 @@ class ExtractReport:
 def video_rule_sets(
     kb: KnowledgeBase, activities: Activities, rule_sets: str = "video"
 ) -> tuple[list[tuple[str, list[Rule]]], dict[str, list[Rule]]]:
-    """Per labelled video (id, its rules from the labelled pairs) — one entry per ingredient
-    with `rule_sets="ingredient"`, none for a video of the ingredient split without rules —
-    and each distinct rule set by id. Videos of the `unlabelled` split are left out: their
+    """Per labelled video (id, its rules from the labelled pairs) — with
+    `rule_sets="ingredient"` one entry per ingredient that has rules instead — and each
+    distinct rule set by id. Videos of the `unlabelled` split are left out: their
     labels are never read."""
     per_video = [
         (v.video_id, rules_for(kb, activities.atoms(v)))
@@ -181,7 +182,7 @@ def extract_knowledge(
             "formula_id": rule_set_id(rules),
             "num_rules": len(rules),
             "rules": sorted(r.name for r in rules),
-            "ingredients": sorted({a.split("_", 1)[-1] for r in rules for a in r.atoms}),
+            "ingredients": sorted({ingredient_of(a) for r in rules for a in r.atoms}),
         }
         for vid, rules in per_video
     ]

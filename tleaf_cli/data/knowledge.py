@@ -98,6 +98,15 @@ def rules_for(kb: KnowledgeBase, present_atoms: Iterable[str]) -> list[Rule]:
     return [kb.rules[k] for k in sorted(candidates) if present.issuperset(kb.rules[k].atoms)]
 
 
+# How a video's rules form rule sets: one per video (the paper), or one per ingredient.
+RULE_SET_SPLITS = ("video", "ingredient")
+
+
+def ingredient_of(atom: str) -> str:
+    """The ingredient of a pair atom `action_ingredient` (actions have no `_`)."""
+    return atom.split("_", 1)[-1]
+
+
 def by_ingredient(rules: Sequence[Rule]) -> list[list[Rule]]:
     """`rules` grouped by the ingredients their atoms (`action_ingredient`) name, groups sorted.
 
@@ -108,7 +117,7 @@ def by_ingredient(rules: Sequence[Rule]) -> list[list[Rule]]:
     """
     groups: dict[tuple[str, ...], list[Rule]] = {}
     for r in rules:
-        key = tuple(sorted({a.split("_", 1)[-1] for a in r.atoms}))
+        key = tuple(sorted({ingredient_of(a) for a in r.atoms}))
         groups.setdefault(key, []).append(r)
     return [groups[k] for k in sorted(groups)]
 

@@ -43,7 +43,7 @@ from torch.nn import functional as F
 
 from tleaf_cli.data.activities import UNLABELLED, Activities, Video, read_activities
 from tleaf_cli.data.artifacts import atomic_path, check_writable, describe_inputs, write_text_atomic
-from tleaf_cli.data.knowledge import read_knowledge_base
+from tleaf_cli.data.knowledge import RULE_SET_SPLITS, read_knowledge_base
 from tleaf_cli.embed.training import chunks, device_for
 from tleaf_cli.errors import UsageError
 from tleaf_cli.losses import (
@@ -60,7 +60,6 @@ from tleaf_cli.losses import (
 from tleaf_cli.tasks.action_recognition.models import MODELS, ActionRecognizer
 
 FORMULA_SOURCES = ("predictions", "labels")
-RULE_SET_SPLITS = ("video", "ingredient")  # one φ per video, or one φ_x per ingredient
 GRADIENT_LOSSES = ("tleaf", "exact")  # the losses unlabelled videos can teach through
 
 
