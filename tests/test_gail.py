@@ -33,7 +33,6 @@ from tleaf_cli.tasks.cooking.logic_term import (
     RolloutEpisode,
     rollout_episodes,
 )
-from tleaf_cli.tasks.cooking.packed_rules import chain_batch
 
 # Four ingredients already at their required status (liquids, seasonings) and parsley, which
 # needs one wash/rinse/chop: the expert's plan is a single step (return 19).
@@ -194,12 +193,12 @@ def reference_and_batched(
     return pairs + list(zip(batched_grads, gradients(), strict=True))
 
 
-def test_chain_batch_is_the_batch_of_trace_graphs() -> None:
+def test_trace_graph_batch_is_the_batch_of_trace_graphs() -> None:
     from torch_geometric.data import Batch
 
-    from tleaf_cli.embed.graphs import trace_graph
+    from tleaf_cli.embed.graphs import trace_graph, trace_graph_batch
 
-    built, edge_nodes = chain_batch([3, 1, 5])
+    built, edge_nodes = trace_graph_batch([3, 1, 5])
     expected = Batch.from_data_list([trace_graph(n) for n in (3, 1, 5)])
     for key in ("node_kind", "flags", "guard", "edge_index", "initial", "batch", "ptr"):
         assert torch.equal(getattr(built, key), getattr(expected, key)), key

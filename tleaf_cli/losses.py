@@ -36,7 +36,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
-from torch_geometric.data import Batch
 
 from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row, dfa_payload
@@ -48,8 +47,8 @@ from tleaf_cli.data.knowledge import (
     rules_for,
     sample_formula,
 )
-from tleaf_cli.embed.graphs import dfa_graph, letter_cnf, trace_graph
-from tleaf_cli.embed.soft import Embedder
+from tleaf_cli.embed.graphs import dfa_graph, letter_cnf
+from tleaf_cli.embed.soft import Embedder, soft_trace_vectors
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.dfa import DFA
@@ -321,17 +320,14 @@ def tleaf_loss(
     cache.embed([rule_sets[b] for b in which])
     device = action_logits.device
     log_pairs = pair_log_probs(action_logits[which], ingredient_logits[which])
-    graphs, targets = [], []
+    expected, targets = [], []
     for j, b in enumerate(which):
         r = rule_sets[b]
-        steps = int(lengths[b])
-        probs = letter_log_probs(log_pairs[j, :steps], r.pairs.to(device)).exp()
-        expected = probs @ cache.letter_vectors(r).to(device)
-        graph = trace_graph(steps)
-        graph.edge_vec = torch.cat([expected.new_zeros(steps + 1, expected.shape[1]), expected])
-        graphs.append(graph)
+        probs = letter_log_probs(log_pairs[j], r.pairs.to(device)).exp()  # padded steps unread
+        expected.append(probs @ cache.letter_vectors(r).to(device))
         targets.append(cache.formula_vector(r).to(device))
-    z_trace = embedder.model.embed_traces(Batch.from_data_list(graphs).to(device))
+    rows = torch.tensor(which, device=lengths.device)
+    z_trace = soft_trace_vectors(embedder.model, torch.stack(expected), lengths[rows].to(device))
     out[which] = (z_trace - torch.stack(targets)).pow(2).sum(dim=1)
     return out
 

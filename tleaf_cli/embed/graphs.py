@@ -42,7 +42,7 @@ from ltlf2dfa.ltlf import (
     LTLfUntil,
     LTLfWeakNext,
 )
-from torch_geometric.data import Data
+from torch_geometric.data import Batch, Data
 
 from tleaf_cli.logic.dfa import DFA
 
@@ -192,6 +192,41 @@ def trace_graph(length: int) -> Data:
         initial=torch.tensor([0], dtype=torch.long),
         num_nodes=len(kinds),
     )
+
+
+def trace_graph_batch(lengths: Sequence[int]) -> tuple[Batch, torch.Tensor]:
+    """The batch of trace chain graphs (`trace_graph`) of these lengths, built with
+    tensor ops, and the node index of every edge node (graph by graph, step by step)."""
+    lengths_t = torch.tensor(lengths, dtype=torch.long)
+    sizes = 2 * lengths_t + 1
+    ptr = torch.cat([torch.zeros(1, dtype=torch.long), sizes.cumsum(0)])
+    total = int(ptr[-1])
+    graph = torch.repeat_interleave(torch.arange(len(lengths)), sizes)
+    local = torch.arange(total) - ptr[graph]  # node index within its graph
+    length = lengths_t[graph]
+    kind = torch.where(local <= length, STATE, EDGE)
+    flags = torch.zeros((total, 2))
+    flags[ptr[:-1], 0] = 1.0  # the initial state
+    flags[ptr[:-1] + lengths_t, 1] = 1.0  # the last state
+    edge_nodes = torch.nonzero(kind == EDGE).flatten()
+    # edge node of step i is ptr + T + 1 + i; state i is ptr + i
+    before = edge_nodes - length[edge_nodes] - 1
+    # per graph, arcs (state i, edge i), (edge i, state i + 1) in step order, as trace_graph
+    arcs = torch.stack(
+        [torch.stack([before, edge_nodes]), torch.stack([edge_nodes, before + 1])], dim=2
+    ).reshape(2, -1)
+    guard = torch.where(kind == EDGE, local - length - 1, -1)
+    batch = Batch(
+        node_kind=kind,
+        flags=flags,
+        guard=guard,
+        edge_index=arcs,
+        initial=torch.zeros(len(lengths), dtype=torch.long),
+        batch=graph,
+        ptr=ptr,
+    )
+    batch.num_nodes = total
+    return batch, edge_nodes
 
 
 def syntax_graph(formula: LTLfFormula, vocabulary: dict[str, int]) -> Data:

@@ -22,7 +22,7 @@ import torch
 from torch_geometric.data import Batch
 
 from tleaf_cli.data.dfa_table import dfa_from_row
-from tleaf_cli.embed.graphs import letter_cnf, syntax_graph, trace_graph
+from tleaf_cli.embed.graphs import letter_cnf, syntax_graph, trace_graph_batch
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
@@ -119,17 +119,29 @@ class Embedder:
         """[B, d] vectors of soft traces, each [T_b, len(columns)], over a formula's atoms."""
         columns = list(atoms) if columns is None else list(columns)
         _, table = self.letter_vectors(atoms, domain)
-        graphs = []
-        for probs in traces:
-            graph = trace_graph(probs.shape[0])
-            expected = self.letter_probabilities(probs, columns, atoms, domain) @ table
-            graph.edge_vec = torch.cat([torch.zeros(probs.shape[0] + 1, table.shape[1]), expected])
-            graphs.append(graph)
-        return self.model.embed_traces(Batch.from_data_list(graphs))
+        expected = torch.nn.utils.rnn.pad_sequence(
+            [self.letter_probabilities(p, columns, atoms, domain) @ table for p in traces],
+            batch_first=True,
+        )
+        lengths = torch.tensor([p.shape[0] for p in traces])
+        return soft_trace_vectors(self.model, expected, lengths)
 
     def embed_soft_trace(self, probs: torch.Tensor, atoms, columns=None, domain="one-hot"):
         """The vector of one soft trace [T, len(columns)] (see `embed_soft_traces`)."""
         return self.embed_soft_traces([probs], tuple(atoms), columns, domain)[0]
+
+
+def soft_trace_vectors(
+    model: torch.nn.Module, expected: torch.Tensor, lengths: torch.Tensor
+) -> torch.Tensor:
+    """q(w̃) [N, d] of soft traces whose step-t edge node carries expected[i, t] (t < lengths[i]);
+    `model` is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
+    batch, edge_nodes = trace_graph_batch(lengths.tolist())
+    batch, edge_nodes = batch.to(expected.device), edge_nodes.to(expected.device)
+    valid = torch.arange(expected.shape[1], device=expected.device)[None, :] < lengths[:, None]
+    edge_vec = expected.new_zeros(int(batch.num_nodes), expected.shape[-1])
+    batch.edge_vec = edge_vec.index_copy(0, edge_nodes, expected[valid])
+    return model.embed_traces(batch)
 
 
 def load_embedder(model_dir: str | Path) -> Embedder:

@@ -40,7 +40,7 @@ import torch
 from tleaf_cli.data.compile_dfas import CompileSettings
 from tleaf_cli.data.knowledge import KnowledgeBase
 from tleaf_cli.data.knowledge import Rule as KbRule
-from tleaf_cli.embed.soft import Embedder
+from tleaf_cli.embed.soft import Embedder, soft_trace_vectors
 from tleaf_cli.logic.formulas import atoms, parse
 from tleaf_cli.losses import RuleSet, RuleSets, violations
 from tleaf_cli.tasks.cooking.domain import Domain
@@ -51,7 +51,6 @@ from tleaf_cli.tasks.cooking.packed_rules import (
     expected_letter_vectors,
     letter_log_probs,
     pack_rules,
-    soft_trace_vectors,
 )
 from tleaf_cli.tasks.cooking.rules import NUM_SLOTS, ActionCodec, EpisodeRules
 
@@ -173,7 +172,7 @@ class LogicTerm:
                 expected_lengths.append(lengths[index])
         if expected:  # tleaf: every row of every ingredient set through q_m at once
             z = soft_trace_vectors(
-                torch.cat(expected), torch.cat(expected_lengths), self.knowledge.embedder.model
+                self.knowledge.embedder.model, torch.cat(expected), torch.cat(expected_lengths)
             )
             losses.append((z - torch.cat(targets)).pow(2).sum(dim=1))
         return torch.cat(losses).mean() if losses else torch.zeros(())

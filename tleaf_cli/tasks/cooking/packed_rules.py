@@ -14,9 +14,9 @@ once per ingredient set (`PackedRules`), for all (episode, rule set) rows at onc
   matrix products instead of T sequential steps), in float64 probabilities: each M_t is
   row-stochastic (a complete DFA), so the products cannot overflow, and float64 keeps
   P(accept) > 0 far below float32's range (it is clamped at 1e-300, −log = 690.8);
-* tleaf: ‖q(A_φ) − q(w̃)‖², w̃'s chain graphs built for all rows at once (`chain_batch`, the
-  same graph Batch.from_data_list(trace_graph(T) ...) gives), q(A_φ) and q_e of the letters
-  taken from the RuleSets cache once per ingredient set.
+* tleaf: ‖q(A_φ) − q(w̃)‖², every row's soft trace through q_m at once
+  (`embed.soft.soft_trace_vectors`), q(A_φ) and q_e of the letters taken from the RuleSets cache
+  once per ingredient set.
 
 The results equal losses.exact_loss / losses.tleaf_loss row by row (tested, values and gradients).
 """
@@ -27,9 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import torch
-from torch_geometric.data import Batch
 
-from tleaf_cli.embed.graphs import EDGE, STATE
 from tleaf_cli.losses import NEG, RuleSet, RuleSets
 
 TINY = 1e-300  # P(accept) floor of the float64 forward algorithm (−log = 690.8)
@@ -122,50 +120,3 @@ def expected_letter_vectors(
 ) -> torch.Tensor:
     """[N, T, d_e]: Σ_l P_t(l) q_e(l), the edge-node vectors of the soft traces w̃."""
     return letters.exp() @ rules.letter_vectors[rows]
-
-
-def soft_trace_vectors(
-    expected: torch.Tensor, lengths: torch.Tensor, model: torch.nn.Module
-) -> torch.Tensor:
-    """q(w̃) [N, d] of soft traces whose step-t edge node carries expected[i, t] (t < lengths[i]);
-    `model` is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
-    batch, edge_nodes = chain_batch(lengths.tolist())
-    valid = torch.arange(expected.shape[1])[None, :] < lengths[:, None]
-    edge_vec = expected.new_zeros(int(batch.num_nodes), expected.shape[-1])
-    batch.edge_vec = edge_vec.index_copy(0, edge_nodes, expected[valid])
-    return model.embed_traces(batch)
-
-
-def chain_batch(lengths: Sequence[int]) -> tuple[Batch, torch.Tensor]:
-    """The batch of trace chain graphs (embed.graphs.trace_graph) of these lengths, built with
-    tensor ops, and the node index of every edge node (graph by graph, step by step)."""
-    lengths_t = torch.tensor(lengths, dtype=torch.long)
-    sizes = 2 * lengths_t + 1
-    ptr = torch.cat([torch.zeros(1, dtype=torch.long), sizes.cumsum(0)])
-    total = int(ptr[-1])
-    graph = torch.repeat_interleave(torch.arange(len(lengths)), sizes)
-    local = torch.arange(total) - ptr[graph]  # node index within its graph
-    length = lengths_t[graph]
-    kind = torch.where(local <= length, STATE, EDGE)
-    flags = torch.zeros((total, 2))
-    flags[ptr[:-1], 0] = 1.0  # the initial state
-    flags[ptr[:-1] + lengths_t, 1] = 1.0  # the last state
-    edge_nodes = torch.nonzero(kind == EDGE).flatten()
-    # edge node of step i is ptr + T + 1 + i; state i is ptr + i
-    before = edge_nodes - length[edge_nodes] - 1
-    # per graph, arcs (state i, edge i), (edge i, state i + 1) in step order, as trace_graph
-    arcs = torch.stack(
-        [torch.stack([before, edge_nodes]), torch.stack([edge_nodes, before + 1])], dim=2
-    ).reshape(2, -1)
-    guard = torch.where(kind == EDGE, local - length - 1, -1)
-    batch = Batch(
-        node_kind=kind,
-        flags=flags,
-        guard=guard,
-        edge_index=arcs,
-        initial=torch.zeros(len(lengths), dtype=torch.long),
-        batch=graph,
-        ptr=ptr,
-    )
-    batch.num_nodes = total
-    return batch, edge_nodes
