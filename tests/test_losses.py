@@ -85,6 +85,7 @@ def test_exact_loss_stays_finite_when_confidently_wrong() -> None:
     loss.sum().backward()
     assert torch.isfinite(loss).all() and loss.item() > 100
     assert torch.isfinite(a.grad).all()
+    assert a.grad[0, :, 0].sum() > 0  # still a push away from "cut", however sure the model is
 
 
 def test_checker_loss_is_the_exact_checker_and_has_no_gradient() -> None:

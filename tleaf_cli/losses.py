@@ -260,10 +260,13 @@ def exact_loss(
 ) -> torch.Tensor:
     """−log P(the DFA accepts), per video [B]; 0 where no rule applies.
 
-    Forward algorithm in log space over padded DFAs (states S, letters L, batch together):
+    Forward algorithm over padded DFAs (states S, letters L, batch together):
     α_0 = 1[initial], α_t(s') = Σ_{s, l: δ(s, l) = s'} α_{t−1}(s) P_t(l), and
     P(accept) = Σ_{s ∈ F} α_T(s). Outputs are independent across steps given the inputs, so this
     is the exact probability that a trace sampled from the per-step distributions satisfies φ.
+    Each step scatters the S·L terms into their target states (O(S·L), not the O(S·L·S) of a
+    transition tensor: whole-video rule sets reach hundreds of states), as a log-sum-exp per
+    target state, so a trace the model is sure violates φ still has a finite loss and a gradient.
     """
     out = action_logits.new_zeros(action_logits.shape[0])
     which = _trainable(rule_sets)
@@ -277,23 +280,27 @@ def exact_loss(
     device = log_pairs.device
 
     log_letters = log_pairs.new_full((n, steps, letters), NEG)
-    moves = torch.zeros((n, states, letters, states), dtype=torch.bool, device=device)
+    # δ(s, l) per video, flattened over (s, l); padded states and letters lead to a sink state
+    targets = torch.full((n, states, letters), states, dtype=torch.long, device=device)
     accepting = torch.zeros((n, states), dtype=torch.bool, device=device)
     alpha = log_pairs.new_full((n, states), NEG)
     for j, r in enumerate(sets):
         k, s = r.dfa.alphabet.size, r.dfa.num_states
         log_letters[j, :, :k] = letter_log_probs(log_pairs[j], r.pairs.to(device))
-        table = torch.as_tensor(r.dfa.table, dtype=torch.long, device=device)
-        moves[j, :s, :k] = torch.nn.functional.one_hot(table, states).bool()
+        targets[j, :s, :k] = torch.as_tensor(r.dfa.table, dtype=torch.long, device=device)
         accepting[j, :s] = torch.as_tensor(r.dfa.accepting, device=device)
         alpha[j, r.dfa.initial] = 0.0
+    targets = targets.flatten(1)
 
     lengths = lengths[which].to(device)
     neg = log_pairs.new_tensor(NEG)
     for t in range(int(lengths.max())):
-        scores = alpha[:, :, None] + log_letters[:, t, None, :]  # [n, S, L]
-        spread = torch.where(moves, scores[..., None], neg)  # [n, S, L, S']
-        step = torch.logsumexp(spread.flatten(1, 2), dim=1)
+        terms = (alpha[:, :, None] + log_letters[:, t, None, :]).flatten(1)  # [n, S·L]
+        top = log_pairs.new_full((n, states + 1), NEG)
+        top = top.scatter_reduce(1, targets, terms.detach(), "amax").detach()
+        sums = log_pairs.new_zeros((n, states + 1))
+        sums = sums.scatter_add(1, targets, (terms - top.gather(1, targets)).exp())
+        step = (top + sums.clamp(min=1.0).log())[:, :states]  # a reached state's sum is >= 1
         alpha = torch.where((t < lengths)[:, None], step, alpha)
     out[which] = -torch.logsumexp(torch.where(accepting, alpha, neg), dim=1)
     return out
