@@ -124,6 +124,27 @@ def test_confusable_pulls_paired_means_together() -> None:
     assert all(stage[a] != stage[b] for a, b in activity_gen.confusable_pairs(stage, rng))
 
 
+def test_ingredient_scale_scales_only_the_ingredient_means(tmp_path: Path) -> None:
+    """Same seed, --ingredient-scale 1 vs 3: same labels and knowledge base; per step the
+    features differ by 2 x the step's ingredient mean, the same vector wherever the ingredient
+    is the same, and different for different ingredients."""
+    made = []
+    for scale in (1, 3):
+        data, kb = tmp_path / f"a{scale}.parquet", tmp_path / f"kb{scale}.ltl"
+        argv = ("gen-activities", "-o", data, "--kb-out", kb, *SMALL, "--ingredient-scale", scale)
+        assert tleaf(*argv).exit_code == 0
+        made.append((read_activities(data), kb.read_text()))
+    (one, kb1), (three, kb3) = made
+    assert kb1 == kb3
+    shift = {}
+    for v1, v3 in zip(one.videos, three.videos, strict=True):
+        assert (v1.actions == v3.actions).all() and (v1.ingredients == v3.ingredients).all()
+        for i, d in zip(v1.ingredients, v3.features - v1.features, strict=True):
+            np.testing.assert_allclose(d, shift.setdefault(int(i), d), atol=1e-4)
+    vectors = list(shift.values())
+    assert len(vectors) > 2 and np.linalg.norm(vectors[0] - vectors[1]) > 0.1
+
+
 def test_every_vocabulary_name_makes_a_valid_atom() -> None:
     actions, stages, ingredients = activity_gen.vocabulary(
         activity_gen.MAX_ACTIONS, activity_gen.MAX_INGREDIENTS
@@ -139,7 +160,13 @@ def test_every_vocabulary_name_makes_a_valid_atom() -> None:
 
 @pytest.mark.parametrize(
     ("option", "value"),
-    [("--actions", 65), ("--ingredients", 0), ("--confusable", 1.5), ("--min-steps", 0)],
+    [
+        ("--actions", 65),
+        ("--ingredients", 0),
+        ("--confusable", 1.5),
+        ("--ingredient-scale", 0),
+        ("--min-steps", 0),
+    ],
 )
 def test_impossible_settings_exit_2(tmp_path: Path, option: str, value) -> None:
     out = tmp_path / "a.parquet"

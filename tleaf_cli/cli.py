@@ -346,6 +346,10 @@ def gen_activities(
     confusable: Annotated[
         float, typer.Option(help="0..1: how far paired classes' means are pulled together.")
     ] = 0.5,
+    ingredient_scale: Annotated[
+        float,
+        typer.Option(help="Ingredient means' norm relative to actions' (>1: easier to see)."),
+    ] = 1.5,
     train: Annotated[int, typer.Option(help="Training videos.")] = 60,
     val: Annotated[int, typer.Option(help="Validation videos.")] = 40,
     test: Annotated[int, typer.Option(help="Test videos.")] = 200,
@@ -371,6 +375,7 @@ def gen_activities(
         feature_dim=feature_dim,
         noise=noise,
         confusable=confusable,
+        ingredient_scale=ingredient_scale,
         train=train,
         val=val,
         test=test,
