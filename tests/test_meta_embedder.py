@@ -148,3 +148,17 @@ def test_pair_head_is_trained_saved_and_loaded(chain, tmp_path: Path) -> None:
     anchor, pos, neg = torch.zeros(3, 16), torch.zeros(3, 16), torch.ones(3, 16)
     loss = q.model.pair_loss((anchor, pos, neg))
     assert loss.ndim == 0 and torch.isfinite(loss)
+
+
+def test_pull_brings_satisfying_traces_onto_their_formula(chain, tmp_path: Path) -> None:
+    """Same seed and data: with --pull the test split's satisfying traces lie nearer their
+    formula than without; violating ones stay farther than satisfying ones (the margin)."""
+    test = {}
+    for pull in (0.0, 1.0):
+        settings = MetaSettings(**{**SMALL_META.__dict__, "epochs": 3, "pull": pull})
+        metrics = train_meta(
+            chain["dfas"], chain["traces"], chain["edge"], tmp_path / f"p{pull}", settings
+        )
+        test[pull] = metrics["test"]
+    assert test[1.0]["satisfying_distance"] < 0.5 * test[0.0]["satisfying_distance"]
+    assert test[1.0]["violating_distance"] > test[1.0]["satisfying_distance"]

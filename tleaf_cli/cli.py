@@ -560,6 +560,14 @@ def train_meta(
             min=0.0, help="Weight of an auxiliary (z_formula, z_trace) classifier's loss; 0: none."
         ),
     ] = 0.0,
+    pull: Annotated[
+        float,
+        typer.Option(
+            min=0.0,
+            help="Weight of mean d(formula, satisfying trace): small distance then means "
+            "satisfying, which the tleaf loss reads; 0: the paper's triplet loss alone.",
+        ),
+    ] = 0.0,
     margin: Margin = 1.0,
     lr: Lr = 1e-3,
     batch_size: BatchSize = 64,
@@ -587,6 +595,7 @@ def train_meta(
         directed=directed,
         norm=norm,
         pair_weight=pair_weight,
+        pull=pull,
         margin=margin,
         lr=lr,
         batch_size=batch_size,

@@ -28,7 +28,7 @@ from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.automaton import AutomatonEncoder
-from tleaf_cli.embed.encoders import triplet_accuracy
+from tleaf_cli.embed.encoders import anchor_pull, triplet_accuracy
 from tleaf_cli.embed.graphs import EDGE, syntax_graph
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
 from tleaf_cli.embed.syntax import SyntaxEncoder
@@ -52,6 +52,7 @@ class MetaSettings:
     directed: bool = False  # messages forwards and backwards through separate weights
     norm: bool = False  # standardised edge vectors and LayerNorm
     pair_weight: float = 0.0  # weight of the auxiliary pair classifier's loss (0: none)
+    pull: float = 0.0  # weight of mean d(formula, satisfying trace) (encoders.anchor_pull)
     margin: float = 1.0
     lr: float = 1e-3
     batch_size: int = 64
@@ -208,6 +209,21 @@ def train_meta(
             hits += triplet_accuracy(*embed(part)) * len(part)
         return hits / max(len(pairs), 1)
 
+    def distances(pairs) -> dict[str, float]:
+        """Mean squared distance of the formula to its satisfying / violating traces."""
+        sums = torch.zeros(2)
+        for i in range(0, len(pairs), settings.batch_size):
+            anchor, pos, neg = embed(pairs[i : i + settings.batch_size])
+            sums += torch.stack([(anchor - z).pow(2).sum(dim=1).sum() for z in (pos, neg)]).cpu()
+        mean = (sums / max(len(pairs), 1)).tolist()
+        return {"satisfying_distance": mean[0], "violating_distance": mean[1]}
+
+    def extra_loss(triplet) -> torch.Tensor:
+        loss = anchor_pull(triplet[0], triplet[1]) * settings.pull
+        if settings.pair_weight:
+            loss = loss + settings.pair_weight * model.pair_loss(triplet)
+        return loss
+
     val = fixed_pairs("val")
     metrics = fit(
         model,
@@ -218,9 +234,7 @@ def train_meta(
         out_dir,
         resume,
         on_epoch,
-        extra_loss=(
-            (lambda t: settings.pair_weight * model.pair_loss(t)) if settings.pair_weight else None
-        ),
+        extra_loss=extra_loss if settings.pair_weight or settings.pull else None,
     )
 
     # ---- test split with the best weights
@@ -232,6 +246,7 @@ def train_meta(
             "uniform_negatives": accuracy(fixed_pairs("test", "uniform")),
             "hard_negatives": accuracy(fixed_pairs("test", "hard")),
             "pairs": len(fixed_pairs("test")),
+            **distances(fixed_pairs("test")),
         }
 
     # ---- the model directory
