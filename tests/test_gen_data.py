@@ -183,6 +183,35 @@ def test_one_hot_traces(tmp_path: Path) -> None:
     assert rows and all(len(step) <= 1 for r in rows for step in r["trace"])
 
 
+def test_once_each_traces_read_every_atom_once(tmp_path: Path) -> None:
+    """--once-each: every trace holds each atom of its formula exactly once (plus "none" steps),
+    labels agree with the evaluator, and hard negatives are a satisfying trace with two steps
+    swapped."""
+    src = tmp_path / "f.ltl"
+    src.write_text("((!b U a) | G !b) & ((!c U b) | G !c) & ((!e U d) | G !e)\nG(a -> F c)\n")
+    dfas, out = tmp_path / "d.parquet", tmp_path / "t.parquet"
+    tleaf("compile-dfa", src, "-o", dfas, "--one-hot")
+    result = tleaf("gen-traces", dfas, "-o", out, "--once-each", "--per-formula", 6)
+    assert result.exit_code == 0, result.output
+    rows = _rows(out)
+    formulas = {f.formula_id: f.text for f in read_formulas(src)}
+    assert Counter(r["label"] for r in rows) == {True: 12, False: 12}
+    for r in rows:
+        steps = [s[0] for s in r["trace"] if s]
+        assert sorted(steps) == sorted(atoms(parse(formulas[r["formula_id"]])))
+        assert len(r["trace"]) - len(steps) <= 3
+        assert satisfies([set(s) for s in r["trace"]], parse(formulas[r["formula_id"]])) == (
+            r["label"]
+        )
+    satisfying = [r["trace"] for r in rows if r["label"]]
+    for r in (r for r in rows if r["source"] == "hard"):
+        assert any(
+            sum(a != b for a, b in zip(r["trace"], s, strict=True)) == 2
+            for s in satisfying
+            if len(s) == len(r["trace"])
+        )
+
+
 def _chi_square_critical(df: int, z: float = 3.09) -> float:
     """Wilson-Hilferty approximation of the chi-square quantile (z=3.09: p = 0.001)."""
     return df * (1 - 2 / (9 * df) + z * math.sqrt(2 / (9 * df))) ** 3

@@ -291,6 +291,15 @@ def gen_traces(
     one_hot: Annotated[
         bool, typer.Option("--one-hot", help="One-hot letters only (a single atom, or none).")
     ] = False,
+    once_each: Annotated[
+        bool,
+        typer.Option(
+            "--once-each",
+            help="Traces that read every atom of the formula exactly once (plus 0-3 'none' "
+            "steps), like a labelled video under its own rule set; implies --one-hot letters; "
+            "ignores --min-len, --max-len, --hard-fraction.",
+        ),
+    ] = False,
     split: Annotated[
         str | None, typer.Option(help="Add a split column by formula: train,val,test fractions.")
     ] = None,
@@ -311,7 +320,8 @@ def gen_traces(
         min_len=min_len,
         max_len=max_len,
         hard_fraction=hard_fraction,
-        one_hot=one_hot,
+        one_hot=one_hot or once_each,
+        once_each=once_each,
         seed=seed,
         split=_fractions(split),
         jobs=jobs,

@@ -28,11 +28,12 @@ from tleaf_cli.defaults import MAX_LEN, MIN_LEN
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.dfa import DFA
-from tleaf_cli.logic.sampling import WordSampler, one_hot_letters
+from tleaf_cli.logic.sampling import WordSampler, once_each_words, one_hot_letters
 
 KIND = "traces"
 SCHEMA_VERSION = 1
 SPLITS = ("train", "val", "test")
+ONCE_EACH_MAX_NONE = 3  # "none" steps in a --once-each trace: 0..3 (a video's unruled pairs)
 
 COLUMNS = [
     ("formula_id", pa.string()),
@@ -50,6 +51,7 @@ class TraceSettings:
     max_len: int = MAX_LEN
     hard_fraction: float = 0.5
     one_hot: bool = False
+    once_each: bool = False  # each atom exactly once per trace (logic/sampling.once_each_words)
     seed: int = 0
     split: tuple[float, float, float] | None = None
     jobs: int = 1
@@ -92,6 +94,8 @@ class TraceReport:
 
 def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) -> FormulaTraces:
     """K satisfying and K violating traces paired by length; fewer, with a reason, if impossible."""
+    if settings.once_each:
+        return once_each_traces(dfa, settings, rng)
     letters = one_hot_letters(dfa) if settings.one_hot else None
     sampler = WordSampler(dfa, settings.max_len, letters)
     acc, rej = sampler.counts(True), sampler.counts(False)
@@ -143,6 +147,26 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
         shortfall = (
             f"only {len(pairs)} of {settings.per_formula} distinct satisfying/violating pairs "
             f"exist at {span}"
+        )
+    return FormulaTraces(words, labels, sources, shortfall)
+
+
+def once_each_traces(
+    dfa: DFA, settings: TraceSettings, rng: np.random.Generator
+) -> FormulaTraces:
+    """K pairs of traces that read each of the DFA's atoms exactly once, plus up to
+    ONCE_EACH_MAX_NONE "none" steps (the shape of a labelled video under its own rule set)."""
+    sats, negs = once_each_words(dfa, rng, settings.per_formula, ONCE_EACH_MAX_NONE)
+    words, labels, sources = [], [], []
+    for sat, (neg, source) in zip(sats, negs, strict=False):
+        words += [sat, neg]
+        labels += [True, False]
+        sources += ["uniform", source]
+    shortfall = None
+    if len(words) < 2 * settings.per_formula:
+        shortfall = (
+            f"only {len(words) // 2} of {settings.per_formula} distinct satisfying/violating "
+            "pairs found that read each atom once"
         )
     return FormulaTraces(words, labels, sources, shortfall)
 

@@ -102,3 +102,68 @@ class WordSampler:
             out[t] = self.letters[pick[k]]
             state = prev[k]
         return out
+
+
+def once_each_words(
+    dfa: DFA, rng: np.random.Generator, n: int, max_none: int = 0, tries: int = 50
+) -> tuple[list[np.ndarray], list[tuple[np.ndarray, str]]]:
+    """Up to n distinct accepted words, and up to n distinct rejected ones with their source
+    ("hard" or "uniform"), that read every atom of the DFA exactly once (its one-hot letters, in
+    some order) and up to `max_none` "none" letters.
+
+    The shape of an action-recognition video: each (action, ingredient) pair of the video happens
+    once, and the video's rule set has exactly those atoms. Accepted words come from a random
+    walk that only takes atoms leading to a state from which acceptance is still reachable;
+    rejected ones are a satisfying word with two atoms swapped (hard negatives) or a random order.
+    """
+    letters = one_hot_letters(dfa)
+    none, atoms = int(letters[0]), letters[1:]
+    live = _coaccessible(dfa, letters)
+    final = set(np.flatnonzero(dfa.accepting).tolist())
+    accepted: dict[bytes, np.ndarray] = {}
+    rejected: dict[bytes, tuple[np.ndarray, str]] = {}
+    for _ in range(tries * n):
+        if len(accepted) >= n and len(rejected) >= n:
+            break
+        order, state = [], dfa.initial
+        left = list(rng.permutation(atoms))
+        while left:
+            ok = [a for a in left if live[dfa.table[state, a]]]
+            pick = ok[0] if ok else left[0]  # nowhere safe: the word will be rejected
+            left.remove(pick)
+            order.append(pick)
+            state = dfa.table[state, pick]
+        word = _with_none(np.array(order, dtype=np.int64), none, max_none, rng)
+        if dfa.run(word) in final:
+            accepted.setdefault(word.tobytes(), word)
+        else:
+            rejected.setdefault(word.tobytes(), (word, "uniform"))
+        if accepted:
+            base = list(accepted.values())[rng.integers(len(accepted))].copy()
+            spots = np.flatnonzero(base != none)
+            if len(spots) >= 2:
+                i, j = rng.choice(spots, size=2, replace=False)
+                base[[i, j]] = base[[j, i]]
+                if dfa.run(base) not in final:
+                    rejected.setdefault(base.tobytes(), (base, "hard"))
+        shuffled = _with_none(rng.permutation(atoms), none, max_none, rng)
+        if dfa.run(shuffled) not in final:
+            rejected.setdefault(shuffled.tobytes(), (shuffled, "uniform"))
+    return list(accepted.values())[:n], list(rejected.values())[:n]
+
+
+def _coaccessible(dfa: DFA, letters: np.ndarray) -> np.ndarray:
+    """bool [states]: some word over `letters` leads from the state to acceptance."""
+    live = dfa.accepting.copy()
+    while True:
+        grown = live | live[dfa.table[:, letters]].any(axis=1)
+        if (grown == live).all():
+            return live
+        live = grown
+
+
+def _with_none(word: np.ndarray, none: int, max_none: int, rng: np.random.Generator):
+    """`word` with 0..max_none "none" letters inserted at random places."""
+    extra = int(rng.integers(0, max_none + 1))
+    out = np.insert(word, rng.integers(0, len(word) + 1, size=extra), none)
+    return out.astype(np.int64)
