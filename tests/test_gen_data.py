@@ -200,8 +200,9 @@ def test_once_each_traces_read_every_atom_once(tmp_path: Path) -> None:
         steps = [s[0] for s in r["trace"] if s]
         assert sorted(steps) == sorted(atoms(parse(formulas[r["formula_id"]])))
         assert len(r["trace"]) - len(steps) <= 3
-        assert satisfies([set(s) for s in r["trace"]], parse(formulas[r["formula_id"]])) == (
-            r["label"]
+        assert (
+            satisfies([set(s) for s in r["trace"]], parse(formulas[r["formula_id"]]))
+            == (r["label"])
         )
     satisfying = [r["trace"] for r in rows if r["label"]]
     for r in (r for r in rows if r["source"] == "hard"):

@@ -151,9 +151,7 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
     return FormulaTraces(words, labels, sources, shortfall)
 
 
-def once_each_traces(
-    dfa: DFA, settings: TraceSettings, rng: np.random.Generator
-) -> FormulaTraces:
+def once_each_traces(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) -> FormulaTraces:
     """K pairs of traces that read each of the DFA's atoms exactly once, plus up to
     ONCE_EACH_MAX_NONE "none" steps (the shape of a labelled video under its own rule set)."""
     sats, negs = once_each_words(dfa, rng, settings.per_formula, ONCE_EACH_MAX_NONE)
