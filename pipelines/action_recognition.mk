@@ -10,7 +10,7 @@ SMALL ?= 0
 LOSSES ?= none tleaf exact checker
 # lambda per loss (chosen on val accuracy, docs/results/action_recognition.md); none and checker
 # have no gradient, their lambda changes nothing
-LAMBDA_tleaf ?= 5
+LAMBDA_tleaf ?= 0.2
 LAMBDA_exact ?= 1
 LAMBDA_none ?= 1
 LAMBDA_checker ?= 1
