@@ -5,6 +5,8 @@ length L, and a violating trace of the same L, so length never gives the label a
 traces are a mix of uniform rejected words and hard negatives (a satisfying trace with as few
 steps changed as possible until it is rejected). Each formula draws from its own random stream,
 seeded by (seed, formula position), so `--jobs N` writes the same file as `--jobs 1`.
+With `once_each`, traces instead read each of the formula's atoms exactly once
+(`logic.sampling.once_each_words`), for rule sets of labelled videos.
 """
 
 from __future__ import annotations

@@ -14,6 +14,11 @@ two when it grows past 2**512, so long traces over large alphabets do not overfl
 Hard negatives: for an accepted word w, the fewest substitutions that make it rejected, by a
 shortest-path over (position, state) with cost 1 per changed letter, and a random one among the
 cheapest by walking back through optimal predecessors.
+
+Once-each words (`once_each_words`): orders of the DFA's atoms, each read exactly once, with a few
+"none" letters — the shape of a labelled video under its own rule set. Not uniform: accepted
+ones come from a random walk that avoids dead states, rejected ones from swapping two atoms of
+an accepted word or from a random order.
 """
 
 from __future__ import annotations
