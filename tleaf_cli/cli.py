@@ -295,11 +295,19 @@ def gen_traces(
         bool,
         typer.Option(
             "--once-each",
-            help="Traces that read every atom of the formula exactly once (plus 0-3 'none' "
-            "steps), like a labelled video under its own rule set; implies --one-hot letters; "
-            "ignores --min-len, --max-len, --hard-fraction.",
+            help="Traces that read every atom of the formula exactly once (plus 0..--max-none "
+            "'none' steps), like a labelled video under its own rule set; implies --one-hot "
+            "letters; ignores --min-len, --max-len, --hard-fraction.",
         ),
     ] = False,
+    max_none: Annotated[
+        int,
+        typer.Option(
+            min=0,
+            help="With --once-each: at most this many 'none' steps (other pairs of the video; "
+            "more for per-ingredient rule sets).",
+        ),
+    ] = 3,
     split: Annotated[
         str | None, typer.Option(help="Add a split column by formula: train,val,test fractions.")
     ] = None,
@@ -322,6 +330,7 @@ def gen_traces(
         hard_fraction=hard_fraction,
         one_hot=one_hot or once_each,
         once_each=once_each,
+        max_none=max_none,
         seed=seed,
         split=_fractions(split),
         jobs=jobs,

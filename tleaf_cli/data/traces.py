@@ -35,7 +35,6 @@ from tleaf_cli.logic.sampling import WordSampler, once_each_words, one_hot_lette
 KIND = "traces"
 SCHEMA_VERSION = 1
 SPLITS = ("train", "val", "test")
-ONCE_EACH_MAX_NONE = 3  # "none" steps in a --once-each trace: 0..3 (a video's unruled pairs)
 
 COLUMNS = [
     ("formula_id", pa.string()),
@@ -54,6 +53,7 @@ class TraceSettings:
     hard_fraction: float = 0.5
     one_hot: bool = False
     once_each: bool = False  # each atom exactly once per trace (logic/sampling.once_each_words)
+    max_none: int = 3  # with once_each: 0..max_none "none" steps (a video's pairs outside φ)
     seed: int = 0
     split: tuple[float, float, float] | None = None
     jobs: int = 1
@@ -67,6 +67,8 @@ class TraceSettings:
             raise UsageError(f"--hard-fraction must be in [0, 1], got {self.hard_fraction}")
         if self.per_formula < 1:
             raise UsageError("--per-formula must be at least 1")
+        if self.max_none < 0:
+            raise UsageError(f"--max-none must be >= 0, got {self.max_none}")
         if self.split is not None and (
             len(self.split) != 3 or min(self.split) < 0 or abs(sum(self.split) - 1) > 1e-6
         ):
@@ -155,8 +157,8 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
 
 def once_each_traces(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) -> FormulaTraces:
     """K pairs of traces that read each of the DFA's atoms exactly once, plus up to
-    ONCE_EACH_MAX_NONE "none" steps (the shape of a labelled video under its own rule set)."""
-    sats, negs = once_each_words(dfa, rng, settings.per_formula, ONCE_EACH_MAX_NONE)
+    `max_none` "none" steps (the shape of a labelled video under its own rule set)."""
+    sats, negs = once_each_words(dfa, rng, settings.per_formula, settings.max_none)
     words, labels, sources = [], [], []
     for sat, (neg, source) in zip(sats, negs, strict=False):
         words += [sat, neg]
