@@ -297,7 +297,7 @@ def exact_loss(
     for t in range(int(lengths.max())):
         terms = (alpha[:, :, None] + log_letters[:, t, None, :]).flatten(1)  # [n, S·L]
         top = log_pairs.new_full((n, states + 1), NEG)
-        top = top.scatter_reduce(1, targets, terms.detach(), "amax").detach()
+        top = top.scatter_reduce(1, targets, terms.detach(), "amax")
         sums = log_pairs.new_zeros((n, states + 1))
         sums = sums.scatter_add(1, targets, (terms - top.gather(1, targets)).exp())
         step = (top + sums.clamp(min=1.0).log())[:, :states]  # a reached state's sum is >= 1
