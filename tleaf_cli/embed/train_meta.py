@@ -202,21 +202,18 @@ def train_meta(
             model.embed_traces(Batch.from_data_list(list(negs)).to(device)),
         )
 
-    def accuracy(pairs) -> float:
-        hits = 0.0
+    def scores(pairs) -> dict[str, float]:
+        """Triplet accuracy over `pairs`, and the mean squared distance of the formula to its
+        satisfying and to its violating traces (one embedding pass)."""
+        sums = torch.zeros(3, dtype=torch.float64)
         for i in range(0, len(pairs), settings.batch_size):
             part = pairs[i : i + settings.batch_size]
-            hits += triplet_accuracy(*embed(part)) * len(part)
-        return hits / max(len(pairs), 1)
-
-    def distances(pairs) -> dict[str, float]:
-        """Mean squared distance of the formula to its satisfying / violating traces."""
-        sums = torch.zeros(2)
-        for i in range(0, len(pairs), settings.batch_size):
-            anchor, pos, neg = embed(pairs[i : i + settings.batch_size])
-            sums += torch.stack([(anchor - z).pow(2).sum(dim=1).sum() for z in (pos, neg)]).cpu()
+            anchor, pos, neg = embed(part)
+            distance = [(anchor - z).pow(2).sum(dim=1).sum().item() for z in (pos, neg)]
+            hits = triplet_accuracy(anchor, pos, neg) * len(part)
+            sums += torch.tensor([hits, *distance], dtype=torch.float64)
         mean = (sums / max(len(pairs), 1)).tolist()
-        return {"satisfying_distance": mean[0], "violating_distance": mean[1]}
+        return dict(zip(("accuracy", "satisfying_distance", "violating_distance"), mean, strict=True))
 
     def extra_loss(triplet) -> torch.Tensor:
         loss = anchor_pull(triplet[0], triplet[1]) * settings.pull
@@ -229,7 +226,7 @@ def train_meta(
         model,
         epoch_triplets,
         embed,
-        lambda: accuracy(val),
+        lambda: scores(val)["accuracy"],
         LoopSettings.of(settings),
         out_dir,
         resume,
@@ -241,12 +238,15 @@ def train_meta(
     model.load_state_dict(torch.load(out_dir / "weights.pt", weights_only=True))
     model.eval()
     with torch.no_grad():
+        test = fixed_pairs("test")
+        figures = scores(test)
         metrics["test"] = {
-            "triplet_accuracy": accuracy(fixed_pairs("test")),
-            "uniform_negatives": accuracy(fixed_pairs("test", "uniform")),
-            "hard_negatives": accuracy(fixed_pairs("test", "hard")),
-            "pairs": len(fixed_pairs("test")),
-            **distances(fixed_pairs("test")),
+            "triplet_accuracy": figures["accuracy"],
+            "uniform_negatives": scores(fixed_pairs("test", "uniform"))["accuracy"],
+            "hard_negatives": scores(fixed_pairs("test", "hard"))["accuracy"],
+            "pairs": len(test),
+            "satisfying_distance": figures["satisfying_distance"],
+            "violating_distance": figures["violating_distance"],
         }
 
     # ---- the model directory
