@@ -212,8 +212,12 @@ def train_meta(
             distance = [(anchor - z).pow(2).sum(dim=1).sum().item() for z in (pos, neg)]
             hits = triplet_accuracy(anchor, pos, neg) * len(part)
             sums += torch.tensor([hits, *distance], dtype=torch.float64)
-        mean = (sums / max(len(pairs), 1)).tolist()
-        return dict(zip(("accuracy", "satisfying_distance", "violating_distance"), mean, strict=True))
+        accuracy, satisfying, violating = (sums / max(len(pairs), 1)).tolist()
+        return {
+            "accuracy": accuracy,
+            "satisfying_distance": satisfying,
+            "violating_distance": violating,
+        }
 
     def extra_loss(triplet) -> torch.Tensor:
         loss = anchor_pull(triplet[0], triplet[1]) * settings.pull
