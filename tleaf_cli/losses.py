@@ -38,7 +38,7 @@ import numpy as np
 import torch
 
 from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
-from tleaf_cli.data.dfa_table import dfa_from_row, dfa_payload
+from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.data.knowledge import (
     KnowledgeBase,
@@ -47,7 +47,6 @@ from tleaf_cli.data.knowledge import (
     rules_for,
     sample_formula,
 )
-from tleaf_cli.embed.graphs import dfa_graph, letter_cnf
 from tleaf_cli.embed.soft import Embedder, soft_trace_vectors
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.checker import PackedDFAs
@@ -163,10 +162,11 @@ class RuleSets:
         self.compiled += len(fresh)
 
     def embed(self, rule_sets: Sequence[RuleSet | None]) -> None:
-        """Embed every rule set not seen before: q(A_φ) and q_e of its letters, in one batch.
+        """Embed every rule set not seen before: q(A_φ) and q_e of its letters, in batches.
 
-        The guards and letters of all fresh sets go through q_e together and their DFAs through
-        q_m together, so a batch full of new rule sets costs two encoder calls, not two per set.
+        The letters of all fresh sets go through q_e together, their guards too, and their DFAs
+        through q_m together, so a batch full of new rule sets costs three encoder calls, not
+        three per set.
         """
         fresh = list(
             {r.id: r for r in rule_sets if r is not None and r.id not in self._vectors}.values()
@@ -174,18 +174,13 @@ class RuleSets:
         if not fresh:
             return
         q = self._need_embedder()
-        keys = []
-        for r in fresh:
-            atoms = r.dfa.atoms
-            keys += [(atoms, g) for g in dfa_graph(r.dfa)[1]]
-            letters = [()] + [(a,) for a in atoms]
-            keys += [(atoms, tuple(map(tuple, letter_cnf(x, atoms, True)))) for x in letters]
-        q.vectors(keys)  # fills q_e's cache in one batch
-        rows = [
-            {"formula_id": r.id, "formula": r.formula, "error": None, **dfa_payload(r.dfa)}
-            for r in fresh
-        ]
-        for r, vector in zip(fresh, q.embed_formula_rows(rows), strict=True):
+        q.vectors([k for r in fresh for k in q.letter_keys(r.dfa.atoms, "one-hot")[1]])
+        if q.kind == "dfa":
+            vectors = q.embed_dfas([r.dfa for r in fresh])
+        else:  # the syntax-tree baseline reads the formula's text
+            rows = [{"formula": r.formula, "atoms": r.dfa.atoms} for r in fresh]
+            vectors = q.embed_formula_rows(rows)
+        for r, vector in zip(fresh, vectors, strict=True):
             self._vectors[r.id] = vector
             self._letters[r.id] = q.letter_vectors(r.dfa.atoms, "one-hot")[1]
 

@@ -62,8 +62,16 @@ def _with_edge_vectors(graph: Data, vectors: torch.Tensor) -> Data:
 
 
 def featured_dfa_graph(dfa: DFA, vectors: GuardVectors) -> Data:
-    graph, guards = dfa_graph(dfa)
-    return _with_edge_vectors(graph, vectors([(dfa.atoms, g) for g in guards]))
+    return featured_dfa_graphs([dfa], vectors)[0]
+
+
+def featured_dfa_graphs(dfas: Sequence[DFA], vectors: GuardVectors) -> list[Data]:
+    """The graphs of `dfas` with q_e vectors on their edge nodes; every guard not seen before
+    goes through q_e in one batch."""
+    built = [dfa_graph(dfa) for dfa in dfas]
+    keys = [[(dfa.atoms, g) for g in guards] for dfa, (_, guards) in zip(dfas, built, strict=True)]
+    vectors([k for ks in keys for k in ks])  # fills the cache
+    return [_with_edge_vectors(g, vectors(ks)) for (g, _), ks in zip(built, keys, strict=True)]
 
 
 def featured_trace_graph(

@@ -23,10 +23,11 @@ from torch_geometric.data import Batch
 
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.embed.graphs import letter_cnf, syntax_graph, trace_graph_batch
-from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
+from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graphs, featured_trace_graph
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
 from tleaf_cli.embed.training import read_model_config
+from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
 
 
@@ -47,11 +48,18 @@ class Embedder:
     def embed_formula_rows(self, rows: Sequence[dict], batch: int = 256) -> torch.Tensor:
         """[len(rows), d] for compiled dfas.parquet rows: their DFA (q_m) or parse tree."""
         if self.kind == "dfa":
-            graphs = [featured_dfa_graph(dfa_from_row(r), self.vectors) for r in rows]
-        else:
-            for r in rows:
-                self.vectors.ids(r["atoms"])  # every atom must have features
-            graphs = [syntax_graph(parse(r["formula"]), self.vectors.index) for r in rows]
+            return self.embed_dfas([dfa_from_row(r) for r in rows], batch)
+        for r in rows:
+            self.vectors.ids(r["atoms"])  # every atom must have features
+        graphs = [syntax_graph(parse(r["formula"]), self.vectors.index) for r in rows]
+        return self._encode(self.model.embed_formulas, graphs, batch)
+
+    def embed_dfas(self, dfas: Sequence[DFA], batch: int = 256) -> torch.Tensor:
+        """[len(dfas), d]: q_m of compiled DFAs (a q of kind `dfa`; the syntax baseline reads
+        formula text, `embed_formula_rows`)."""
+        if self.kind != "dfa":
+            raise ValueError(f"a q of kind {self.kind!r} does not read DFAs")
+        graphs = featured_dfa_graphs(dfas, self.vectors)
         return self._encode(self.model.embed_formulas, graphs, batch)
 
     def embed_traces(
@@ -79,9 +87,9 @@ class Embedder:
             ]
         return torch.cat(parts) if parts else torch.zeros((0, 0))
 
-    def letter_vectors(self, atoms: tuple[str, ...], domain: str) -> tuple[list, torch.Tensor]:
+    def letter_keys(self, atoms: tuple[str, ...], domain: str) -> tuple[list, list]:
         """The letters over `atoms` (one-hot: none, then each atom; powerset: every subset, bit
-        k = atoms[k]) and their q_e vectors [letters, d]."""
+        k = atoms[k]) and their q_e cache keys."""
         if domain == "one-hot":
             letters = [frozenset()] + [frozenset({a}) for a in atoms]
         elif domain == "powerset":
@@ -92,7 +100,11 @@ class Embedder:
         else:
             raise ValueError(f"domain must be one-hot or powerset, not {domain!r}")
         one_hot = domain == "one-hot"
-        keys = [(atoms, tuple(map(tuple, letter_cnf(x, atoms, one_hot)))) for x in letters]
+        return letters, [(atoms, tuple(map(tuple, letter_cnf(x, atoms, one_hot)))) for x in letters]
+
+    def letter_vectors(self, atoms: tuple[str, ...], domain: str) -> tuple[list, torch.Tensor]:
+        """The letters over `atoms` (`letter_keys`) and their q_e vectors [letters, d]."""
+        letters, keys = self.letter_keys(atoms, domain)
         return letters, self.vectors(keys)
 
     def letter_probabilities(
