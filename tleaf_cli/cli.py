@@ -491,6 +491,12 @@ def train_edge(
             "name through a packaged sentence model; needs tleaf[text])."
         ),
     ] = "onehot",
+    per_guard: Annotated[
+        int,
+        typer.Option(
+            min=1, help="Triplets (guard, satisfying letter, violating letter) per distinct guard."
+        ),
+    ] = 4,
     epochs: Epochs = 30,
     patience: Patience = 5,
     hidden: Hidden = 256,
@@ -518,6 +524,7 @@ def train_edge(
         raise UsageError(f"--atom-features must be one of {', '.join(ATOM_FEATURE_KINDS)}")
     settings = EdgeSettings(
         atom_features=atom_features,
+        per_guard=per_guard,
         hidden=hidden,
         layers=layers,
         out_dim=out_dim,
@@ -561,8 +568,26 @@ def train_meta(
     steps: Annotated[int, typer.Option(min=1, help="Random-walk steps of the readout.")] = 24,
     readout: Annotated[
         str,
-        typer.Option(help="walk: expected visits of the walk; steps: one projection per step."),
+        typer.Option(
+            help="walk: expected visits of the walk; steps: one projection per step; accept: "
+            "where accepted runs of 1..--max-length letters go (uniform letters)."
+        ),
     ] = "walk",
+    bins: Annotated[
+        int,
+        typer.Option(
+            min=1, help="accept readout: a run cut in this many parts, one projection each."
+        ),
+    ] = 1,
+    max_length: Annotated[
+        int, typer.Option(min=1, help="accept readout: the longest accepted run counted.")
+    ] = 12,
+    residual: Annotated[
+        bool,
+        typer.Option(
+            "--residual/--no-residual", help="Each layer after the first adds to its input."
+        ),
+    ] = False,
     directed: Annotated[
         bool,
         typer.Option(
@@ -589,6 +614,13 @@ def train_meta(
     ] = 0.0,
     margin: Margin = 1.0,
     lr: Lr = 1e-3,
+    schedule: Annotated[
+        str,
+        typer.Option(
+            help="constant learning rate, or cosine: falls to 0 over --epochs (early stopping "
+            "on val still applies)."
+        ),
+    ] = "constant",
     batch_size: BatchSize = 64,
     seed: Seed = 0,
     device: Device = "cpu",
@@ -611,12 +643,16 @@ def train_meta(
         out_dim=out_dim,
         steps=steps,
         readout=readout,
+        bins=bins,
+        max_length=max_length,
+        residual=residual,
         directed=directed,
         norm=norm,
         pair_weight=pair_weight,
         pull=pull,
         margin=margin,
         lr=lr,
+        schedule=schedule,
         batch_size=batch_size,
         epochs=epochs,
         patience=patience,

@@ -36,7 +36,7 @@ from tleaf_cli.embed.graphs import EDGE
 
 KINDS = 2  # state, edge node
 FLAGS = 2  # initial, accepting
-READOUTS = ("walk", "steps")
+READOUTS = ("walk", "steps", "accept", "runs")
 
 
 def walk_distributions(
@@ -54,6 +54,56 @@ def walk_distributions(
         p = torch.zeros_like(p).index_add_(0, dst, p[src] / out_deg[src]) + p * stuck
         out.append(p)
     return torch.stack(out)
+
+
+def accepted_run_weights(
+    edge_index: torch.Tensor,
+    share: torch.Tensor,
+    accepting: torch.Tensor,
+    start: torch.Tensor,
+    graph_of: torch.Tensor,
+    max_length: int,
+    bins: int = 1,
+) -> torch.Tensor:
+    """[bins, num_nodes]: how much of an accepted run lies at each node, by part of the run.
+
+    Letters are drawn uniformly: from a state, an edge node is taken with probability `share`
+    (the share of the alphabet its guard reads) and leads on to its target state. For each
+    length T in 1..max_length at which a graph accepts anything, a run of T letters is drawn
+    among the accepted ones (the uniform distribution over accepted words of length T) and its
+    2T + 1 nodes are counted, the i-th into part floor(bins * i / (2T + 1)); the weights average
+    the lengths that accept something, each part normalised to sum to 1 per graph where it is
+    visited. Forward-backward: a_h = P(at v after h hops), b_h(v) = P(accepting h hops after v),
+    the share of accepted runs of H = 2T hops at v at hop h is a_h(v) b_(H-h)(v) / Z_T.
+
+    On a trace chain (share 1, its last state accepting) the one accepted run reads every node
+    once, so part k is the k-th stretch of the trace; on a DFA it is where accepted words go —
+    what satisfying traces of the formula have in common, which a walk ignoring acceptance does
+    not see.
+    """
+    src, dst = edge_index
+    n = share.shape[0]
+    hops = 2 * max_length
+    prob = torch.where(share[src] > 0, share[src], 1.0)  # state->edge: share; edge->state: 1
+    a = [torch.zeros(n, device=share.device).index_fill_(0, start, 1.0)]
+    b = [accepting.float()]
+    for _ in range(hops):
+        a.append(torch.zeros(n, device=share.device).index_add_(0, dst, a[-1][src] * prob))
+        b.append(torch.zeros(n, device=share.device).index_add_(0, src, b[-1][dst] * prob))
+    a_t, b_t = torch.stack(a), torch.stack(b)
+    graphs = int(start.numel())
+    out = torch.zeros(bins, n, device=share.device)
+    for length in range(1, max_length + 1):
+        h = 2 * length
+        z = b_t[h, start]  # [graphs]: accepted mass at this length
+        occupancy = a_t[: h + 1] * b_t[: h + 1].flip(0)  # [h + 1, n]
+        part = (torch.arange(h + 1, device=share.device) * bins) // (h + 1)
+        per_part = torch.zeros(bins, n, device=share.device).index_add_(0, part, occupancy)
+        ok = z > 0
+        out += torch.where(ok[graph_of], per_part / torch.where(ok, z, 1.0)[graph_of], 0.0)
+    # each part sums to 1 per graph (or 0 where the graph never reaches it)
+    total = torch.zeros(bins, graphs, device=share.device).index_add_(1, graph_of, out)
+    return out / total.clamp(min=1e-12)[:, graph_of]
 
 
 def walk_weights(edge_index: torch.Tensor, start: torch.Tensor, num_nodes: int, steps: int):
@@ -75,6 +125,9 @@ class AutomatonEncoder(nn.Module):
         directed: bool = False,
         readout: str = "walk",
         norm: bool = False,
+        bins: int = 1,
+        max_length: int = 12,
+        residual: bool = False,
     ) -> None:
         super().__init__()
         if readout not in READOUTS:
@@ -92,10 +145,29 @@ class AutomatonEncoder(nn.Module):
             self.register_buffer("edge_mean", torch.zeros(edge_dim))
             self.register_buffer("edge_std", torch.ones(edge_dim))
         self.norms = nn.ModuleList(nn.LayerNorm(hidden) for _ in range(layers)) if norm else None
-        width = hidden * (steps + 1) if readout == "steps" else hidden
-        self.head = nn.Linear(width, out_dim)
+        parts = {"walk": 1, "steps": steps + 1, "accept": bins, "runs": 2 * bins}[readout]
+        self.head = nn.Linear(hidden * parts, out_dim)
         self.steps = steps
         self.readout = readout
+        self.bins = bins
+        self.max_length = max_length
+        self.residual = residual
+
+    @torch.no_grad()
+    def run_weights(self, batch) -> torch.Tensor:
+        """[parts, num_nodes]: the `accept` / `runs` readout's weights (accepted runs' parts,
+        then rejected runs' parts); they depend on the graphs only, so callers that embed the
+        same graphs again may store them as `run_weights` [num_nodes, parts] on each graph."""
+        start = batch.ptr[:-1] + batch.initial
+        ends = [batch.flags[:, 1]] + ([batch.rejecting] if self.readout == "runs" else [])
+        return torch.cat(
+            [
+                accepted_run_weights(
+                    batch.edge_index, batch.share, e, start, batch.batch, self.max_length, self.bins
+                )
+                for e in ends
+            ]
+        )
 
     def set_edge_statistics(self, edge_vectors: torch.Tensor) -> None:
         """Standardise edge-node vectors like these (rows: the training graphs' edge nodes)."""
@@ -113,16 +185,22 @@ class AutomatonEncoder(nn.Module):
         both = to_undirected(arcs, num_nodes=x.shape[0]) if self.back is None else None
         for layer, conv in enumerate(self.convs):
             if self.back is None:
-                x = conv(x, both)
+                y = conv(x, both)
             else:
-                x = conv(x, arcs) + self.back[layer](x, arcs.flip(0))
+                y = conv(x, arcs) + self.back[layer](x, arcs.flip(0))
             if self.norms is not None:
-                x = self.norms[layer](x)
-            x = torch.relu(x)
+                y = self.norms[layer](y)
+            y = torch.relu(y)
+            x = x + y if self.residual and layer > 0 else y
         start = batch.ptr[:-1] + batch.initial
+        graphs = int(batch.ptr.numel() - 1)
+        if self.readout in ("accept", "runs"):
+            cached = getattr(batch, "run_weights", None)
+            r = cached.t() if cached is not None else self.run_weights(batch)
+            parts = [global_add_pool(rk.unsqueeze(1) * x, batch.batch, size=graphs) for rk in r]
+            return self.head(torch.cat(parts, dim=1))
         p = walk_distributions(arcs, start, x.shape[0], self.steps)
         if self.readout == "walk":
             return self.head(global_add_pool(p.mean(dim=0).unsqueeze(1) * x, batch.batch))
-        graphs = int(batch.ptr.numel() - 1)
         per_step = [global_add_pool(pk.unsqueeze(1) * x, batch.batch, size=graphs) for pk in p]
         return self.head(torch.cat(per_step, dim=1))

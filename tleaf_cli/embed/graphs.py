@@ -142,24 +142,30 @@ def dfa_graph(dfa: DFA) -> tuple[Data, list[tuple[tuple[int, ...], ...]]]:
     """The automaton graph of a DFA, and the guards (CNF over `dfa.atoms`) its edge nodes index.
 
     Fields: `node_kind` [N] (STATE/EDGE), `flags` [N, 2] float (initial, accepting; 0 on edge
-    nodes), `guard` [N] (index into the returned guards, -1 on states), `edge_index` [2, E],
-    `initial` (the initial state's node index).
+    nodes), `guard` [N] (index into the returned guards, -1 on states), `share` [N] float (the
+    share of the alphabet's letters an edge node's guard reads, 0 on states: the probability that
+    a uniformly random letter takes that edge), `rejecting` [N] float (1 on the states that are
+    not accepting), `edge_index` [2, E], `initial` (the initial
+    state's node index).
     """
     n = dfa.num_states
-    kinds, guard_ids, arcs = [STATE] * n, [-1] * n, []
+    kinds, guard_ids, arcs, share = [STATE] * n, [-1] * n, [], [0.0] * n
     flags = [[float(s == dfa.initial), float(dfa.accepting[s])] for s in range(n)]
     guards: list[tuple[tuple[int, ...], ...]] = []
-    for src, dst, guard in dfa.guarded_edges():
+    for (src, dst, guard), (_, _, letters) in zip(dfa.guarded_edges(), dfa.edges(), strict=True):
         node = len(kinds)
         kinds.append(EDGE)
         flags.append([0.0, 0.0])
         guard_ids.append(len(guards))
         guards.append(guard.cnf)
+        share.append(float(letters.mean()))
         arcs += [(src, node), (node, dst)]
     data = Data(
         node_kind=torch.tensor(kinds, dtype=torch.long),
         flags=torch.tensor(flags, dtype=torch.float32),
         guard=torch.tensor(guard_ids, dtype=torch.long),
+        share=torch.tensor(share, dtype=torch.float32),
+        rejecting=torch.tensor([float(not a) for a in dfa.accepting] + [0.0] * (len(kinds) - n)),
         edge_index=_edge_index(arcs),
         initial=torch.tensor([dfa.initial], dtype=torch.long),
         num_nodes=len(kinds),
@@ -170,7 +176,9 @@ def dfa_graph(dfa: DFA) -> tuple[Data, list[tuple[tuple[int, ...], ...]]]:
 def trace_graph(length: int) -> Data:
     """The chain graph of a trace of `length` steps; edge node of step i has `guard` = i.
 
-    Which letter each step carries is left to the caller (the guards list, or soft letters for
+    `share` is 1 on edge nodes (each state has one way on), 0 on states; `rejecting` is 0
+    everywhere (the chain stands for the one word it reads, and says nothing of others). Which
+    letter each step carries is left to the caller (the guards list, or soft letters for
     a differentiable trace), so one graph shape serves every trace of that length.
     """
     if length < 1:
@@ -188,6 +196,8 @@ def trace_graph(length: int) -> Data:
         node_kind=torch.tensor(kinds, dtype=torch.long),
         flags=torch.tensor(flags, dtype=torch.float32),
         guard=torch.tensor([-1] * (length + 1) + list(range(length)), dtype=torch.long),
+        share=torch.tensor([0.0] * (length + 1) + [1.0] * length),
+        rejecting=torch.zeros(2 * length + 1),
         edge_index=_edge_index(arcs),
         initial=torch.tensor([0], dtype=torch.long),
         num_nodes=len(kinds),
@@ -220,6 +230,8 @@ def trace_graph_batch(lengths: Sequence[int]) -> tuple[Batch, torch.Tensor]:
         node_kind=kind,
         flags=flags,
         guard=guard,
+        share=(kind == EDGE).float(),
+        rejecting=torch.zeros(total),
         edge_index=arcs,
         initial=torch.zeros(len(lengths), dtype=torch.long),
         batch=graph,

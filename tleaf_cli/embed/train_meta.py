@@ -27,13 +27,20 @@ from torch_geometric.data import Batch
 from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
-from tleaf_cli.embed.automaton import AutomatonEncoder
+from tleaf_cli.embed.automaton import READOUTS, AutomatonEncoder
 from tleaf_cli.embed.encoders import anchor_pull, triplet_accuracy
 from tleaf_cli.embed.graphs import EDGE, syntax_graph
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
 from tleaf_cli.embed.syntax import SyntaxEncoder
 from tleaf_cli.embed.train_edge import load_edge_model
-from tleaf_cli.embed.training import EpochReport, LoopSettings, chunks, device_for, fit
+from tleaf_cli.embed.training import (
+    SCHEDULES,
+    EpochReport,
+    LoopSettings,
+    chunks,
+    device_for,
+    fit,
+)
 from tleaf_cli.errors import UsageError
 from tleaf_cli.logic.formulas import parse
 
@@ -48,13 +55,18 @@ class MetaSettings:
     layers: int = 4
     out_dim: int = 200
     steps: int = 24  # random-walk steps of the readout
-    readout: str = "walk"  # walk: expected visits; steps: one projection per walk step
+    readout: str = "walk"  # walk: expected visits; steps: one projection per walk step;
+    # accept: where accepted runs go (automaton.accepted_run_weights)
+    bins: int = 1  # accept readout: parts of a run, each with its own projection
+    max_length: int = 12  # accept readout: longest accepted run counted
+    residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
     norm: bool = False  # standardised edge vectors and LayerNorm
     pair_weight: float = 0.0  # weight of the auxiliary pair classifier's loss (0: none)
     pull: float = 0.0  # weight of mean d(formula, satisfying trace) (encoders.anchor_pull)
     margin: float = 1.0
     lr: float = 1e-3
+    schedule: str = "constant"  # or "cosine" over `epochs` (training.SCHEDULES)
     batch_size: int = 64
     epochs: int = 30
     patience: int = 5
@@ -102,6 +114,9 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.directed,
         settings.readout,
         settings.norm,
+        settings.bins,
+        settings.max_length,
+        settings.residual,
     )
     head = None
     if settings.pair_weight > 0:
@@ -111,6 +126,17 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         return TripletEmbedder(trace, trace, head)
     formula = SyntaxEncoder(atom_table, settings.hidden, settings.layers, settings.out_dim)
     return TripletEmbedder(formula, trace, head)
+
+
+def store_run_weights(encoder: AutomatonEncoder, graphs: list, batch: int = 512) -> None:
+    """Give each graph its readout weights (`AutomatonEncoder.run_weights`), computed once in
+    batches, so training does not recompute them for every batch that holds the graph."""
+    for i in range(0, len(graphs), batch):
+        part = graphs[i : i + batch]
+        collated = Batch.from_data_list(part)
+        weights = encoder.run_weights(collated).t()
+        for k, g in enumerate(part):
+            g.run_weights = weights[collated.ptr[k] : collated.ptr[k + 1]]
 
 
 def train_meta(
@@ -125,6 +151,10 @@ def train_meta(
     out_dir = Path(out_dir)
     if settings.embedder not in EMBEDDERS:
         raise UsageError(f"--embedder must be one of {', '.join(EMBEDDERS)}")
+    if settings.schedule not in SCHEDULES:
+        raise UsageError(f"--schedule must be one of {', '.join(SCHEDULES)}")
+    if settings.readout not in READOUTS:
+        raise UsageError(f"--readout must be one of {', '.join(READOUTS)}")
     torch.manual_seed(settings.seed)
     device = device_for(settings.device)
 
@@ -174,6 +204,14 @@ def train_meta(
         if settings.embedder == "dfa":
             seen += [formula_graphs[f] for f in train_formulas]
         model.trace.set_edge_statistics(torch.cat([g.edge_vec[g.node_kind == EDGE] for g in seen]))
+    if settings.readout in ("accept", "runs"):  # the readout's weights, once per graph
+        seen = [
+            g for sides in by_split.values() for s in sides.values() for g, _ in s[True] + s[False]
+        ]
+        store_run_weights(
+            model.trace,
+            seen + list(formula_graphs.values()) if settings.embedder == "dfa" else seen,
+        )
     model = model.to(device)
 
     def epoch_triplets(generator: torch.Generator):

@@ -20,6 +20,7 @@ import torch
 from tleaf_cli.embed.encoders import triplet_accuracy, triplet_loss
 
 Triplet = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
+SCHEDULES = ("constant", "cosine")
 
 
 @dataclass
@@ -39,11 +40,15 @@ class LoopSettings:
     lr: float
     seed: int
     max_minutes: float | None = None
+    schedule: str = "constant"  # or "cosine": the learning rate falls to 0 over `epochs`
 
     @classmethod
     def of(cls, settings: object) -> LoopSettings:
-        """The loop's fields, taken from a trainer's settings object."""
-        return cls(**{f.name: getattr(settings, f.name) for f in fields(cls)})
+        """The loop's fields, taken from a trainer's settings object (defaults where it has
+        none)."""
+        return cls(
+            **{f.name: getattr(settings, f.name) for f in fields(cls) if hasattr(settings, f.name)}
+        )
 
 
 def fit(
@@ -62,6 +67,14 @@ def fit(
     `extra_loss`, when given, is added to the triplet loss of every batch."""
     start = time.perf_counter()
     optimiser = torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=settings.lr)
+    if settings.schedule not in SCHEDULES:
+        raise ValueError(f"schedule must be one of {SCHEDULES}, not {settings.schedule!r}")
+    # cosine: stepped once per epoch, so a resumed run continues on the same curve
+    scheduler = (
+        torch.optim.lr_scheduler.CosineAnnealingLR(optimiser, T_max=settings.epochs)
+        if settings.schedule == "cosine"
+        else None
+    )
     history: list[dict] = []
     best = {"heldout_accuracy": -1.0, "epoch": 0}
     first = 1
@@ -70,6 +83,8 @@ def fit(
         state = torch.load(checkpoint, weights_only=False)
         model.load_state_dict(state["model"])
         optimiser.load_state_dict(state["optimiser"])
+        if scheduler is not None and "scheduler" in state:
+            scheduler.load_state_dict(state["scheduler"])
         history, best, first = state["history"], state["best"], state["epoch"] + 1
         torch.set_rng_state(state["torch_rng"])
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -92,6 +107,8 @@ def fit(
             loss_sum += loss.item() * n
             acc_sum += triplet_accuracy(anchor.detach(), pos.detach(), neg.detach()) * n
             seen += n
+        if scheduler is not None:
+            scheduler.step()
         model.eval()
         with torch.no_grad():
             score = evaluate()
@@ -113,6 +130,7 @@ def fit(
             {
                 "model": model.state_dict(),
                 "optimiser": optimiser.state_dict(),
+                "scheduler": scheduler.state_dict() if scheduler is not None else None,
                 "epoch": epoch,
                 "history": history,
                 "best": best,
