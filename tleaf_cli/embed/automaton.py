@@ -6,10 +6,13 @@
     h^{l+1} = ReLU( GCN→_l(h^l) + GCN←_l(h^l) )       `directed`: arcs forwards and backwards
                                                       through separate weights
     q_m(G)  = W_out · sum_v r_v h_v^L                 readout "walk", or
-    q_m(G)  = sum_k W_k · sum_v p_k(v) h_v^L          readout "steps"
+    q_m(G)  = sum_k W_k · sum_v p_k(v) h_v^L          readout "steps", or
+    q_m(G)  = sum_b W_b · sum_v a_b(v) h_v^L          readout "accept" (b: parts of a run), and
+              + sum_b U_b · sum_v j_b(v) h_v^L        with "runs", the rejected runs' parts too
 
-With `norm`, s_v is standardised with the training graphs' statistics and each layer's output
-passes a LayerNorm before the ReLU.
+With `residual`, h^{l+1} = h^l + ReLU(...) after the first layer. With `norm`, s_v is
+standardised with the training graphs' statistics and each layer's output passes a LayerNorm
+before the ReLU.
 
 The readout r is the paper's "aggregate node embeddings along random walks from the initial
 state", taken in expectation so that a graph always gets the same vector: a walker starts at the
@@ -21,6 +24,12 @@ The "steps" readout keeps the walk's time: p_k(v) is the probability that the wa
 k steps, and each step k has its own projection W_k. On a trace chain p_k is the k-th node, so the
 vector knows the order of the letters (the plain readout only sees it through L hops of message
 passing); on a DFA it is the expected node embedding k steps into a random run.
+
+The "accept" readout (issue 13) weights nodes by where the automaton's accepted words go, not by
+where a walk that ignores acceptance goes: `accepted_run_weights`. a_b(v) is the share of part b
+(of B equal parts of a run) of uniformly drawn accepted runs of 1..max_length letters that lies
+on v; "runs" adds j_b(v), the same for rejected runs. A trace chain has one accepted run (its
+word, read in order) and no rejected ones.
 """
 
 from __future__ import annotations
@@ -59,22 +68,26 @@ def walk_distributions(
 def accepted_run_weights(
     edge_index: torch.Tensor,
     share: torch.Tensor,
-    accepting: torch.Tensor,
+    ends: torch.Tensor,
     start: torch.Tensor,
     graph_of: torch.Tensor,
-    max_length: int,
+    max_length: int | torch.Tensor,
     bins: int = 1,
 ) -> torch.Tensor:
     """[bins, num_nodes]: how much of an accepted run lies at each node, by part of the run.
 
-    Letters are drawn uniformly: from a state, an edge node is taken with probability `share`
-    (the share of the alphabet its guard reads) and leads on to its target state. For each
-    length T in 1..max_length at which a graph accepts anything, a run of T letters is drawn
-    among the accepted ones (the uniform distribution over accepted words of length T) and its
-    2T + 1 nodes are counted, the i-th into part floor(bins * i / (2T + 1)); the weights average
-    the lengths that accept something, each part normalised to sum to 1 per graph where it is
-    visited. Forward-backward: a_h = P(at v after h hops), b_h(v) = P(accepting h hops after v),
-    the share of accepted runs of H = 2T hops at v at hop h is a_h(v) b_(H-h)(v) / Z_T.
+    `ends` [num_nodes] marks the states a run must end in: the accepting states (accepted runs),
+    or the others (rejected runs); `start` holds each graph's initial node, `graph_of` the graph
+    of every node. Letters are drawn uniformly: from a state, an edge node is taken with
+    probability `share` (the share of the alphabet its guard reads) and leads on to its target
+    state. For each length T in 1..max_length at which a graph has such a run, one is drawn
+    uniformly among them (the uniform distribution over accepted words of length T) and its
+    2T + 1 nodes are counted, the i-th into part floor(bins * i / (2T + 1)); `max_length` is one
+    bound for every graph or a tensor [graphs] of bounds, one per graph; the counts of all
+    lengths are added (a longer run brings more nodes) and each part is normalised to sum to 1
+    per graph (0 where a graph has no such run). Forward-backward: a_h(v) = P(at v after h
+    hops), b_h(v) = P(in `ends` h hops after v); the share of the runs of H = 2T hops at v at
+    hop h is a_h(v) b_(H-h)(v) / Z_T, Z_T = b_H(start).
 
     On a trace chain (share 1, its last state accepting) the one accepted run reads every node
     once, so part k is the k-th stretch of the trace; on a DFA it is where accepted words go —
@@ -83,23 +96,24 @@ def accepted_run_weights(
     """
     src, dst = edge_index
     n = share.shape[0]
-    hops = 2 * max_length
+    graphs = int(start.numel())
+    limit = torch.as_tensor(max_length, device=share.device).expand(graphs)
+    hops = 2 * int(limit.max()) if graphs else 0
     prob = torch.where(share[src] > 0, share[src], 1.0)  # state->edge: share; edge->state: 1
     a = [torch.zeros(n, device=share.device).index_fill_(0, start, 1.0)]
-    b = [accepting.float()]
+    b = [ends.float()]
     for _ in range(hops):
         a.append(torch.zeros(n, device=share.device).index_add_(0, dst, a[-1][src] * prob))
         b.append(torch.zeros(n, device=share.device).index_add_(0, src, b[-1][dst] * prob))
     a_t, b_t = torch.stack(a), torch.stack(b)
-    graphs = int(start.numel())
     out = torch.zeros(bins, n, device=share.device)
-    for length in range(1, max_length + 1):
+    for length in range(1, hops // 2 + 1):
         h = 2 * length
         z = b_t[h, start]  # [graphs]: accepted mass at this length
         occupancy = a_t[: h + 1] * b_t[: h + 1].flip(0)  # [h + 1, n]
         part = (torch.arange(h + 1, device=share.device) * bins) // (h + 1)
         per_part = torch.zeros(bins, n, device=share.device).index_add_(0, part, occupancy)
-        ok = z > 0
+        ok = (z > 0) & (length <= limit)
         out += torch.where(ok[graph_of], per_part / torch.where(ok, z, 1.0)[graph_of], 0.0)
     # each part sums to 1 per graph (or 0 where the graph never reaches it)
     total = torch.zeros(bins, graphs, device=share.device).index_add_(1, graph_of, out)
@@ -160,10 +174,18 @@ class AutomatonEncoder(nn.Module):
         same graphs again may store them as `run_weights` [num_nodes, parts] on each graph."""
         start = batch.ptr[:-1] + batch.initial
         ends = [batch.flags[:, 1]] + ([batch.rejecting] if self.readout == "runs" else [])
+        # a trace chain is read to its end whatever its length (`horizon`, its length); a DFA
+        # (horizon 0) up to max_length letters
+        horizon = getattr(batch, "horizon", None)
+        limit = (
+            self.max_length
+            if horizon is None
+            else torch.where(horizon > 0, horizon, self.max_length)
+        )
         return torch.cat(
             [
                 accepted_run_weights(
-                    batch.edge_index, batch.share, e, start, batch.batch, self.max_length, self.bins
+                    batch.edge_index, batch.share, e, start, batch.batch, limit, self.bins
                 )
                 for e in ends
             ]

@@ -145,8 +145,8 @@ def dfa_graph(dfa: DFA) -> tuple[Data, list[tuple[tuple[int, ...], ...]]]:
     nodes), `guard` [N] (index into the returned guards, -1 on states), `share` [N] float (the
     share of the alphabet's letters an edge node's guard reads, 0 on states: the probability that
     a uniformly random letter takes that edge), `rejecting` [N] float (1 on the states that are
-    not accepting), `edge_index` [2, E], `initial` (the initial
-    state's node index).
+    not accepting), `horizon` (0: readouts count runs up to the encoder's max_length),
+    `edge_index` [2, E], `initial` (the initial state's node index).
     """
     n = dfa.num_states
     kinds, guard_ids, arcs, share = [STATE] * n, [-1] * n, [], [0.0] * n
@@ -166,6 +166,7 @@ def dfa_graph(dfa: DFA) -> tuple[Data, list[tuple[tuple[int, ...], ...]]]:
         guard=torch.tensor(guard_ids, dtype=torch.long),
         share=torch.tensor(share, dtype=torch.float32),
         rejecting=torch.tensor([float(not a) for a in dfa.accepting] + [0.0] * (len(kinds) - n)),
+        horizon=torch.tensor([0]),
         edge_index=_edge_index(arcs),
         initial=torch.tensor([dfa.initial], dtype=torch.long),
         num_nodes=len(kinds),
@@ -177,7 +178,8 @@ def trace_graph(length: int) -> Data:
     """The chain graph of a trace of `length` steps; edge node of step i has `guard` = i.
 
     `share` is 1 on edge nodes (each state has one way on), 0 on states; `rejecting` is 0
-    everywhere (the chain stands for the one word it reads, and says nothing of others). Which
+    everywhere (the chain stands for the one word it reads, and says nothing of others);
+    `horizon` is the length (readouts read the chain to its end). Which
     letter each step carries is left to the caller (the guards list, or soft letters for
     a differentiable trace), so one graph shape serves every trace of that length.
     """
@@ -198,6 +200,7 @@ def trace_graph(length: int) -> Data:
         guard=torch.tensor([-1] * (length + 1) + list(range(length)), dtype=torch.long),
         share=torch.tensor([0.0] * (length + 1) + [1.0] * length),
         rejecting=torch.zeros(2 * length + 1),
+        horizon=torch.tensor([length]),
         edge_index=_edge_index(arcs),
         initial=torch.tensor([0], dtype=torch.long),
         num_nodes=len(kinds),
@@ -232,6 +235,7 @@ def trace_graph_batch(lengths: Sequence[int]) -> tuple[Batch, torch.Tensor]:
         guard=guard,
         share=(kind == EDGE).float(),
         rejecting=torch.zeros(total),
+        horizon=lengths_t,
         edge_index=arcs,
         initial=torch.zeros(len(lengths), dtype=torch.long),
         batch=graph,
