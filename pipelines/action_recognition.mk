@@ -20,6 +20,12 @@ FORMULA_FROM ?= predictions
 OMP_NUM_THREADS ?= 1
 export OMP_NUM_THREADS
 
+# q_m as the model-checking pipeline trains it (docs/results/model_checking.md): messages along and
+# against the arcs, read out where accepted and rejected runs go (5 parts; rule sets' traces read
+# up to 20 letters, so runs that long are counted), cosine learning rate; plus --pull 0.02
+Q := --directed --readout runs --bins 5 --max-length 20 --schedule cosine --batch-size 128 \
+    --lr 2e-3 --pull 0.02
+
 ifeq ($(SMALL),1)
 OUT ?= out/action-recognition-small
 SEEDS ?= 0
@@ -27,7 +33,7 @@ MODELS ?= lstm tcn
 DATA := --actions 6 --ingredients 8 --feature-dim 16 --train 16 --val 8 --test 16 --max-steps 8
 K := 4
 EDGE := --epochs 1 --hidden 32 --out-dim 16
-META := --epochs 1 --hidden 32 --layers 2 --out-dim 16 --pull 0.02
+META := --epochs 1 --hidden 32 --layers 2 --out-dim 16 $(Q)
 TASK := --epochs 2 --hidden 16
 else
 OUT ?= out/action-recognition
@@ -36,7 +42,7 @@ MODELS ?= lstm tcn
 DATA :=
 K := 20
 EDGE := --epochs 5
-META := --epochs 15 --pull 0.02
+META := --epochs 15 $(Q)
 TASK := --epochs 150 --patience 20 --lr 1e-3
 endif
 
