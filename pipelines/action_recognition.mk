@@ -23,8 +23,7 @@ export OMP_NUM_THREADS
 # q_m as the model-checking pipeline trains it (docs/results/model_checking.md): messages along and
 # against the arcs, read out where accepted and rejected runs go (5 parts; rule sets' traces read
 # up to 20 letters, so runs that long are counted), cosine learning rate; plus --pull 0.02
-Q := --directed --readout runs --bins 5 --max-length 20 --schedule cosine --batch-size 128 \
-    --lr 2e-3 --pull 0.02
+Q := --directed --readout runs --bins 5 --max-length 20 --schedule cosine --pull 0.02
 
 ifeq ($(SMALL),1)
 OUT ?= out/action-recognition-small

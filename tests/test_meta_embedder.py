@@ -162,3 +162,26 @@ def test_pull_brings_satisfying_traces_onto_their_formula(chain, tmp_path: Path)
         test[pull] = metrics["test"]
     assert test[1.0]["satisfying_distance"] < 0.5 * test[0.0]["satisfying_distance"]
     assert test[1.0]["violating_distance"] > test[1.0]["satisfying_distance"]
+
+
+def test_cosine_schedule_ends_at_zero_and_is_checkpointed(chain, tmp_path: Path) -> None:
+    settings = MetaSettings(**{**SMALL_META.__dict__, "epochs": 3, "schedule": "cosine"})
+    train_meta(chain["dfas"], chain["traces"], chain["edge"], tmp_path / "c", settings)
+    state = torch.load(tmp_path / "c" / "checkpoint.pt", weights_only=False)
+    assert state["scheduler"]["last_epoch"] == 3
+    assert state["optimiser"]["param_groups"][0]["lr"] == pytest.approx(0.0, abs=1e-12)
+    constant = MetaSettings(**{**SMALL_META.__dict__, "epochs": 1})
+    train_meta(chain["dfas"], chain["traces"], chain["edge"], tmp_path / "k", constant)
+    state = torch.load(tmp_path / "k" / "checkpoint.pt", weights_only=False)
+    assert state["optimiser"]["param_groups"][0]["lr"] == pytest.approx(SMALL_META.lr)
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="checks the message where CUDA is absent")
+def test_device_cuda_without_cuda_is_a_clean_usage_error(chain, tmp_path: Path) -> None:
+    result = cli(
+        "train-meta", chain["dfas"], chain["traces"], "--edge", chain["edge"],
+        "-o", tmp_path / "m", "--device", "cuda", "--epochs", 1,
+    )  # fmt: skip
+    assert result.exit_code == 2
+    assert "cuda" in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "m" / "weights.pt").exists()
