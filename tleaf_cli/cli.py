@@ -570,17 +570,21 @@ def train_meta(
         str,
         typer.Option(
             help="walk: expected visits of the walk; steps: one projection per step; accept: "
-            "where accepted runs of 1..--max-length letters go (uniform letters)."
+            "where accepted runs of 1..--max-length letters go (uniform letters); runs: accepted "
+            "and rejected runs, each with their own projections."
         ),
     ] = "walk",
     bins: Annotated[
         int,
         typer.Option(
-            min=1, help="accept readout: a run cut in this many parts, one projection each."
+            min=1, help="accept/runs readouts: a run cut in this many parts, one projection each."
         ),
     ] = 1,
     max_length: Annotated[
-        int, typer.Option(min=1, help="accept readout: the longest accepted run counted.")
+        int,
+        typer.Option(
+            min=1, help="accept/runs readouts: the longest run of a DFA counted (traces: whole)."
+        ),
     ] = 12,
     residual: Annotated[
         bool,

@@ -56,9 +56,9 @@ class MetaSettings:
     out_dim: int = 200
     steps: int = 24  # random-walk steps of the readout
     readout: str = "walk"  # walk: expected visits; steps: one projection per walk step;
-    # accept: where accepted runs go (automaton.accepted_run_weights)
-    bins: int = 1  # accept readout: parts of a run, each with its own projection
-    max_length: int = 12  # accept readout: longest accepted run counted
+    # accept: where accepted runs go (automaton.accepted_run_weights); runs: and rejected runs
+    bins: int = 1  # accept/runs readouts: parts of a run, each with its own projection
+    max_length: int = 12  # accept/runs readouts: longest run of a DFA counted (traces: whole)
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
     norm: bool = False  # standardised edge vectors and LayerNorm
