@@ -134,7 +134,7 @@ def test_a_small_q_separates_held_out_traces_and_reloads_identically(low_set, tm
 
     settings = MetaSettings(
         hidden=32, layers=2, out_dim=16, batch_size=32, lr=3e-3, directed=True,
-        readout="runs", bins=3, epochs=8, patience=8, schedule="cosine",
+        readout="runs", bins=3, epochs=12, patience=12, schedule="cosine",
     )  # fmt: skip
     trained = train_meta(
         low_set["dfas"], low_set["traces"], low_set["edge"], tmp_path / "q", settings
@@ -145,10 +145,10 @@ def test_a_small_q_separates_held_out_traces_and_reloads_identically(low_set, tm
     )  # fmt: skip
     ours = trained["test"]["triplet_accuracy"]
     # 240 held-out pairs: 0.65 is five standard errors above chance; the untrained q of the same
-    # shape scores 0.59 (the readout alone already says something about the language)
+    # shape scores 0.59 (the readout alone already says something about the language), ours 0.68
     assert ours >= 0.65 and ours > untrained["test"]["triplet_accuracy"] + 0.05
     reloaded = _held_out_accuracy(load_embedder(tmp_path / "q"), low_set["dfas"], low_set["traces"])
-    assert reloaded == pytest.approx(ours, abs=1e-9)
+    assert reloaded == pytest.approx(ours, abs=1e-6)  # float32 mean vs float64 sum; 1 pair = 0.004
 
 
 def test_a_chain_longer_than_max_length_is_still_read_to_its_end() -> None:
