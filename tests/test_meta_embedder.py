@@ -185,3 +185,25 @@ def test_device_cuda_without_cuda_is_a_clean_usage_error(chain, tmp_path: Path) 
     assert result.exit_code == 2
     assert "cuda" in result.output and "Traceback" not in result.output
     assert not (tmp_path / "m" / "weights.pt").exists()
+
+
+def test_a_moved_tree_and_a_copied_meta_folder_still_load(chain, tmp_path: Path) -> None:
+    """The meta folder records its edge model relative to itself and absolute: a whole tree moved
+    elsewhere loads through the relative path, a meta folder copied alone through the absolute
+    one, and both embed exactly as before."""
+    import shutil
+
+    tree = tmp_path / "out"
+    shutil.copytree(chain["edge"], tree / "edge")
+    settings = MetaSettings(**{**SMALL_META.__dict__, "epochs": 1})
+    train_meta(chain["dfas"], chain["traces"], tree / "edge", tree / "meta", settings)
+    atoms, trace = ("a", "b", "c"), [{"a"}, {"b", "c"}]
+    before = load_embedder(tree / "meta").embed_traces([trace], [atoms])
+    moved = tmp_path / "elsewhere" / "out"
+    shutil.copytree(tree, moved)
+    shutil.rmtree(tree)  # the recorded absolute path is gone: only the relative one can work
+    assert torch.equal(load_embedder(moved / "meta").embed_traces([trace], [atoms]), before)
+    alone = tmp_path / "alone" / "meta"
+    shutil.copytree(moved / "meta", alone)
+    shutil.copytree(moved / "edge", tree / "edge")  # the absolute path exists again
+    assert torch.equal(load_embedder(alone).embed_traces([trace], [atoms]), before)

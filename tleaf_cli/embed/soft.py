@@ -156,11 +156,20 @@ def soft_trace_vectors(
     return model.embed_traces(batch)
 
 
+def edge_model_dir(model_dir: Path, config: dict) -> Path:
+    """Where a meta model's edge model is: relative to the meta folder where it is there (the
+    tree was moved or copied whole), else at the absolute path recorded when it was trained."""
+    relative = config.get("edge_model_relative")
+    if relative is not None and (model_dir / relative / "config.json").exists():
+        return model_dir / relative
+    return Path(config["edge_model"])
+
+
 def load_embedder(model_dir: str | Path) -> Embedder:
     """A trained meta embedder directory (with its edge model) as an `Embedder`."""
     model_dir = Path(model_dir)
     config = read_model_config(model_dir, "meta-embedder")
-    edge_model, edge_config = load_edge_model(config["edge_model"])
+    edge_model, edge_config = load_edge_model(edge_model_dir(model_dir, config))
     vectors = GuardVectors(edge_model, edge_config["vocabulary"])
     model = build_model(MetaSettings(**config["settings"]), vectors.dim, edge_model.atom_table)
     model.load_state_dict(torch.load(model_dir / "weights.pt", weights_only=True))

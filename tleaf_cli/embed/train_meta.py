@@ -15,6 +15,7 @@ paper's baseline): formulas are parse trees through a SyntaxEncoder; traces as b
 from __future__ import annotations
 
 import json
+import os
 from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -295,7 +296,10 @@ def train_meta(
     config = {
         "kind": "meta-embedder",
         "settings": asdict(settings),
+        # both: relative to this folder, so that moving a whole tree (out/...) keeps it loadable,
+        # and absolute, so that this folder copied alone still finds its edge model
         "edge_model": str(Path(edge_dir).resolve()),
+        "edge_model_relative": os.path.relpath(Path(edge_dir).resolve(), out_dir.resolve()),
         "edge_config": edge_config,
         "inputs": describe_inputs([dfas_path, traces_path]),
     }
