@@ -64,7 +64,7 @@ $(FIGURE): $(OUT)/$(T1)/seed$(S1)/meta-syntax/metrics.json $(OUT)/$(T1)/seed$(S1
 	    --embedder $(OUT)/$(T1)/seed$(S1)/meta-syntax --embedder $(OUT)/$(T1)/seed$(S1)/meta-dfa \
 	    --seed $(S1) -o $@ -q
 
-# data: one synthetic set per tier (seed 0)
+# data: one synthetic set per tier (DATA_SEED)
 $(OUT)/%/formulas.ltl:
 	@mkdir -p $(@D)
 	$(TLEAF) gen-formulas --tier $* -n $(N) --pairs $(K) --seed $(DATA_SEED) --jobs $(JOBS) -q -o $@

@@ -46,6 +46,7 @@ from tleaf_cli.embed.graphs import EDGE
 KINDS = 2  # state, edge node
 FLAGS = 2  # initial, accepting
 READOUTS = ("walk", "steps", "accept", "runs")
+RUN_READOUTS = ("accept", "runs")  # the readouts of `accepted_run_weights`
 
 
 def walk_distributions(
@@ -99,7 +100,10 @@ def accepted_run_weights(
     graphs = int(start.numel())
     limit = torch.as_tensor(max_length, device=share.device).expand(graphs)
     hops = 2 * int(limit.max()) if graphs else 0
-    prob = torch.where(share[src] > 0, share[src], 1.0)  # state->edge: share; edge->state: 1
+    # a letter's probability is carried by the arc out of its edge node (edge->state: share of
+    # the edge node; state->edge: 1): a_h at an edge node is the mass arriving there, b_h the
+    # mass going on, and their product at every node is the same as with the share on the way in
+    prob = torch.where(share[src] > 0, share[src], 1.0)
     a = [torch.zeros(n, device=share.device).index_fill_(0, start, 1.0)]
     b = [ends.float()]
     for _ in range(hops):
@@ -216,7 +220,7 @@ class AutomatonEncoder(nn.Module):
             x = x + y if self.residual and layer > 0 else y
         start = batch.ptr[:-1] + batch.initial
         graphs = int(batch.ptr.numel() - 1)
-        if self.readout in ("accept", "runs"):
+        if self.readout in RUN_READOUTS:
             cached = getattr(batch, "run_weights", None)
             r = cached.t() if cached is not None else self.run_weights(batch)
             parts = [global_add_pool(rk.unsqueeze(1) * x, batch.batch, size=graphs) for rk in r]

@@ -45,6 +45,7 @@ from ltlf2dfa.ltlf import (
 from torch_geometric.data import Batch, Data
 
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.guards import guard_for
 
 # Propositional graph node types.
 GLOBAL, AND, OR, NOT, ATOM = range(5)
@@ -152,12 +153,12 @@ def dfa_graph(dfa: DFA) -> tuple[Data, list[tuple[tuple[int, ...], ...]]]:
     kinds, guard_ids, arcs, share = [STATE] * n, [-1] * n, [], [0.0] * n
     flags = [[float(s == dfa.initial), float(dfa.accepting[s])] for s in range(n)]
     guards: list[tuple[tuple[int, ...], ...]] = []
-    for (src, dst, guard), (_, _, letters) in zip(dfa.guarded_edges(), dfa.edges(), strict=True):
+    for src, dst, letters in dfa.edges():  # the order of dfa.guarded_edges()
         node = len(kinds)
         kinds.append(EDGE)
         flags.append([0.0, 0.0])
         guard_ids.append(len(guards))
-        guards.append(guard.cnf)
+        guards.append(guard_for(letters, dfa.alphabet).cnf)
         share.append(float(letters.mean()))
         arcs += [(src, node), (node, dst)]
     data = Data(

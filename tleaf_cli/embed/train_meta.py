@@ -28,7 +28,7 @@ from torch_geometric.data import Batch
 from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
-from tleaf_cli.embed.automaton import READOUTS, AutomatonEncoder
+from tleaf_cli.embed.automaton import READOUTS, RUN_READOUTS, AutomatonEncoder
 from tleaf_cli.embed.encoders import anchor_pull, triplet_accuracy
 from tleaf_cli.embed.graphs import EDGE, syntax_graph
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
@@ -205,7 +205,7 @@ def train_meta(
         if settings.embedder == "dfa":
             seen += [formula_graphs[f] for f in train_formulas]
         model.trace.set_edge_statistics(torch.cat([g.edge_vec[g.node_kind == EDGE] for g in seen]))
-    if settings.readout in ("accept", "runs"):  # the readout's weights, once per graph
+    if settings.readout in RUN_READOUTS:  # the readout's weights, once per graph
         seen = [
             g for sides in by_split.values() for s in sides.values() for g, _ in s[True] + s[False]
         ]
