@@ -155,10 +155,10 @@ def logic_gradient(kind: str, domain, ingredients, embedder=None) -> tuple[torch
 def reference_and_batched(
     kind: str, domain, sets: tuple[tuple[str, ...], tuple[str, ...]], embedder=None
 ) -> list[tuple[float, float]]:
-    """The logic term (batched) against losses.py's exact_loss / tleaf_loss row by row, on
+    """The logic term (all rows in one call) against `logic_loss` episode by episode, on
     episodes of `sets` (two, or one twice) and three lengths: (batched, reference) for the value and
     for every parameter's gradient norm."""
-    from tleaf_cli.losses import exact_loss, tleaf_loss
+    from tleaf_cli.losses import logic_loss
 
     episodes = [random_episode(sets[0], 7, 0), random_episode(sets[1], 12, 1)]
     episodes.append(random_episode(sets[0], 3, 2))
@@ -178,15 +178,11 @@ def reference_and_batched(
     rows = []
     for e in episodes:
         rules = knowledge.rules(e.ingredients)
-        sets = [r for r in rules.sets if r is not None and r.satisfiable]
+        sets = list(rules.trainable)
         obs = torch.as_tensor(e.observations).float()
         logits = policy.get_distribution(obs).distribution.logits[None].repeat(len(sets), 1, 1)
-        lengths = torch.tensor([len(e.actions)] * len(sets))
-        one = logits.new_zeros(*logits.shape[:2], 1)
-        if kind == "exact":
-            rows.append(exact_loss(logits, one, lengths, sets))
-        else:
-            rows.append(tleaf_loss(logits, one, lengths, sets, rules.cache))
+        log_probs = torch.log_softmax(logits, dim=-1)
+        rows.append(logic_loss(kind, log_probs, sets, embedder=embedder, reduction="none"))
     reference = torch.cat(rows).mean()
     reference.backward()
     pairs = [(float(batched.detach()), float(reference.detach()))]
@@ -206,7 +202,7 @@ def test_trace_graph_batch_is_the_batch_of_trace_graphs() -> None:
     assert edge_nodes.tolist() == [4, 5, 6, 9, 16, 17, 18, 19, 20]
 
 
-def test_batched_exact_term_equals_losses_exact_loss(domain) -> None:
+def test_batched_exact_term_equals_the_loss_episode_by_episode(domain) -> None:
     other = ("salmon", "lentils", "cheese", "vinegar", "cilantro")
     pairs = reference_and_batched("exact", domain, (EASY, other))
     assert pairs[0][0] > 0 and len(pairs) > 2

@@ -1,7 +1,45 @@
-"""Errors that end a stage with a one-line message and an exit status (DESIGN.md: 1 or 2)."""
+"""The library's errors: `TleafError` and its kinds. The library never names a command-line flag.
+
+Every error tleaf raises on purpose is a `TleafError`, so a researcher catches one class. The
+kinds say what went wrong, not how the CLI reports it:
+
+* `InputError`    an input is unusable: an unreadable or foreign file, a row or line that is not
+                  what was expected, rules whose atoms are not in the vocabulary;
+* `SettingError`  a setting's value is out of range; `setting` is its name as the library spells
+                  it (a field of a settings object or a keyword argument, e.g. ``logic_loss``);
+* `RulesError`    rules that cannot do what was asked (e.g. no sequence satisfies them).
+
+Only `tleaf_cli/cli.py` turns them into exit codes and messages; it renders a `SettingError`'s
+setting as the flag that sets it (``logic_loss`` → ``--logic-loss``).
+"""
+
+from __future__ import annotations
 
 
-class UsageError(Exception):
-    """The call itself is unusable: bad option, unreadable or foreign input file (exit 2)."""
+class TleafError(Exception):
+    """Every error the library raises on purpose (the CLI: one stderr line, exit status 2)."""
 
     exit_code = 2
+
+
+class InputError(TleafError):
+    """An input (file, row, line, argument value) is not what was expected."""
+
+
+class SettingError(TleafError):
+    """A setting's value is out of range: `setting` names it as the library spells it."""
+
+    def __init__(self, setting: str, message: str) -> None:
+        super().__init__(message)
+        self.setting = setting
+
+    def __str__(self) -> str:
+        return f"{self.setting}: {self.args[0]}"
+
+
+class RulesError(TleafError):
+    """Rules that cannot do what was asked of them (unsatisfiable for the lengths given, ...)."""
+
+
+# The name every module used before the library had its own kinds: an input error.
+UsageError = InputError

@@ -22,6 +22,7 @@ import torch
 from torch_geometric.data import Batch
 
 from tleaf_cli.data.dfa_table import dfa_from_row
+from tleaf_cli.data.rule_set import RuleSet
 from tleaf_cli.embed.graphs import letter_cnf, syntax_graph, trace_graph_batch
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graphs, featured_trace_graph
 from tleaf_cli.embed.train_edge import load_edge_model
@@ -40,6 +41,7 @@ class Embedder:
         self.config = config
         for p in self.model.parameters():
             p.requires_grad_(False)
+        self._rule_sets: dict[str, tuple[torch.Tensor, torch.Tensor]] = {}  # formula -> vectors
 
     @property
     def kind(self) -> str:
@@ -77,6 +79,31 @@ class Embedder:
             for t, a, h in zip(traces, atoms, kinds, strict=True)
         ]
         return self._encode(self.model.embed_traces, graphs, batch)
+
+    def rule_set_vectors(self, rule_sets: Sequence[RuleSet]) -> tuple[torch.Tensor, torch.Tensor]:
+        """q(A_φ) [R, d] and q_e of each rule set's one-hot letters (none, atoms[0], ...), padded
+        with zero vectors to the most letters [R, L, d_e]; each rule set embedded once.
+
+        The letters of all fresh rule sets go through q_e together and their DFAs through q_m
+        together, so a batch full of new rule sets costs a few encoder calls, not a few per set.
+        Raises InputError for atoms q's edge model never saw.
+        """
+        fresh = list({r.formula: r for r in rule_sets if r.formula not in self._rule_sets}.values())
+        if fresh:
+            self.vectors([k for r in fresh for k in self.letter_keys(r.atoms, "one-hot")[1]])
+            if self.kind == "dfa":
+                vectors = self.embed_dfas([r.dfa for r in fresh])
+            else:  # the syntax-tree baseline reads the formula's text
+                rows = [{"formula": r.formula, "atoms": r.atoms} for r in fresh]
+                vectors = self.embed_formula_rows(rows)
+            for r, vector in zip(fresh, vectors, strict=True):
+                self._rule_sets[r.formula] = (vector, self.letter_vectors(r.atoms, "one-hot")[1])
+        embedded = [self._rule_sets[r.formula] for r in rule_sets]
+        letters = max(len(table) for _, table in embedded)
+        tables = embedded[0][1].new_zeros((len(embedded), letters, embedded[0][1].shape[1]))
+        for j, (_, table) in enumerate(embedded):
+            tables[j, : len(table)] = table
+        return torch.stack([vector for vector, _ in embedded]), tables
 
     @staticmethod
     def _encode(encode, graphs, batch: int) -> torch.Tensor:

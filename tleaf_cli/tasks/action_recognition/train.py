@@ -44,18 +44,16 @@ from torch.nn import functional as F
 from tleaf_cli.data.activities import UNLABELLED, Activities, Video, read_activities
 from tleaf_cli.data.artifacts import atomic_path, check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.knowledge import RULE_SET_SPLITS, read_knowledge_base
+from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
+from tleaf_cli.embed.soft import Embedder, load_embedder
 from tleaf_cli.embed.training import chunks, device_for
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.losses import (
     LOGIC_LOSSES,
-    RuleSet,
-    RuleSets,
-    checker_loss,
-    exact_loss,
-    grouped,
-    no_logic_loss,
-    tleaf_loss,
-    violations,
+    logic_loss,
+    pair_log_probs,
+    pair_vocabulary,
+    violates,
 )
 from tleaf_cli.tasks.action_recognition.models import MODELS, ActionRecognizer
 
@@ -82,15 +80,15 @@ class TaskSettings:
     device: str = "cpu"
 
     def check(self) -> None:
-        """UsageError for option values out of range."""
+        """SettingError for a setting out of range."""
         for name, value, allowed in (
-            ("--model", self.model, MODELS),
-            ("--logic-loss", self.logic_loss, LOGIC_LOSSES),
-            ("--formula-from", self.formula_from, FORMULA_SOURCES),
-            ("--rule-sets", self.rule_sets, RULE_SET_SPLITS),
+            ("model", self.model, MODELS),
+            ("logic_loss", self.logic_loss, LOGIC_LOSSES),
+            ("formula_from", self.formula_from, FORMULA_SOURCES),
+            ("rule_sets", self.rule_sets, RULE_SET_SPLITS),
         ):
             if value not in allowed:
-                raise UsageError(f"{name} must be one of {', '.join(allowed)}, not '{value}'")
+                raise SettingError(name, f"must be one of {', '.join(allowed)}, not '{value}'")
 
 
 @dataclass
@@ -132,24 +130,29 @@ class Batch:
         )
 
 
-def pair_index(data: Activities) -> dict[str, int]:
-    """Every (action, ingredient) atom of the vocabularies -> its flat pair index a·I + i."""
-    n = len(data.ingredients)
-    return {data.atom(a, i): a * n + i for a in range(len(data.actions)) for i in range(n)}
-
-
 def predicted_atoms(data: Activities, actions: np.ndarray, ingredients: np.ndarray) -> set[str]:
     """The atoms of a predicted sequence (action and ingredient indices per step)."""
     return {data.atom(int(a), int(i)) for a, i in zip(actions, ingredients, strict=True)}
 
 
 class LogicObjective:
-    """ℓ_logic for batches: picks each video's rule sets and calls the chosen loss."""
+    """ℓ_logic for batches: picks each video's rule sets and calls `losses.logic_loss` [B].
 
-    def __init__(self, settings: TaskSettings, data: Activities, rules: RuleSets) -> None:
+    With one rule set per ingredient, ℓ(φ) = Σ_x ℓ(φ_x): the video's outputs are repeated once
+    per set, so every set is one row of a single `logic_loss` call.
+    """
+
+    def __init__(
+        self,
+        settings: TaskSettings,
+        data: Activities,
+        rules: KnowledgeRuleSets,
+        embedder: Embedder | None = None,
+    ) -> None:
         self.settings = settings
         self.data = data
         self.rules = rules
+        self.embedder = embedder
         kind = settings.logic_loss
         self.per_ingredient = settings.rule_sets == "ingredient" and kind in GRADIENT_LOSSES
         self.fixed: dict[str, list[RuleSet]] = {}  # rule sets from labels, labelled videos only
@@ -157,16 +160,18 @@ class LogicObjective:
             videos = [v for v in data.videos if v.split != UNLABELLED]
             groups = self._groups([set(data.atoms(v)) for v in videos])
             self.fixed = {v.video_id: g for v, g in zip(videos, groups, strict=True)}
-            if kind == "tleaf":  # q(A_φ) of every fixed set before training, not in epoch 1
-                rules.embed([r for g in groups for r in g])
+            fixed = [r for g in groups for r in g]
+            if embedder is not None and fixed:  # q(A_φ) of every fixed set now, not in epoch 1
+                embedder.rule_set_vectors(fixed)
 
     def _groups(self, atoms_per_video: list[set[str]]) -> list[list[RuleSet]]:
-        return self.rules.groups_for_videos(atoms_per_video, self.per_ingredient)
+        return self.rules.for_atoms(atoms_per_video, self.per_ingredient)
 
     def __call__(self, batch: Batch, actions: torch.Tensor, ingredients: torch.Tensor):
         kind = self.settings.logic_loss
+        out = actions.new_zeros(actions.shape[0])
         if kind == "none":
-            return no_logic_loss(actions)
+            return out
         a = actions.detach().argmax(-1).cpu().numpy()
         i = ingredients.detach().argmax(-1).cpu().numpy()
         lengths = batch.lengths.tolist()
@@ -177,12 +182,19 @@ class LogicObjective:
         groups = [self.fixed.get(v.video_id, []) for v in batch.videos]
         for b, g in zip(predicted, from_predictions, strict=True):
             groups[b] = g
-        args = (actions, ingredients, batch.lengths, groups)
-        if kind == "tleaf":
-            return grouped(tleaf_loss, *args, self.rules)
-        if kind == "exact":
-            return grouped(exact_loss, *args)
-        return grouped(checker_loss, *args)
+        owner = [b for b, sets in enumerate(groups) for _ in sets]
+        if not owner:
+            return out
+        rows = torch.tensor(owner, device=actions.device)
+        per_set = logic_loss(
+            kind,
+            pair_log_probs(actions[rows], ingredients[rows]),
+            [r for sets in groups for r in sets],
+            batch.lengths[rows],
+            self.embedder,
+            reduction="none",
+        )
+        return out.index_add(0, rows, per_set)
 
 
 def train_action_recognition(
@@ -203,22 +215,21 @@ def train_action_recognition(
     splits = {s: data.split(s) for s in ("train", "val", "test")}
     empty = [s for s, videos in splits.items() if not videos]
     if empty:
-        raise UsageError(f"{activities_path}: no videos in split(s) {', '.join(empty)}")
+        raise InputError(f"{activities_path}: no videos in split(s) {', '.join(empty)}")
 
     setup_start = time.perf_counter()
-    pairs = pair_index(data)
-    checker_rules = RuleSets(kb, pairs)  # the violation metric: the same rules for every loss
+    vocabulary = pair_vocabulary(data.actions, data.ingredients)
+    checker_rules = KnowledgeRuleSets(kb, vocabulary)  # the violation metric, for every loss
+    embedder = None
     if settings.logic_loss == "tleaf":
         if embedder_dir is None:
-            raise UsageError("--logic-loss tleaf needs --embedder (a train-meta directory)")
-        from tleaf_cli.embed.soft import load_embedder
-
+            raise SettingError("embedder", "the tleaf loss needs an embedder (a train-meta folder)")
         embedder = load_embedder(embedder_dir)
         embedder.model.to(device)
-        loss_rules = RuleSets(kb, pairs, embedder)
+        loss_rules = KnowledgeRuleSets(kb, vocabulary, set(embedder.vectors.index))
     else:
         loss_rules = checker_rules
-    objective = LogicObjective(settings, data, loss_rules)
+    objective = LogicObjective(settings, data, loss_rules, embedder)
     setup_seconds = time.perf_counter() - setup_start  # rules compiled, q loaded (and embedded)
 
     torch.manual_seed(settings.seed)  # after the embedder: h starts the same for every loss
@@ -359,7 +370,7 @@ def score(
     videos: Sequence[Video],
     batch_size: int,
     device: torch.device,
-    rules: RuleSets | None = None,
+    rules: KnowledgeRuleSets | None = None,
 ) -> dict:
     """Per-step action / ingredient / pair accuracy; with `rules`, the share of videos whose
     predicted sequence violates the rules relevant to its predicted pairs."""
@@ -376,10 +387,10 @@ def score(
         "pair_accuracy": float((hit_a & hit_i).mean()),
     }
     if rules is not None:
-        sets = rules.for_videos([predicted_atoms(data, a, i) for a, i in predictions])
+        sets = rules.one_each([predicted_atoms(data, a, i) for a, i in predictions])
         n = len(data.ingredients)
         with_rules = [(r, a * n + i) for r, (a, i) in zip(sets, predictions, strict=True) if r]
-        bad = violations([r for r, _ in with_rules], [p for _, p in with_rules])
+        bad = violates([r for r, _ in with_rules], [p for _, p in with_rules])
         out["violation_fraction"] = float(bad.sum() / len(videos))
         out["videos_with_rules"] = len(with_rules)
     return out

@@ -41,7 +41,7 @@ from stable_baselines3.common.vec_env import VecNormalize
 
 from tleaf_cli.data.artifacts import atomic_path, check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.compile_dfas import CompileSettings
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import SettingError
 from tleaf_cli.losses import LOGIC_LOSSES
 from tleaf_cli.tasks.cooking import ENV_ID
 from tleaf_cli.tasks.cooking.demo_episodes import DemoEpisode, read_demo_episodes
@@ -89,13 +89,15 @@ class GailSettings:
 
     def check(self) -> None:
         if self.logic_loss not in LOGIC_LOSSES:
-            raise UsageError(
-                f"--logic-loss {self.logic_loss!r}: expected one of {', '.join(LOGIC_LOSSES)}"
+            raise SettingError(
+                "logic_loss", f"must be one of {', '.join(LOGIC_LOSSES)}, not {self.logic_loss!r}"
             )
         if self.device not in ("cpu", "cuda") or (
             self.device == "cuda" and not torch.cuda.is_available()
         ):
-            raise UsageError(f"--device {self.device!r}: expected cpu (or cuda where available)")
+            raise SettingError(
+                "device", f"{self.device!r}: expected cpu (or cuda where available)"
+            )
 
 
 # --------------------------------------------------------------------------- environments
@@ -330,7 +332,7 @@ def train_gail(
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
     if settings.logic_loss == "tleaf" and embedder_dir is None:
-        raise UsageError("--logic-loss tleaf needs --embedder (a train-meta directory)")
+        raise SettingError("embedder", "the tleaf loss needs an embedder (a train-meta folder)")
     domain = load_domain(settings.domain)
     expert = read_demo_episodes(demos, domain)
     pool = list(dict.fromkeys(e.ingredients for e in expert))

@@ -8,10 +8,9 @@ Rules that also name another ingredient's actions (the second argument's orderin
 fall outside every set.
 
 Soft traces: in an episode's observations s_1..s_T the policy gives π(·|s_t) over the 234 action
-ids; in this episode each id is exactly one atom (`env.action_names`), so P_t(atom) = π(id|s_t)
-and the empty letter of x's rule set carries every other action's mass. The losses of
-tleaf_cli/losses.py then apply unchanged, with the policy's logits as the "action" head and a
-one-element "ingredient" head (pair index = action id):
+ids; in this episode each id is exactly one atom (`env.action_names`), so the episode's action
+names are the vocabulary of `losses.logic_loss` and its log π are the `log_probs` (the empty
+letter of x's rule set carries every other action's mass):
 
 * exact  : −log P(trace ⊨ φ_x), the forward algorithm;
 * tleaf  : ‖q(A_φx) − q(w̃)‖², q frozen;
@@ -21,12 +20,10 @@ Every rule here is a safety property (`G !a`, "a before b"), so an episode's pre
 violates φ_x violates it for good; episodes are scored from their first step only (see
 `rollout_episodes`), because a DFA run must start in the initial state.
 
-Everything heavy is cached: one `RuleSets` (losses.py) per ingredient set, which compiles each
-distinct rule set once (MONA, plus compile-dfa's disk cache) and embeds it once for tleaf, and
-one `PackedRules` (packed_rules.py) per ingredient set, its rule sets padded into tensors. A
-minibatch's term then costs one policy forward over its episodes, one letter-probability gather
-per ingredient set, and one batched forward algorithm (exact) or one q_m call (tleaf) — the
-values of losses.exact_loss / losses.tleaf_loss, without their per-video Python loops.
+Everything heavy is cached: one `KnowledgeRuleSets` per ingredient set, which builds each
+distinct rule set once (MONA per rule, plus compile-dfa's disk cache), and q embeds each rule set
+once. A minibatch's term is one policy forward over its episodes and one `logic_loss` call over
+all its (episode, ingredient) rows.
 """
 
 from __future__ import annotations
@@ -40,18 +37,12 @@ import torch
 from tleaf_cli.data.compile_dfas import CompileSettings
 from tleaf_cli.data.knowledge import KnowledgeBase
 from tleaf_cli.data.knowledge import Rule as KbRule
-from tleaf_cli.embed.soft import Embedder, soft_trace_vectors
+from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
+from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.logic.formulas import atoms, parse
-from tleaf_cli.losses import RuleSet, RuleSets, violations
+from tleaf_cli.losses import logic_loss, violates
 from tleaf_cli.tasks.cooking.domain import Domain
 from tleaf_cli.tasks.cooking.knowledge import knowledge_base
-from tleaf_cli.tasks.cooking.packed_rules import (
-    PackedRules,
-    exact_losses,
-    expected_letter_vectors,
-    letter_log_probs,
-    pack_rules,
-)
 from tleaf_cli.tasks.cooking.rules import NUM_SLOTS, ActionCodec, EpisodeRules
 
 GRADIENT_LOSSES = ("tleaf", "exact")
@@ -69,11 +60,11 @@ class RolloutEpisode:
 @dataclass(frozen=True)
 class IngredientRules:
     """The rule sets of one ingredient set: `sets[k]` for slot k+1 (None: no rule applies);
-    `packed`: the satisfiable ones as tensors (None when there is none)."""
+    `trainable`: the satisfiable ones, in slot order (the rows of the logic term)."""
 
-    cache: RuleSets
+    rule_sets: KnowledgeRuleSets
     sets: tuple[RuleSet | None, ...]
-    packed: PackedRules | None
+    trainable: tuple[RuleSet, ...]
 
 
 class CookingKnowledge:
@@ -106,17 +97,15 @@ class CookingKnowledge:
                 for r in knowledge_base(self.domain, ingredients, mixture=False)
             )
         )
-        cache = RuleSets(kb, {a: i for i, a in enumerate(names)}, self.embedder, self.settings)
+        known = None if self.embedder is None else set(self.embedder.vectors.index)
+        rule_sets = KnowledgeRuleSets(kb, names, known, self.settings)
         on_slot = [
             [names[i] for i, (_, slots) in enumerate(self.codec.table) if slots[0] == slot]
             for slot in range(1, NUM_SLOTS)
         ]
-        sets = tuple(cache.for_videos(on_slot))
-        slots = [k for k, r in enumerate(sets, start=1) if r is not None and r.satisfiable]
-        packed = (
-            pack_rules([sets[k - 1] for k in slots], slots, self.codec.n, cache) if slots else None
-        )
-        return IngredientRules(cache, sets, packed)
+        sets = tuple(rule_sets.one_each(on_slot))
+        trainable = tuple(r for r in sets if r is not None and r.satisfiable)
+        return IngredientRules(rule_sets, sets, trainable)
 
 
 def rollout_episodes(
@@ -154,28 +143,19 @@ class LogicTerm:
             return torch.tensor(self.violation_rate(episodes))
         log_policy = _policy_log_probs(policy, episodes)  # [E, T, A], one forward
         lengths = torch.tensor([len(e.actions) for e in episodes])
-        losses, expected, targets, expected_lengths = [], [], [], []
+        # one row per (episode, ingredient): the episode against that ingredient's rule set
+        index, rules = [], []
         for ingredients, members in _by_ingredients(episodes).items():
-            packed = self.knowledge.rules(ingredients).packed
-            if packed is None:
-                continue
-            # one row per (episode, ingredient): the episode against that ingredient's rule set
-            sets = len(packed.slots)
-            rows = torch.arange(sets).repeat(len(members))
-            index = torch.tensor(members).repeat_interleave(sets)
-            letters = letter_log_probs(log_policy[index], packed, rows)
-            if self.kind == "exact":
-                losses.append(exact_losses(letters, lengths[index], packed, rows))
-            else:
-                expected.append(expected_letter_vectors(letters, packed, rows))
-                targets.append(packed.targets[rows])
-                expected_lengths.append(lengths[index])
-        if expected:  # tleaf: every row of every ingredient set through q_m at once
-            z = soft_trace_vectors(
-                self.knowledge.embedder.model, torch.cat(expected), torch.cat(expected_lengths)
-            )
-            losses.append((z - torch.cat(targets)).pow(2).sum(dim=1))
-        return torch.cat(losses).mean() if losses else torch.zeros(())
+            trainable = self.knowledge.rules(ingredients).trainable
+            for member in members:
+                index += [member] * len(trainable)
+                rules += trainable
+        if not rules:
+            return torch.zeros(())
+        rows = torch.tensor(index)
+        return logic_loss(
+            self.kind, log_policy[rows], rules, lengths[rows], self.knowledge.embedder
+        )
 
     def violation_rate(self, episodes: Sequence[RolloutEpisode]) -> float:
         """Share of (episode, ingredient) rows whose SAMPLED actions violate the rule set."""
@@ -185,7 +165,7 @@ class LogicTerm:
                 if rule_set is not None:
                     sets.append(rule_set)
                     sequences.append(e.actions)
-        return float(violations(sets, sequences).mean()) if sets else 0.0
+        return float(violates(sets, sequences).mean()) if sets else 0.0
 
 
 def _by_ingredients(episodes: Sequence[RolloutEpisode]) -> dict[tuple[str, ...], list[int]]:

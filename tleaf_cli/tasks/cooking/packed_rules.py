@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import torch
 
-from tleaf_cli.losses import NEG, RuleSet, RuleSets
+from tleaf_cli.losses_old import NEG, RuleSet, RuleSets
 
 TINY = 1e-300  # P(accept) floor of the float64 forward algorithm (−log = 690.8)
 

@@ -1,0 +1,110 @@
+"""`logic_loss`: how far a sequence model's outputs are from the rules, as a loss.
+
+A model gives, at every step, log-probabilities over a one-hot vocabulary (`log_probs`
+[B, T, V], `lengths` [B]); rules are `RuleSet`s over that vocabulary, one for the whole batch or
+one (or None) per sequence. Kinds:
+
+* ``exact``   −log P(w ⊨ φ), w drawn step by step from the outputs (losses/exact.py);
+* ``tleaf``   ‖q(A_φ) − q(w̃)‖², the paper's loss, with a trained embedder q (losses/tleaf.py);
+* ``checker`` 1 where the argmax sequence violates φ, no gradient (losses/checker.py).
+
+A sequence without rules, or whose rules no non-empty sequence satisfies (no signal: −log 0 is
+infinite, and an unsatisfiable φ has no region in q's space to pull towards), gets 0 from exact
+and tleaf; checker scores every sequence with rules. All rows are computed together: one padded
+forward algorithm, or one q_m call, per batch.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Literal
+
+import torch
+
+from tleaf_cli.data.rule_set import RuleSet
+from tleaf_cli.embed.soft import Embedder
+from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.losses.checker import checker_loss
+from tleaf_cli.losses.exact import exact_loss
+from tleaf_cli.losses.packed import letter_log_probs, pack
+from tleaf_cli.losses.tleaf import tleaf_loss
+
+LossKind = Literal["exact", "tleaf", "checker"]
+LOSS_KINDS: tuple[LossKind, ...] = ("exact", "tleaf", "checker")
+REDUCTIONS = ("mean", "sum", "none")
+# What a task's trainer offers: the reference (no logic loss) or one of the kinds.
+LOGIC_LOSSES = ("none", "tleaf", "checker", "exact")
+
+
+def logic_loss(
+    kind: LossKind,
+    log_probs: torch.Tensor,
+    rules: RuleSet | Sequence[RuleSet | None],
+    lengths: torch.Tensor | None = None,
+    embedder: Embedder | None = None,
+    reduction: str = "mean",
+) -> torch.Tensor:
+    """The logic loss of `kind` for each sequence, reduced over the batch.
+
+    Args:
+        kind: ``"exact"``, ``"tleaf"`` or ``"checker"`` (module docstring).
+        log_probs: float [B, T, V], per-step log-probabilities over the rules' vocabulary (e.g.
+            ``log_softmax(logits, -1)``); they must be normalised over V.
+        rules: one RuleSet for every sequence, or a list of B RuleSets (None: no rules).
+        lengths: long [B]; steps at or past a length are not read (default: all T steps).
+        embedder: q, from ``load_embedder(dir)``; needed by ``tleaf`` only.
+        reduction: ``"mean"`` over all B sequences (those without rules count 0), ``"sum"``, or
+            ``"none"`` for the [B] losses.
+
+    Raises SettingError for a bad kind, reduction or missing embedder, InputError for shapes or
+    rule sets that do not fit `log_probs`.
+    """
+    if kind not in LOSS_KINDS:
+        raise SettingError("kind", f"must be one of {', '.join(LOSS_KINDS)}, not {kind!r}")
+    if reduction not in REDUCTIONS:
+        raise SettingError(
+            "reduction", f"must be one of {', '.join(REDUCTIONS)}, not {reduction!r}"
+        )
+    if kind == "tleaf" and embedder is None:
+        raise SettingError("embedder", "the tleaf loss needs an embedder (load_embedder(dir))")
+    if log_probs.dim() != 3:
+        raise InputError(f"log_probs must be [B, T, V], not {list(log_probs.shape)}")
+    batch, steps, vocabulary = log_probs.shape
+    per_sequence = [rules] * batch if isinstance(rules, RuleSet) else list(rules)
+    if len(per_sequence) != batch:
+        raise InputError(f"{len(per_sequence)} rule sets for a batch of {batch} sequences")
+    for r in {id(r): r for r in per_sequence if r is not None}.values():
+        if len(r.vocabulary) != vocabulary:
+            raise InputError(
+                f"rule set {r.name}: a vocabulary of {len(r.vocabulary)} items, but log_probs "
+                f"has {vocabulary}"
+            )
+    if lengths is None:
+        lengths = torch.full((batch,), steps, dtype=torch.long)
+    lengths = lengths.to(log_probs.device)
+
+    out = log_probs.new_zeros(batch)
+    rows = [
+        b
+        for b, r in enumerate(per_sequence)
+        if r is not None and (r.satisfiable or kind == "checker")
+    ]
+    if rows:
+        chosen = [per_sequence[b] for b in rows]
+        which = torch.tensor(rows, device=log_probs.device)
+        if kind == "checker":
+            values = checker_loss(log_probs[which], lengths[which], chosen)
+        else:
+            distinct = list({id(r): r for r in chosen}.values())
+            position = {id(r): k for k, r in enumerate(distinct)}
+            packed = pack(distinct, vocabulary, log_probs.device)
+            index = torch.tensor([position[id(r)] for r in chosen], device=log_probs.device)
+            letters = letter_log_probs(log_probs[which], packed, index)
+            if kind == "exact":
+                values = exact_loss(letters, lengths[which], packed, index)
+            else:
+                values = tleaf_loss(letters, lengths[which], packed, index, embedder)
+        out = out.index_put((which,), values)
+    if reduction == "none":
+        return out
+    return out.sum() if reduction == "sum" else out.mean()
