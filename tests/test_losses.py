@@ -1,4 +1,4 @@
-"""Logic losses: exact against brute force, tleaf's gradients, the checker, the rule-set cache."""
+"""The logic-loss core: exact against brute force, tleaf's gradients, the checker, rule sets."""
 
 from __future__ import annotations
 
@@ -10,105 +10,150 @@ import pytest
 import torch
 
 from tleaf_cli.data.knowledge import read_knowledge_base
+from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
 from tleaf_cli.embed.encoders import PropositionEncoder
 from tleaf_cli.embed.meta_data import GuardVectors
 from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.embed.train_meta import MetaSettings, build_model
+from tleaf_cli.errors import InputError, SettingError, TleafError
 from tleaf_cli.logic.compile import compile_formula
-from tleaf_cli.losses import (
-    RuleSet,
-    RuleSets,
-    checker_loss,
-    exact_loss,
-    grouped,
-    no_logic_loss,
-    pair_log_probs,
-    tleaf_loss,
-)
+from tleaf_cli.losses import logic_loss, pair_log_probs, pair_vocabulary, violates
 
 ACTIONS = ("cut", "fry", "rinse")
 INGREDIENTS = ("egg", "onion")
-PAIRS = {f"{a}_{i}": k * len(INGREDIENTS) + j for k, a in enumerate(ACTIONS) for j, i in
-         enumerate(INGREDIENTS)}  # fmt: skip
-NAMES = {v: k for k, v in PAIRS.items()}
+VOCAB = pair_vocabulary(ACTIONS, INGREDIENTS)
 
 
-def rule_set(formula: str) -> RuleSet:
-    dfa = compile_formula(formula, "one-hot")
-    pairs = torch.tensor([PAIRS[a] for a in dfa.atoms])
-    return RuleSet(formula, formula, 1, dfa, pairs, True)
-
-
-def logits(batch: int, steps: int, seed: int) -> tuple[torch.Tensor, torch.Tensor]:
+def log_probs(batch: int, steps: int, seed: int) -> torch.Tensor:
+    """Pair log-probabilities from two random heads (the action recogniser's shape)."""
     g = torch.Generator().manual_seed(seed)
     a = torch.randn((batch, steps, len(ACTIONS)), generator=g) * 2
     i = torch.randn((batch, steps, len(INGREDIENTS)), generator=g) * 2
-    return a.requires_grad_(), i.requires_grad_()
+    return pair_log_probs(a, i).detach().requires_grad_()
 
 
-def brute_force_accept(r: RuleSet, a: torch.Tensor, i: torch.Tensor, steps: int) -> float:
-    """P(accept): sum over every pair sequence of its probability times acceptance."""
-    p = pair_log_probs(a, i).exp().detach().numpy()
+def brute_force_accept(r: RuleSet, lp: torch.Tensor) -> float:
+    """P(accept): the sum over every sequence of its probability times the DFA's acceptance."""
+    p = lp.exp().detach().numpy()
     total = 0.0
-    for seq in itertools.product(range(len(PAIRS)), repeat=steps):
-        if r.dfa.accepts([{NAMES[k]} for k in seq]):
+    for seq in itertools.product(range(len(VOCAB)), repeat=len(p)):
+        if r.dfa.accepts([{VOCAB[k]} for k in seq]):
             total += math.prod(p[t, k] for t, k in enumerate(seq))
     return total
 
 
+def test_pair_vocabulary_is_the_order_of_pair_log_probs() -> None:
+    a = torch.randn(1, 1, len(ACTIONS))
+    i = torch.randn(1, 1, len(INGREDIENTS))
+    lp = pair_log_probs(a, i)[0, 0]
+    la, li = torch.log_softmax(a[0, 0], -1), torch.log_softmax(i[0, 0], -1)
+    assert VOCAB[3] == "fry_onion"
+    assert lp[3].item() == pytest.approx((la[1] + li[1]).item())
+    assert lp.exp().sum().item() == pytest.approx(1.0)
+
+
 def test_exact_loss_is_the_brute_force_probability() -> None:
     sets = [
-        rule_set("G(cut_onion -> F fry_onion)"),
+        RuleSet("G(cut_onion -> F fry_onion)", VOCAB),
         None,
-        rule_set("(!fry_egg U rinse_egg) & G !cut_egg"),
+        RuleSet(["!fry_egg U rinse_egg", "G !cut_egg"], VOCAB),
     ]
-    a, i = logits(3, 4, seed=1)
+    lp = log_probs(3, 4, seed=1)
     lengths = torch.tensor([4, 2, 3])
-    loss = exact_loss(a, i, lengths, sets)
+    loss = logic_loss("exact", lp, sets, lengths, reduction="none")
     assert loss[1].item() == 0.0
     for b in (0, 2):
-        steps = int(lengths[b])
-        want = brute_force_accept(sets[b], a[b, :steps], i[b, :steps], steps)
+        want = brute_force_accept(sets[b], lp[b, : int(lengths[b])])
         assert 0.0 < want < 1.0
         assert loss[b].item() == pytest.approx(-math.log(want), rel=1e-4)
     loss.sum().backward()
-    assert a.grad[0].abs().sum() > 0 and a.grad[1].abs().sum() == 0  # no rule, no gradient
+    assert lp.grad[0].abs().sum() > 0 and lp.grad[1].abs().sum() == 0  # no rule, no gradient
+    assert lp.grad[2, 3:].abs().sum() == 0  # steps past a length are not read
+
+
+def test_batched_equals_one_by_one_and_reductions() -> None:
+    rules = [RuleSet("G(cut_onion -> F fry_onion)", VOCAB), RuleSet("F rinse_egg", VOCAB)] * 3
+    lp = log_probs(6, 5, seed=2)
+    lengths = torch.tensor([5, 4, 3, 2, 1, 5])
+    batched = logic_loss("exact", lp, rules, lengths, reduction="none")
+    alone = [
+        logic_loss("exact", lp[b : b + 1], rules[b], lengths[b : b + 1], reduction="sum")
+        for b in range(6)
+    ]
+    assert torch.allclose(batched, torch.stack(alone), rtol=1e-6)
+    assert logic_loss("exact", lp, rules, lengths).item() == pytest.approx(batched.mean().item())
+    assert logic_loss("exact", lp, rules, lengths, reduction="sum").item() == pytest.approx(
+        batched.sum().item()
+    )
+    one = RuleSet("F rinse_egg", VOCAB)  # one rule set for every sequence
+    assert torch.allclose(
+        logic_loss("exact", lp, one, lengths, reduction="none"),
+        logic_loss("exact", lp, [one] * 6, lengths, reduction="none"),
+    )
 
 
 def test_exact_loss_stays_finite_when_confidently_wrong() -> None:
-    a = torch.full((1, 6, len(ACTIONS)), -200.0)
-    a[0, :, 0] = 200.0  # certain of "cut" at every step
-    i = torch.full((1, 6, len(INGREDIENTS)), -200.0)
-    i[0, :, 0] = 200.0  # ... of "egg": the sequence cut_egg x 6, which G !cut_egg forbids
-    a.requires_grad_()
-    loss = exact_loss(a, i, torch.tensor([6]), [rule_set("G !cut_egg")])
-    loss.sum().backward()
-    assert torch.isfinite(loss).all() and loss.item() > 100
-    assert torch.isfinite(a.grad).all()
-    assert a.grad[0, :, 0].sum() > 0  # still a push away from "cut", however sure the model is
+    logits = torch.full((1, 6, len(VOCAB)), -400.0)
+    logits[0, :, VOCAB.index("cut_egg")] = 400.0  # certain of cut_egg at every step
+    logits.requires_grad_()
+    loss = logic_loss("exact", torch.log_softmax(logits, -1), RuleSet("G !cut_egg", VOCAB))
+    loss.backward()
+    assert torch.isfinite(loss) and loss.item() > 100
+    assert torch.isfinite(logits.grad).all()
+    assert logits.grad[0, :, VOCAB.index("cut_egg")].sum() > 0  # a push away, however sure
+
+
+def test_unsatisfiable_rules_give_no_signal() -> None:
+    never = RuleSet(["F cut_egg", "G !cut_egg"], VOCAB)
+    assert not never.satisfiable
+    lp = log_probs(2, 3, seed=0)
+    loss = logic_loss("exact", lp, [never, RuleSet("F cut_egg", VOCAB)], reduction="none")
+    assert loss[0].item() == 0.0 and loss[1].item() > 0
 
 
 def test_checker_loss_is_the_exact_checker_and_has_no_gradient() -> None:
-    sets = [rule_set("G(cut_onion -> F fry_onion)"), rule_set("F rinse_egg"), None]
+    sets = [RuleSet("G(cut_onion -> F fry_onion)", VOCAB), RuleSet("F rinse_egg", VOCAB), None]
     for seed in range(5):
-        a, i = logits(3, 5, seed)
-        loss = checker_loss(a, i, torch.tensor([5, 3, 4]), sets)
-        assert loss.grad_fn is None and not loss.requires_grad
-        best = pair_log_probs(a, i).argmax(-1)
+        lp = log_probs(3, 5, seed)
+        loss = logic_loss("checker", lp, sets, torch.tensor([5, 3, 4]), reduction="none")
+        assert loss.grad_fn is None
+        best = lp.argmax(-1)
         for b, n in enumerate([5, 3]):
-            trace = [{NAMES[int(k)]} for k in best[b, :n]]
+            trace = [{VOCAB[int(k)]} for k in best[b, :n]]
             assert loss[b].item() == float(not sets[b].dfa.accepts(trace))
+            assert violates([sets[b]], [best[b, :n].numpy()])[0] == (loss[b].item() == 1.0)
         assert loss[2].item() == 0.0
 
 
-def test_no_logic_loss_is_zero() -> None:
-    a, _ = logits(4, 3, seed=0)
-    assert torch.equal(no_logic_loss(a), torch.zeros(4))
+def test_rule_set_is_the_conjunctions_dfa_over_the_vocabulary() -> None:
+    r = RuleSet(["G !cut_egg", "(!fry_egg U rinse_egg) | G !fry_egg"], VOCAB)
+    direct = compile_formula("G !cut_egg & ((!fry_egg U rinse_egg) | G !fry_egg)", "one-hot")
+    assert r.atoms == direct.atoms and r.dfa.equivalent(direct)
+    assert r.dfa.num_states == direct.num_states
+    assert [VOCAB[k] for k in r.index] == list(r.atoms)
+    seq = np.array([VOCAB.index("rinse_onion"), VOCAB.index("cut_egg")])
+    assert r.letters(seq).tolist() == [0, 1 + r.atoms.index("cut_egg")]
+
+
+def test_rule_set_errors_name_what_is_wrong() -> None:
+    with pytest.raises(InputError, match="stir_egg"):
+        RuleSet("G !stir_egg", VOCAB)
+    with pytest.raises(InputError, match="rule 'G !!'"):
+        RuleSet("G !!", VOCAB)
+    lp = log_probs(2, 3, seed=0)
+    with pytest.raises(SettingError, match="kind"):
+        logic_loss("fuzzy", lp, RuleSet("F cut_egg", VOCAB))  # type: ignore[arg-type]
+    with pytest.raises(SettingError, match="embedder"):
+        logic_loss("tleaf", lp, RuleSet("F cut_egg", VOCAB))
+    with pytest.raises(InputError, match="3 rule sets for a batch of 2"):
+        logic_loss("exact", lp, [RuleSet("F cut_egg", VOCAB)] * 3)
+    with pytest.raises(TleafError, match="vocabulary of 2 items"):
+        logic_loss("exact", lp, RuleSet("F cut_egg", ["cut_egg", "fry_egg"]))
 
 
 def untrained_embedder() -> Embedder:
     """q with random weights over the pair atoms: enough to check that gradients flow."""
-    vocabulary = sorted(PAIRS)
+    vocabulary = sorted(VOCAB)
     torch.manual_seed(0)
     edge = PropositionEncoder(torch.eye(len(vocabulary)), hidden=16, layers=2, out_dim=8)
     vectors = GuardVectors(edge, vocabulary)
@@ -129,76 +174,68 @@ def kb(tmp_path):
 
 
 def test_tleaf_loss_sends_gradients_into_the_model(kb) -> None:
-    rules = RuleSets(kb, PAIRS, untrained_embedder())
+    q = untrained_embedder()
+    rules = KnowledgeRuleSets(kb, VOCAB, set(q.vectors.index))
     torch.manual_seed(0)
     h = torch.nn.Linear(4, len(ACTIONS) + len(INGREDIENTS))
-    x = torch.randn(2, 5, 4)
-    out = h(x)
-    a, i = out[..., : len(ACTIONS)], out[..., len(ACTIONS) :]
-    sets = rules.for_videos([{"fry_onion", "cut_onion", "cut_egg"}, {"rinse_egg", "fry_egg"}])
+    out = h(torch.randn(2, 5, 4))
+    lp = pair_log_probs(out[..., : len(ACTIONS)], out[..., len(ACTIONS) :])
+    sets = rules.one_each([{"fry_onion", "cut_onion", "cut_egg"}, {"rinse_egg", "fry_egg"}])
     assert all(s is not None for s in sets)
-    loss = tleaf_loss(a, i, torch.tensor([5, 4]), sets, rules)
+    loss = logic_loss("tleaf", lp, sets, torch.tensor([5, 4]), q, reduction="none")
     assert (loss > 0).all()
     loss.sum().backward()
     assert h.weight.grad.abs().sum() > 0 and h.bias.grad.abs().sum() > 0
-    assert all(p.grad is None for p in rules.embedder.model.parameters())  # q stays frozen
+    assert all(p.grad is None for p in q.model.parameters())  # q stays frozen
 
 
-def test_rule_sets_compile_each_set_once(kb) -> None:
-    rules = RuleSets(kb, PAIRS)
+def test_tleaf_of_a_one_hot_trace_is_the_discrete_traces_distance(kb) -> None:
+    """A certain model's soft trace is its discrete trace: q(w̃) = q(w)."""
+    q = untrained_embedder()
+    r = RuleSet("(!fry_egg U rinse_egg) | G !fry_egg", VOCAB)
+    trace = ["rinse_egg", "cut_onion", "fry_egg"]
+    lp = torch.full((1, 3, len(VOCAB)), -1e4)
+    for t, a in enumerate(trace):
+        lp[0, t, VOCAB.index(a)] = 0.0
+    got = logic_loss("tleaf", torch.log_softmax(lp, -1), r, embedder=q)
+    z_trace = q.embed_traces([[{a} if a in r.atoms else set() for a in trace]], [r.atoms], [True])
+    z_rules = q.embed_dfas([r.dfa])
+    assert got.item() == pytest.approx((z_trace - z_rules).pow(2).sum().item(), rel=1e-4)
+
+
+def test_knowledge_rule_sets_build_each_set_once(kb) -> None:
+    rules = KnowledgeRuleSets(kb, VOCAB)
     videos = [{"fry_onion", "cut_onion"}, {"cut_onion", "fry_onion", "rinse_onion"}, {"cut_egg"}]
-    first = rules.for_videos(videos)
+    first = rules.one_each(videos)
     assert rules.compiled == 2  # the first two videos share a rule set
-    assert first[0] is first[1] and first[0].num_rules == 1
-    again = rules.for_videos([*reversed(videos), {"fry_egg"}])
+    assert first[0] is first[1] and len(first[0].formulas) == 1
+    again = rules.one_each([*reversed(videos), {"fry_egg"}])
     assert rules.compiled == 2 and again[0] is first[2]
     assert again[3] is None  # no rule has all its atoms present
-    assert rules.for_videos([{"fry_egg", "rinse_egg", "cut_egg"}])[0].num_rules == 2
+    assert len(rules.one_each([{"fry_egg", "rinse_egg", "cut_egg"}])[0].formulas) == 2
     assert rules.compiled == 3
 
 
 def test_same_rule_set_same_vector(kb) -> None:
-    rules = RuleSets(kb, PAIRS, untrained_embedder())
-    r = rules.for_videos([{"cut_egg"}])[0]
-    assert rules.formula_vector(r) is rules.formula_vector(r)
-    assert np.isfinite(rules.formula_vector(r).numpy()).all()
-
-
-def test_rule_set_dfa_is_the_conjunctions_dfa(kb) -> None:
-    """The product of the rules' DFAs is the minimal DFA MONA gives for the conjunction."""
-    rules = RuleSets(kb, PAIRS)
-    r = rules.for_videos([{"fry_egg", "rinse_egg", "cut_egg", "fry_onion", "cut_onion"}])[0]
-    assert r.num_rules == 3
-    direct = compile_formula(r.formula, "one-hot")
-    assert r.dfa.atoms == direct.atoms and r.dfa.equivalent(direct)
-    assert r.dfa.num_states == direct.num_states
+    q = untrained_embedder()
+    r = KnowledgeRuleSets(kb, VOCAB).one_each([{"cut_egg"}])[0]
+    first, letters = q.rule_set_vectors([r])
+    again, _ = q.rule_set_vectors([r])
+    assert torch.equal(first, again) and np.isfinite(first.numpy()).all()
+    assert letters.shape[:2] == (1, len(r.atoms) + 1)
 
 
 def test_rule_sets_per_ingredient_split_the_conjunction(kb) -> None:
-    rules = RuleSets(kb, PAIRS)
+    rules = KnowledgeRuleSets(kb, VOCAB)
     atoms = {"fry_egg", "rinse_egg", "cut_egg", "fry_onion", "cut_onion"}
-    whole = rules.for_videos([atoms])[0]
-    (parts,) = rules.groups_for_videos([atoms], per_ingredient=True)
-    assert [r.num_rules for r in parts] == [2, 1]  # egg (affordance + ordering), onion
-    assert [sorted({a.split("_")[1] for a in r.dfa.atoms}) for r in parts] == [["egg"], ["onion"]]
-    assert sum(r.num_rules for r in parts) == whole.num_rules
+    whole = rules.one_each([atoms])[0]
+    (parts,) = rules.for_atoms([atoms], per_ingredient=True)
+    assert [len(r.formulas) for r in parts] == [2, 1]  # egg (affordance + ordering), onion
+    assert [sorted({a.split("_")[1] for a in r.atoms}) for r in parts] == [["egg"], ["onion"]]
+    assert sum(len(r.formulas) for r in parts) == len(whole.formulas)
     assert all(r.dfa.num_states <= whole.dfa.num_states for r in parts)
-    assert rules.groups_for_videos([{"fry_egg"}], per_ingredient=True) == [[]]
-
-
-def test_grouped_loss_is_the_sum_over_a_videos_rule_sets(kb) -> None:
-    rules = RuleSets(kb, PAIRS)
-    videos = [{"fry_egg", "rinse_egg", "cut_egg", "fry_onion", "cut_onion"}, {"rinse_egg"}]
-    groups = rules.groups_for_videos(videos, per_ingredient=True)
-    a, i = logits(2, 4, seed=3)
-    lengths = torch.tensor([4, 3])
-    loss = grouped(exact_loss, a, i, lengths, groups)
-    assert loss[1].item() == 0.0 and groups[1] == []
-    alone = [exact_loss(a[:1], i[:1], lengths[:1], [r])[0] for r in groups[0]]
-    assert len(alone) == 2 and loss[0].item() == pytest.approx(sum(x.item() for x in alone))
-    # one set per video: the same as calling the loss directly
-    whole = rules.for_videos(videos)
-    direct = exact_loss(a, i, lengths, whole)
-    assert torch.allclose(
-        grouped(exact_loss, a, i, lengths, [[r] if r else [] for r in whole]), direct
-    )
+    assert rules.for_atoms([{"fry_egg"}], per_ingredient=True) == [[]]
+    # the conjunction's loss is no larger than the sum of its parts' (P(φ) ≥ ... per part)
+    lp = log_probs(1, 4, seed=3)
+    split = logic_loss("exact", lp.expand(2, -1, -1), parts, reduction="sum")
+    assert logic_loss("exact", lp, whole).item() >= split.item() - 1e-5

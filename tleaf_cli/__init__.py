@@ -1,3 +1,64 @@
-"""tleaf: temporal knowledge in LTLf, compiled to automata and embedded for deep sequence models."""
+"""tleaf: temporal knowledge in LTLf, compiled to automata and embedded for deep sequence models.
+
+The public Python API (DESIGN.md, "Python API"), for ``import tleaf_cli as tl``:
+
+* ``tl.compile_formula(text, alphabet="powerset" | "one-hot") -> tl.DFA``  minimal, via MONA
+* ``tl.check(dfa, traces) -> np.ndarray[bool]``                           exact, batched
+* ``tl.RuleSet(formulas, vocabulary)``   the conjunction of formulas, one DFA over a one-hot
+  vocabulary (a model's output items)
+* ``tl.logic_loss(kind, log_probs, rules, lengths=None, embedder=None, reduction="mean")``
+  ``"exact"`` (−log P(rules hold)), ``"tleaf"`` (the paper's ‖q(A_φ) − q(w̃)‖²) or ``"checker"``
+* ``tl.load_embedder(model_dir)``        a trained q (a train-meta folder)
+* ``tl.TleafError``                      every error the library raises on purpose
+
+Names load on first use, so ``import tleaf_cli`` (and every CLI command) stays fast and torch is
+imported only by what needs it. See docs/library.md.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
+
+# public name -> the module that defines it
+_PUBLIC = {
+    "compile_formula": "tleaf_cli.logic.compile",
+    "DFA": "tleaf_cli.logic.dfa",
+    "check": "tleaf_cli.logic.checker",
+    "RuleSet": "tleaf_cli.data.rule_set",
+    "logic_loss": "tleaf_cli.losses.logic_loss",
+    "load_embedder": "tleaf_cli.embed.soft",
+    "TleafError": "tleaf_cli.errors",
+}
+__all__ = [
+    "DFA",
+    "RuleSet",
+    "TleafError",
+    "check",
+    "compile_formula",
+    "load_embedder",
+    "logic_loss",
+]
+
+if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` loads them
+    from tleaf_cli.data.rule_set import RuleSet
+    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.errors import TleafError
+    from tleaf_cli.logic.checker import check
+    from tleaf_cli.logic.compile import compile_formula
+    from tleaf_cli.logic.dfa import DFA
+    from tleaf_cli.losses.logic_loss import logic_loss
+
+
+def __getattr__(name: str) -> Any:
+    if name in _PUBLIC:
+        value = getattr(importlib.import_module(_PUBLIC[name]), name)
+        globals()[name] = value  # later lookups skip this function
+        return value
+    raise AttributeError(f"module 'tleaf_cli' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_PUBLIC])

@@ -19,12 +19,14 @@ from typing import Literal
 
 import numpy as np
 
+from tleaf_cli.errors import InputError
+
 AlphabetKind = Literal["powerset", "one-hot"]
 ALPHABET_KINDS: tuple[AlphabetKind, ...] = ("powerset", "one-hot")
 MAX_POWERSET_ATOMS = 16
 
 
-class LetterError(ValueError):
+class LetterError(InputError, ValueError):
     """A letter that the alphabet cannot read (e.g. two of its atoms at once under one-hot)."""
 
 

@@ -13,10 +13,12 @@ from lark.exceptions import LarkError, UnexpectedCharacters, UnexpectedEOF, Unex
 from ltlf2dfa.ltlf import LTLfFormula
 from ltlf2dfa.parser.ltlf import LTLfParser
 
+from tleaf_cli.errors import InputError
+
 OPERATORS_HELP = "operators are ! & | -> <-> X WX F G U R (also ~ && || => <=>)"
 
 
-class FormulaSyntaxError(ValueError):
+class FormulaSyntaxError(InputError, ValueError):
     """A formula that does not parse; `column` is 1-based within the formula text."""
 
     def __init__(self, message: str, column: int | None = None) -> None:

@@ -26,6 +26,7 @@ import numpy as np
 from ltlf2dfa.base import MonaProgram
 from ltlf2dfa.ltlf import LTLfFormula
 
+from tleaf_cli.errors import TleafError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
 
@@ -33,7 +34,7 @@ INSTALL_HINT = "install it with: apt-get install -y mona  (Debian/Ubuntu package
 DEFAULT_MEMORY_MB = 4096
 
 
-class MonaError(RuntimeError):
+class MonaError(TleafError, RuntimeError):
     """MONA failed on a formula (the message says how)."""
 
 
