@@ -16,7 +16,7 @@ from tleaf_cli.data import activity_gen
 from tleaf_cli.data.activities import atom, name_problem, read_activities
 from tleaf_cli.data.artifacts import read_provenance, write_artifact
 from tleaf_cli.data.knowledge import read_knowledge_base, rules_for, sample_formula
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.formulas import atoms, parse
 from tleaf_cli.logic.semantics import satisfies
 
@@ -273,7 +273,7 @@ def test_reader_errors_name_the_row(tmp_path: Path, edit, expected: str) -> None
     else:
         path = tmp_path / "bad.parquet"
         pq.write_table(pa.Table.from_pylist([], schema=pa.Table.from_pylist(_rows()).schema), path)
-    with pytest.raises(UsageError, match=r"bad\.parquet: ") as e:
+    with pytest.raises(InputError, match=r"bad\.parquet: ") as e:
         read_activities(path)
     assert expected in str(e.value)
 
@@ -281,17 +281,17 @@ def test_reader_errors_name_the_row(tmp_path: Path, edit, expected: str) -> None
 def test_video_rows_must_be_together(tmp_path: Path) -> None:
     rows = _rows()
     rows.append({**rows[0], "step": 2})  # v1 again after v2
-    with pytest.raises(UsageError, match="row 3: video 'v1' again after other videos"):
+    with pytest.raises(InputError, match="row 3: video 'v1' again after other videos"):
         read_activities(_write(tmp_path / "bad.parquet", rows))
 
 
 def test_split_column_is_checked(tmp_path: Path) -> None:
     rows = [{**r, "split": "train"} for r in _rows()]
     rows[1]["split"] = "test"
-    with pytest.raises(UsageError, match="row 1: video 'v1' is in split 'test' here and 'train'"):
+    with pytest.raises(InputError, match="row 1: video 'v1' is in split 'test' here and 'train'"):
         read_activities(_write(tmp_path / "a.parquet", rows))
     rows[1]["split"] = "dev"
-    with pytest.raises(UsageError, match="row 1: split 'dev', expected one of train, val, test"):
+    with pytest.raises(InputError, match="row 1: split 'dev', expected one of train, val, test"):
         read_activities(_write(tmp_path / "b.parquet", rows))
 
 
@@ -300,9 +300,9 @@ def test_foreign_artifact_and_missing_file(tmp_path: Path) -> None:
     write_artifact(
         pa.Table.from_pylist(_rows()), path, kind="traces", schema=1, params={}, inputs=[]
     )
-    with pytest.raises(UsageError, match="a 'traces' artifact, expected 'activities'"):
+    with pytest.raises(InputError, match="a 'traces' artifact, expected 'activities'"):
         read_activities(path)
-    with pytest.raises(UsageError, match="no such file"):
+    with pytest.raises(InputError, match="no such file"):
         read_activities(tmp_path / "none.parquet")
 
 

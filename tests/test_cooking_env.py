@@ -11,7 +11,7 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.formulas import parse
 from tleaf_cli.logic.semantics import satisfies
 from tleaf_cli.tasks.cooking import ENV_ID, MAX_EPISODE_STEPS, decode_action, encode_action
@@ -89,7 +89,7 @@ def test_domain_mistakes_name_their_key(tmp_path: Path, old: str, new: str, mess
     assert old in text
     bad = tmp_path / "bad.toml"
     bad.write_text(text.replace(old, new, 1), encoding="utf-8")
-    with pytest.raises(UsageError, match=message):
+    with pytest.raises(InputError, match=message):
         load_domain(bad)
 
 
@@ -367,7 +367,7 @@ def test_whole_domain_knowledge_base():
     rules = knowledge_base(DOMAIN, mixture=False)
     atoms = {r.atom for r in rules}
     assert "cut_milk" in atoms and not any("mixture" in a for a in atoms)
-    with pytest.raises(UsageError, match="no ingredient 'unicorn'"):
+    with pytest.raises(InputError, match="no ingredient 'unicorn'"):
         knowledge_base(DOMAIN, ["unicorn"])
 
 

@@ -25,7 +25,7 @@ from tleaf_cli.data.knowledge import (
     sample_formula,
     write_knowledge_base,
 )
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic import mona
 from tleaf_cli.logic.checker import check
 from tleaf_cli.logic.formulas import parse
@@ -130,7 +130,7 @@ def test_write_then_read_round_trips(kb: KnowledgeBase, tmp_path: Path) -> None:
 def test_bad_knowledge_base_lines_are_located(tmp_path: Path, line: str, expected: str) -> None:
     path = tmp_path / "kb.ltl"
     path.write_text(f"affordance.cut_milk: G !cut_milk\n{line}\n", encoding="utf-8")
-    with pytest.raises(UsageError) as e:
+    with pytest.raises(InputError) as e:
         read_knowledge_base(path)
     assert str(e.value).startswith(f"{path}: ") and expected in str(e.value)
 
@@ -286,7 +286,7 @@ def test_a_rule_set_that_fails_to_compile_exits_1(tiny, tmp_path, monkeypatch) -
         (["{kb}", "{missing}"], "no such file"),
         (["{data}", "{data}"], "expected columns formula_id and formula"),
         (["{kb}", "{kb}"], "not a readable Parquet file"),
-        (["{kb}", "{data}", "--formula-from", "predictions"], "--formula-from must be one of"),
+        (["{kb}", "{data}", "--formula-from", "predictions"], "--formula-from: must be one of"),
     ],
 )
 def test_kb_extract_bad_calls_exit_2(tiny, tmp_path, args, expected) -> None:

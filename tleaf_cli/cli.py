@@ -14,7 +14,7 @@ import typer
 
 from tleaf_cli import __version__, ui
 from tleaf_cli.defaults import CANDIDATE_TIMEOUT, COMPILE_TIMEOUT, MAX_LEN, MIN_LEN, TIERS
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError, SettingError, TleafError
 
 # The library is imported inside each command, so `tleaf --help` and light commands start fast
 # (ltlf2dfa alone pulls in sympy).
@@ -69,14 +69,33 @@ def _compile_settings(one_hot: bool, timeout: float, cache_dir, no_cache: bool, 
     )
 
 
+# The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
+FLAGS = {
+    "lam": "--lambda",  # `lambda` is a Python keyword
+    "n": "-n",
+    "total_steps": "--steps",  # train-task cooking
+    "n_envs": "--envs",
+    "n_steps": "--rollout",
+}
+
+
+def flag(setting: str) -> str:
+    """The flag that sets the library's `setting` (``logic_loss`` → ``--logic-loss``)."""
+    return FLAGS.get(setting, "--" + setting.replace("_", "-"))
+
+
 def _exits(func):
-    """Turn a UsageError into one stderr line and exit status 2, never a traceback."""
+    """Turn a TleafError into one stderr line and its exit status, never a traceback; a
+    SettingError is told by the flag that sets it."""
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
-        except UsageError as e:
+        except SettingError as e:
+            ui.fatal(f"{flag(e.setting)}: {e.args[0]}")
+            raise typer.Exit(e.exit_code) from None
+        except TleafError as e:
             ui.fatal(str(e))
             raise typer.Exit(e.exit_code) from None
         except OSError as e:  # the environment, not tleaf: a full disk, a vanished folder
@@ -232,7 +251,7 @@ def gen_formulas(
 
     if tier is not None:
         if tier not in TIERS:
-            raise UsageError(f"--tier must be one of {', '.join(TIERS)}, not '{tier}'")
+            raise SettingError("tier", f"must be one of {', '.join(TIERS)}, not '{tier}'")
         atoms, size = TIERS[tier]
     settings = FormulaSettings(
         n=n,
@@ -267,9 +286,9 @@ def _fractions(text: str | None) -> tuple[float, float, float] | None:
     try:
         parts = tuple(float(x) for x in text.split(","))
     except ValueError:
-        raise UsageError(f"--split takes three fractions like 0.8,0.1,0.1, not '{text}'") from None
+        parts = ()
     if len(parts) != 3:
-        raise UsageError(f"--split takes three fractions like 0.8,0.1,0.1, not '{text}'")
+        raise SettingError("split", f"takes three fractions like 0.8,0.1,0.1, not '{text}'")
     return parts  # type: ignore[return-value]
 
 
@@ -460,8 +479,10 @@ def kb_extract(
     from tleaf_cli.data.kb_extract import extract_knowledge
 
     if not 1 <= len(inputs) <= 2:
-        raise UsageError("give [KB.ltl] ACTIVITIES.parquet: one or two files")
+        raise InputError("give [KB.ltl] ACTIVITIES.parquet: one or two files")
     kb = inputs[0] if len(inputs) == 2 else None
+    if kb is None and not mine:
+        raise InputError("give a knowledge base file, or --mine to mine one from the train split")
     settings = _compile_settings(True, timeout, cache_dir, no_cache, jobs)
     with ui.progress("compiling rule sets", quiet) as update:
         report = extract_knowledge(
@@ -521,7 +542,8 @@ def train_edge(
     from tleaf_cli.embed.train_edge import train_edge as run
 
     if atom_features not in ATOM_FEATURE_KINDS:
-        raise UsageError(f"--atom-features must be one of {', '.join(ATOM_FEATURE_KINDS)}")
+        choices = ", ".join(ATOM_FEATURE_KINDS)
+        raise SettingError("atom_features", f"must be one of {choices}, not '{atom_features}'")
     settings = EdgeSettings(
         atom_features=atom_features,
         per_guard=per_guard,
@@ -895,6 +917,7 @@ def train_task_action_recognition(
     lr: Lr = 1e-4,
     seed: Seed = 0,
     device: Device = "cpu",
+    resume: Resume = False,
     quiet: Quiet = False,
 ) -> None:
     """Train the action recognizer h with ℓ_task + λ·ℓ_logic; best val action accuracy is kept.
@@ -929,7 +952,9 @@ def train_task_action_recognition(
                 quiet,
             )
 
-        metrics = train_action_recognition(activities, kb, embedder, out, settings, on_epoch)
+        metrics = train_action_recognition(
+            activities, kb, embedder, out, settings, on_epoch, resume=resume
+        )
     test = metrics["test"]
     ui.summary(
         f"{out}: test action {100 * test['action_accuracy']:.2f}%, ingredient "
@@ -1096,7 +1121,7 @@ def inspect(
 
     if formula_id is None:
         if dot or draw:
-            raise UsageError("--dot and --draw need --id (which DFA to draw)")
+            raise InputError("--dot and --draw need --id (which DFA to draw)")
         if stats:
             views.show_stats(path)
         else:

@@ -7,7 +7,7 @@ kinds say what went wrong, not how the CLI reports it:
                   what was expected, rules whose atoms are not in the vocabulary;
 * `SettingError`  a setting's value is out of range; `setting` is its name as the library spells
                   it (a field of a settings object or a keyword argument, e.g. ``logic_loss``);
-* `RulesError`    rules that cannot do what was asked (e.g. no sequence satisfies them).
+* `TleafError` itself: the machine cannot do it (MONA or Graphviz missing or failing).
 
 Only `tleaf_cli/cli.py` turns them into exit codes and messages; it renders a `SettingError`'s
 setting as the flag that sets it (``logic_loss`` → ``--logic-loss``).
@@ -22,8 +22,8 @@ class TleafError(Exception):
     exit_code = 2
 
 
-class InputError(TleafError):
-    """An input (file, row, line, argument value) is not what was expected."""
+class InputError(TleafError, ValueError):
+    """An input (file, row, line, argument value) is not what was expected (a ValueError too)."""
 
 
 class SettingError(TleafError):
@@ -35,11 +35,3 @@ class SettingError(TleafError):
 
     def __str__(self) -> str:
         return f"{self.setting}: {self.args[0]}"
-
-
-class RulesError(TleafError):
-    """Rules that cannot do what was asked of them (unsatisfiable for the lengths given, ...)."""
-
-
-# The name every module used before the library had its own kinds: an input error.
-UsageError = InputError

@@ -28,7 +28,7 @@ import pyarrow.parquet as pq
 
 from tleaf_cli.data.artifacts import PREFIX, read_artifact
 from tleaf_cli.data.traces import SPLITS, assign_splits
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 
 KIND = "activities"
 SCHEMA_VERSION = 1
@@ -114,7 +114,7 @@ def read_activities(
     fractions: tuple[float, float, float] = DEFAULT_FRACTIONS,
     seed: int = 0,
 ) -> Activities:
-    """Load and check an activities file; UsageError naming the file and row when it is unusable.
+    """Load and check an activities file; InputError naming the file and row when it is unusable.
 
     Without a `split` column, videos are assigned to train/val/test by `fractions`, by video
     (never one video in two splits), the same way for the same `seed`.
@@ -123,17 +123,17 @@ def read_activities(
     table, params = _read_table(Path(path))
     missing = [c for c in REQUIRED if c not in table.column_names]
     if missing:
-        raise UsageError(
+        raise InputError(
             f"{name}: missing column(s) {', '.join(missing)}; expected "
             f"{', '.join(REQUIRED)} and optionally split"
         )
     if table.num_rows == 0:
-        raise UsageError(f"{name}: no rows")
+        raise InputError(f"{name}: no rows")
     present = [c for c in (*REQUIRED, "split") if c in table.column_names]
     for column in present:
         nulls = pc.is_null(table.column(column)).to_numpy(zero_copy_only=False)
         if nulls.any():
-            raise UsageError(f"{name}: row {int(nulls.argmax())}: {column} is empty")
+            raise InputError(f"{name}: row {int(nulls.argmax())}: {column} is empty")
 
     ids = _strings(table, "video_id", name, cast=True)
     steps = _steps(table, name)
@@ -188,18 +188,18 @@ def activities_table(
 def _read_table(path: Path) -> tuple[pa.Table, dict[str, Any]]:
     """A tleaf `activities` artifact, or plain Parquet (real data) without tleaf metadata."""
     if not path.exists():
-        raise UsageError(f"{path}: no such file")
+        raise InputError(f"{path}: no such file")
     try:
         meta = pq.read_schema(path).metadata or {}
     except (pa.ArrowException, OSError) as e:
-        raise UsageError(f"{path}: not a readable Parquet file ({e})") from None
+        raise InputError(f"{path}: not a readable Parquet file ({e})") from None
     if f"{PREFIX}kind".encode() in meta:
         table, prov = read_artifact(path, KIND, SCHEMA_VERSION)
         return table, prov.params
     try:
         return pq.read_table(path), {}
     except (pa.ArrowException, OSError) as e:
-        raise UsageError(f"{path}: not a readable Parquet file ({e})") from None
+        raise InputError(f"{path}: not a readable Parquet file ({e})") from None
 
 
 def _strings(table: pa.Table, column: str, name: str, cast: bool = False) -> list[str]:
@@ -207,14 +207,14 @@ def _strings(table: pa.Table, column: str, name: str, cast: bool = False) -> lis
     if cast and (pa.types.is_integer(col.type) or pa.types.is_string(col.type)):
         col = col.cast(pa.string())
     if not (pa.types.is_string(col.type) or pa.types.is_large_string(col.type)):
-        raise UsageError(f"{name}: column {column} is {col.type}, expected strings")
+        raise InputError(f"{name}: column {column} is {col.type}, expected strings")
     return col.to_pylist()
 
 
 def _steps(table: pa.Table, name: str) -> np.ndarray:
     col = table.column("step")
     if not pa.types.is_integer(col.type):
-        raise UsageError(f"{name}: column step is {col.type}, expected integers")
+        raise InputError(f"{name}: column step is {col.type}, expected integers")
     return col.to_numpy().astype(np.int64)
 
 
@@ -225,23 +225,23 @@ def _features(col: pa.ChunkedArray, name: str) -> np.ndarray:
     if not (
         pa.types.is_list(kind) or pa.types.is_large_list(kind) or pa.types.is_fixed_size_list(kind)
     ) or not (pa.types.is_integer(kind.value_type) or pa.types.is_floating(kind.value_type)):
-        raise UsageError(f"{name}: column feature is {kind}, expected a list of numbers per row")
+        raise InputError(f"{name}: column feature is {kind}, expected a list of numbers per row")
     lengths = pc.list_value_length(col).to_numpy(zero_copy_only=False)
     bad = np.flatnonzero(lengths != lengths[0])
     if len(bad):
         row = int(bad[0])
-        raise UsageError(
+        raise InputError(
             f"{name}: row {row}: feature has {lengths[row]} values, expected {lengths[0]} "
             "(as on row 0)"
         )
     dim = int(lengths[0])
     if dim == 0:
-        raise UsageError(f"{name}: row 0: feature is empty")
+        raise InputError(f"{name}: row 0: feature is empty")
     values = pc.list_flatten(col).to_numpy(zero_copy_only=False).astype(np.float32)
     features = values.reshape(len(col), dim)
     finite = np.isfinite(features).all(axis=1)
     if not finite.all():
-        raise UsageError(f"{name}: row {int(np.argmin(finite))}: feature has a NaN or infinity")
+        raise InputError(f"{name}: row {int(np.argmin(finite))}: feature has a NaN or infinity")
     return features
 
 
@@ -251,7 +251,7 @@ def _video_runs(ids: list[str], steps: np.ndarray, name: str) -> list[tuple[int,
     seen: dict[str, int] = {}
     for start in starts:
         if ids[start] in seen:
-            raise UsageError(
+            raise InputError(
                 f"{name}: row {start}: video '{ids[start]}' again after other videos "
                 f"(its rows start on row {seen[ids[start]]}; rows of a video must be together)"
             )
@@ -261,7 +261,7 @@ def _video_runs(ids: list[str], steps: np.ndarray, name: str) -> list[tuple[int,
     jumps = np.flatnonzero(~is_start[1:] & (np.diff(steps) != 1)) + 1
     if len(jumps):
         row = int(jumps[0])
-        raise UsageError(
+        raise InputError(
             f"{name}: row {row}: video '{ids[row]}' step {steps[row]} follows step "
             f"{steps[row - 1]}; steps of a video must be consecutive (0, 1, 2, ...)"
         )
@@ -272,7 +272,7 @@ def _check_names(values: list[str], role: str, name: str) -> None:
     for value in dict.fromkeys(values):  # each distinct name once, in file order
         problem = name_problem(value, role)
         if problem:
-            raise UsageError(f"{name}: row {values.index(value)}: {problem}")
+            raise InputError(f"{name}: row {values.index(value)}: {problem}")
 
 
 def _splits(
@@ -291,12 +291,12 @@ def _splits(
     for start, end in runs:
         for row in range(start, end):
             if splits[row] not in ACTIVITY_SPLITS:
-                raise UsageError(
+                raise InputError(
                     f"{name}: row {row}: split '{splits[row]}', "
                     f"expected one of {', '.join(ACTIVITY_SPLITS)}"
                 )
             if splits[row] != splits[start]:
-                raise UsageError(
+                raise InputError(
                     f"{name}: row {row}: video '{ids[row]}' is in split '{splits[row]}' here and "
                     f"'{splits[start]}' on row {start}; a video belongs to one split"
                 )

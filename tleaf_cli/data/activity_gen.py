@@ -33,7 +33,7 @@ from tleaf_cli.data.knowledge import (
     ordering_rule,
     write_knowledge_base,
 )
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import SettingError
 
 # The paper's Tasty Videos vocabulary: 64 actions, 155 ingredients.
 MAX_ACTIONS = 64
@@ -84,25 +84,32 @@ class ActivitySettings:
     seed: int = 0
 
     def check(self) -> None:
-        """UsageError for settings no process can satisfy."""
+        """SettingError for settings no process can satisfy."""
         if not 2 <= self.actions <= MAX_ACTIONS:
-            raise UsageError(f"--actions must be in 2..{MAX_ACTIONS}, got {self.actions}")
+            raise SettingError("actions", f"must be in 2..{MAX_ACTIONS}, got {self.actions}")
         if not 1 <= self.ingredients <= MAX_INGREDIENTS:
-            raise UsageError(
-                f"--ingredients must be in 1..{MAX_INGREDIENTS}, got {self.ingredients}"
+            raise SettingError(
+                "ingredients", f"must be in 1..{MAX_INGREDIENTS}, got {self.ingredients}"
             )
         if self.feature_dim < 1:
-            raise UsageError(f"--feature-dim must be at least 1, got {self.feature_dim}")
-        if self.noise < 0 or not 0 <= self.confusable <= 1:
-            raise UsageError("need --noise >= 0 and 0 <= --confusable <= 1")
+            raise SettingError("feature_dim", f"must be at least 1, got {self.feature_dim}")
+        if self.noise < 0:
+            raise SettingError("noise", f"must be >= 0, got {self.noise}")
+        if not 0 <= self.confusable <= 1:
+            raise SettingError("confusable", f"must be in [0, 1], got {self.confusable}")
         if self.ingredient_scale <= 0:
-            raise UsageError(f"--ingredient-scale must be > 0, got {self.ingredient_scale}")
-        sizes = (self.train, self.val, self.test, self.unlabelled)
-        if min(sizes) < 0 or sum(sizes) == 0:
-            raise UsageError("--train, --val, --test, --unlabelled must be >= 0 and not all 0")
+            raise SettingError("ingredient_scale", f"must be > 0, got {self.ingredient_scale}")
+        sizes = {"train": self.train, "val": self.val, "test": self.test}
+        sizes["unlabelled"] = self.unlabelled
+        for name, size in sizes.items():
+            if size < 0:
+                raise SettingError(name, f"must be >= 0, got {size}")
+        if sum(sizes.values()) == 0:
+            raise SettingError("train", "no videos at all: every split's count is 0")
         if not 1 <= self.min_steps <= self.max_steps:
-            raise UsageError(
-                f"need 1 <= --min-steps <= --max-steps, got {self.min_steps}, {self.max_steps}"
+            raise SettingError(
+                "min_steps",
+                f"must be between 1 and the most steps ({self.max_steps}), got {self.min_steps}",
             )
 
 
@@ -182,9 +189,10 @@ def sample_video(
         if capacity[chosen].sum() >= length:
             break
     else:
-        raise UsageError(
-            f"--min-steps {min_steps} is more steps than {MAX_INGREDIENTS_PER_VIDEO} ingredients "
-            "afford; lower --min-steps or raise --actions"
+        raise SettingError(
+            "min_steps",
+            f"{min_steps} is more steps than {MAX_INGREDIENTS_PER_VIDEO} ingredients afford; "
+            "lower it or raise actions",
         )
     per = np.ones(count, dtype=np.int64)  # steps per chosen ingredient
     for _ in range(length - count):

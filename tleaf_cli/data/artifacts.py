@@ -21,7 +21,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from tleaf_cli import __version__
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 
 PREFIX = "tleaf."
 
@@ -50,16 +50,16 @@ def describe_inputs(paths: Iterable[str | os.PathLike]) -> list[dict[str, str]]:
 
 
 def check_writable(target: str | os.PathLike) -> None:
-    """UsageError now, before any work, if `target` cannot be written (its folder is made)."""
+    """InputError now, before any work, if `target` cannot be written (its folder is made)."""
     target = Path(target)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        raise UsageError(f"{target}: cannot create its folder ({e.strerror})") from None
+        raise InputError(f"{target}: cannot create its folder ({e.strerror})") from None
     if target.is_dir():
-        raise UsageError(f"{target}: is a folder; give a file name")
+        raise InputError(f"{target}: is a folder; give a file name")
     if not os.access(target.parent, os.W_OK):
-        raise UsageError(f"{target}: folder {target.parent} is not writable")
+        raise InputError(f"{target}: folder {target.parent} is not writable")
 
 
 def atomic_path(target: str | os.PathLike):
@@ -116,16 +116,16 @@ def write_artifact(
 
 
 def read_provenance(path: str | os.PathLike) -> Provenance:
-    """Provenance of a tleaf artifact; UsageError when the file is not one."""
+    """Provenance of a tleaf artifact; InputError when the file is not one."""
     try:
         meta = pq.read_schema(path).metadata or {}
     except FileNotFoundError:
-        raise UsageError(f"{path}: no such file") from None
+        raise InputError(f"{path}: no such file") from None
     except (pa.ArrowException, OSError) as e:
-        raise UsageError(f"{path}: not a Parquet file ({_first_line(e)})") from None
+        raise InputError(f"{path}: not a Parquet file ({_first_line(e)})") from None
     get = {k.decode(): v.decode() for k, v in meta.items() if k.startswith(PREFIX.encode())}
     if f"{PREFIX}kind" not in get:
-        raise UsageError(f"{path}: a Parquet file without tleaf metadata (not a tleaf artifact)")
+        raise InputError(f"{path}: a Parquet file without tleaf metadata (not a tleaf artifact)")
     try:
         return Provenance(
             kind=get[f"{PREFIX}kind"],
@@ -135,23 +135,23 @@ def read_provenance(path: str | os.PathLike) -> Provenance:
             inputs=json.loads(get.get(f"{PREFIX}inputs", "[]")),
         )
     except ValueError:
-        raise UsageError(f"{path}: damaged tleaf metadata") from None
+        raise InputError(f"{path}: damaged tleaf metadata") from None
 
 
 def read_artifact(path: str | os.PathLike, kind: str, schema: int) -> tuple[pa.Table, Provenance]:
-    """Read an artifact of the expected kind and schema, or UsageError saying what it is."""
+    """Read an artifact of the expected kind and schema, or InputError saying what it is."""
     prov = read_provenance(path)
     if prov.kind != kind:
-        raise UsageError(f"{path}: a '{prov.kind}' artifact, expected '{kind}'")
+        raise InputError(f"{path}: a '{prov.kind}' artifact, expected '{kind}'")
     if prov.schema != schema:
-        raise UsageError(
+        raise InputError(
             f"{path}: {kind} schema {prov.schema}, this tleaf reads schema {schema}; "
             "re-create it with this version"
         )
     try:
         return pq.read_table(path), prov
     except (pa.ArrowException, OSError) as e:
-        raise UsageError(f"{path}: unreadable ({_first_line(e)})") from None
+        raise InputError(f"{path}: unreadable ({_first_line(e)})") from None
 
 
 def _first_line(e: BaseException) -> str:

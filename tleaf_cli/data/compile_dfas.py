@@ -25,7 +25,7 @@ from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_arti
 from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, read_formulas
 from tleaf_cli.defaults import COMPILE_TIMEOUT
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import TleafError
 from tleaf_cli.logic import alphabet as alphabet_mod
 from tleaf_cli.logic import compile as compile_mod
 from tleaf_cli.logic import dfa as dfa_mod
@@ -123,11 +123,11 @@ def compile_file(
     graphs_dir: str | Path | None = None,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> CompileReport:
-    """Read, compile, write `dfas.parquet` (and graph files); UsageError if the call is unusable."""
+    """Read, compile, write `dfas.parquet` (and graph files); TleafError if the call is unusable."""
     try:
         mona_binary()  # fail before anything is written when MONA is missing
     except MonaError as e:
-        raise UsageError(str(e)) from None
+        raise TleafError(str(e)) from None
     check_writable(out)
     sources = read_formulas(source)
     report = compile_sources(sources, settings, on_progress)
@@ -211,5 +211,5 @@ def _versions() -> tuple[str, ...]:
     try:
         mona = mona_version()
     except (MonaError, OSError):
-        raise UsageError(f"mona not usable; {mona_mod.INSTALL_HINT}") from None
+        raise TleafError(f"mona not usable; {mona_mod.INSTALL_HINT}") from None
     return (__version__, metadata.version("ltlf2dfa"), mona, code.hexdigest()[:16])

@@ -10,7 +10,7 @@ from typing import Any
 import pyarrow as pa
 
 from tleaf_cli.data.artifacts import Provenance, read_artifact
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
 
@@ -66,7 +66,7 @@ def rows_to_table(rows: Sequence[dict]) -> pa.Table:
 def dfa_from_row(row: dict) -> DFA:
     """Rebuild the DFA of a compiled row (checks completeness and determinism)."""
     if row.get("error") is not None:
-        raise ValueError(f"formula {row['formula_id']} has no DFA: {row['error']}")
+        raise InputError(f"formula {row['formula_id']} has no DFA: {row['error']}")
     alphabet = Alphabet(tuple(row["atoms"]), row["alphabet"])
     edges = [(e["src"], e["dst"], e["cnf"]) for e in row["edges"]]
     return DFA.from_guards(alphabet, row["num_states"], row["initial"], row["accepting"], edges)
@@ -87,12 +87,12 @@ class DfaTable:
         for r in self.rows:
             if r["formula_id"] == formula_id:
                 return r
-        raise UsageError(f"{self.path}: no formula with id '{formula_id}'")
+        raise InputError(f"{self.path}: no formula with id '{formula_id}'")
 
     def dfa(self, formula_id: str) -> DFA:
         row = self.row(formula_id)
         if row["error"] is not None:
-            raise UsageError(f"{self.path}: formula '{formula_id}' did not compile: {row['error']}")
+            raise InputError(f"{self.path}: formula '{formula_id}' did not compile: {row['error']}")
         return dfa_from_row(row)
 
     def compiled(self) -> Iterator[tuple[dict, DFA]]:
@@ -106,5 +106,5 @@ def read_dfas(path: str | os.PathLike) -> DfaTable:
     table, prov = read_artifact(path, KIND, SCHEMA_VERSION)
     missing = set(SCHEMA.names) - set(table.column_names)
     if missing:
-        raise UsageError(f"{path}: dfa table lacks columns {sorted(missing)}")
+        raise InputError(f"{path}: dfa table lacks columns {sorted(missing)}")
     return DfaTable(table.to_pylist(), prov, str(path))

@@ -15,7 +15,7 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 
 _NAMED = re.compile(r"^\s*([^\s:][^:]*?)\s*:(.*)$")
 _VALID_NAME = re.compile(r"[A-Za-z0-9_.-]+")
@@ -40,18 +40,18 @@ class FormulaSource:
 
 
 def read_formulas(path: str | Path) -> list[FormulaSource]:
-    """Formulas from a `.ltl` file or a Parquet table; UsageError when the file is unusable."""
+    """Formulas from a `.ltl` file or a Parquet table; InputError when the file is unusable."""
     path = Path(path)
     if not path.exists():
-        raise UsageError(f"{path}: no such file")
+        raise InputError(f"{path}: no such file")
     if path.suffix == ".parquet":
         return _read_parquet(path)
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as e:
-        raise UsageError(f"{path}: not UTF-8 text (byte {e.start})") from None
+        raise InputError(f"{path}: not UTF-8 text (byte {e.start})") from None
     except OSError as e:
-        raise UsageError(f"{path}: cannot read ({e.strerror})") from None
+        raise InputError(f"{path}: cannot read ({e.strerror})") from None
     return parse_ltl_text(text, str(path))
 
 
@@ -89,10 +89,10 @@ def _read_parquet(path: Path) -> list[FormulaSource]:
     try:
         table = pq.read_table(path)
     except (pa.ArrowException, OSError) as e:
-        raise UsageError(f"{path}: not a readable Parquet file ({e})") from None
+        raise InputError(f"{path}: not a readable Parquet file ({e})") from None
     missing = {"formula_id", "formula"} - set(table.column_names)
     if missing:
-        raise UsageError(
+        raise InputError(
             f"{path}: expected columns formula_id and formula, missing {', '.join(sorted(missing))}"
         )
     ids = table.column("formula_id").to_pylist()

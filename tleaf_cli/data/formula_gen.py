@@ -24,7 +24,7 @@ from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.data.random_formulas import random_formula
 from tleaf_cli.defaults import CANDIDATE_TIMEOUT, MAX_LEN, MIN_LEN
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.sampling import WordSampler, one_hot_letters
 
@@ -54,16 +54,20 @@ class FormulaSettings:
 
     def check(self) -> None:
         if self.atoms < 1 or self.atoms > 26:
-            raise UsageError(f"--atoms must be 1..26, got {self.atoms}")
+            raise SettingError("atoms", f"must be 1..26, got {self.atoms}")
         if self.size < 2 * self.atoms - 1:
-            raise UsageError(
-                f"--size {self.size} cannot hold {self.atoms} distinct atoms "
-                f"(a tree with k leaves has at least 2k-1 nodes)"
+            raise SettingError(
+                "size",
+                f"{self.size} cannot hold {self.atoms} distinct atoms "
+                "(a tree with k leaves has at least 2k-1 nodes)",
             )
         if self.n < 1:
-            raise UsageError("-n must be at least 1")
+            raise SettingError("n", f"must be at least 1, got {self.n}")
         if not 1 <= self.min_len <= self.max_len:
-            raise UsageError("need 1 <= --min-len <= --max-len")
+            raise SettingError(
+                "min_len",
+                f"must be between 1 and the longest length ({self.max_len}), got {self.min_len}",
+            )
 
 
 @dataclass

@@ -11,7 +11,7 @@ from pathlib import Path
 import networkx as nx
 
 from tleaf_cli.data.artifacts import atomic_path, write_text_atomic
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError, TleafError
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9_.-]")
 
@@ -80,10 +80,10 @@ def render_dot(dot: str, out: str | Path) -> None:
         write_text_atomic(out, dot)
         return
     if fmt not in ("png", "svg", "pdf"):
-        raise UsageError(f"{out}: cannot draw to '.{fmt}'; use .png, .svg, .pdf or .dot")
+        raise InputError(f"{out}: cannot draw to '.{fmt}'; use .png, .svg, .pdf or .dot")
     binary = shutil.which("dot")
     if binary is None:
-        raise UsageError(
+        raise TleafError(
             "Graphviz 'dot' not found: apt-get install -y graphviz, or write a .dot file instead"
         )
     tmp = atomic_path(out)
@@ -96,7 +96,7 @@ def render_dot(dot: str, out: str | Path) -> None:
             timeout=60,
         )
         if proc.returncode != 0:
-            raise UsageError(f"Graphviz failed: {proc.stderr.strip().splitlines()[-1:]}")
+            raise TleafError(f"Graphviz failed: {proc.stderr.strip().splitlines()[-1:]}")
         tmp.replace(out)
     finally:
         tmp.unlink(missing_ok=True)

@@ -43,7 +43,7 @@ from tleaf_cli.data.knowledge import (
     sample_formula,
     write_knowledge_base,
 )
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError, SettingError, TleafError
 from tleaf_cli.logic.mona import MonaError, mona_binary
 
 # Where the per-video formulas come from; train-time extraction from predictions is the loss's job.
@@ -66,7 +66,7 @@ SAMPLES_COLUMNS = pa.schema(
 def _mine_train_split(activities: Activities, min_support: int) -> KnowledgeBase:
     train = activities.split("train")
     if not train:
-        raise UsageError(f"{activities.path}: no train videos to mine a knowledge base from")
+        raise InputError(f"{activities.path}: no train videos to mine a knowledge base from")
     return mine_knowledge_base(
         (activities.pairs(v) for v in train),
         (activities.actions, activities.ingredients),
@@ -121,18 +121,20 @@ def extract_knowledge(
     on_progress: Callable[[int, int], None] | None = None,
 ) -> ExtractReport:
     """The `kb-extract` stage: OUT/samples.parquet, OUT/dfas.parquet (one-hot, one row per
-    distinct rule set), and OUT/kb.ltl when mining. UsageError when the call is unusable."""
+    distinct rule set), and OUT/kb.ltl when mining. A TleafError when the call is unusable."""
     start = time.perf_counter()
     if formula_from not in FORMULA_SOURCES:
-        raise UsageError(f"--formula-from must be one of {', '.join(FORMULA_SOURCES)}")
+        choices = ", ".join(FORMULA_SOURCES)
+        raise SettingError("formula_from", f"must be one of {choices}, not '{formula_from}'")
     if rule_sets not in RULE_SET_SPLITS:
-        raise UsageError(f"--rule-sets must be one of {', '.join(RULE_SET_SPLITS)}")
+        choices = ", ".join(RULE_SET_SPLITS)
+        raise SettingError("rule_sets", f"must be one of {choices}, not '{rule_sets}'")
     if kb_path is None and not mine:
-        raise UsageError("give a knowledge base file, or --mine to mine one from the train split")
+        raise InputError("no knowledge base file: give one, or mine=True to mine the train split")
     try:
         mona_binary()
     except MonaError as e:
-        raise UsageError(str(e)) from None
+        raise TleafError(str(e)) from None
     out = Path(out_dir)
     for name in ("samples.parquet", "dfas.parquet", "kb.ltl"):
         check_writable(out / name)

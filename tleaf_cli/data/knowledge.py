@@ -25,7 +25,7 @@ from tleaf_cli.data.artifacts import (
     write_text_atomic,
 )
 from tleaf_cli.data.formula_files import read_formulas
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 
 RuleKind = Literal["affordance", "ordering"]
@@ -136,22 +136,22 @@ def rule_set_id(rules: Iterable[Rule]) -> str:
 
 
 def read_knowledge_base(path: str | os.PathLike) -> KnowledgeBase:
-    """Rules from a `.ltl` file; UsageError naming the file and line of the first bad rule."""
+    """Rules from a `.ltl` file; InputError naming the file and line of the first bad rule."""
     rules = []
     for src in read_formulas(path):
         where = f"{src.path}: {src.location}"
         if src.problem is not None:
-            raise UsageError(f"{src.path}: {src.located(src.problem)}")
+            raise InputError(f"{src.path}: {src.located(src.problem)}")
         kind, _, rest = src.formula_id.partition(".")
         if kind not in RULE_KINDS or not rest:
-            raise UsageError(
+            raise InputError(
                 f"{where}: rule '{src.formula_id}' needs a name 'affordance.<rest>' or "
                 "'ordering.<rest>' (the kind of rule)"
             )
         try:
             formula = parse(src.text)
         except FormulaSyntaxError as e:
-            raise UsageError(f"{src.path}: {src.located(e.message, e.column)}") from None
+            raise InputError(f"{src.path}: {src.located(e.message, e.column)}") from None
         rules.append(Rule(src.formula_id, kind, src.text, atoms(formula)))  # type: ignore[arg-type]
     return KnowledgeBase(tuple(rules))
 
@@ -179,7 +179,7 @@ def mine_knowledge_base(
     Rules come in vocabulary order: affordances, then orderings by ingredient, a, b.
     """
     if min_support < 1:
-        raise ValueError("min_support must be at least 1")
+        raise InputError("min_support must be at least 1")
     actions, ingredients = list(vocabulary[0]), list(vocabulary[1])
     a_rank = {a: k for k, a in enumerate(actions)}
     i_rank = {i: k for k, i in enumerate(ingredients)}
@@ -189,7 +189,7 @@ def mine_knowledge_base(
         first: dict[tuple[str, str], int] = {}
         for t, (a, i) in enumerate(sequence):
             if a not in a_rank or i not in i_rank:
-                raise ValueError(f"pair ({a}, {i}) is outside the vocabulary")
+                raise InputError(f"pair ({a}, {i}) is outside the vocabulary")
             first.setdefault((i, a), t)
         seen_pairs.update((a, i) for i, a in first)
         for (i, a), ta in first.items():

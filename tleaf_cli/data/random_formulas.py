@@ -10,6 +10,8 @@ from __future__ import annotations
 import random
 from collections.abc import Sequence
 
+from tleaf_cli.errors import InputError
+
 UNARY: tuple[str, ...] = ("!", "X", "WX", "F", "G")
 BINARY: tuple[str, ...] = ("&", "|", "->", "<->", "U", "R")
 
@@ -24,14 +26,14 @@ def random_formula(
 ) -> str:
     """A formula of exactly `size` nodes that uses every atom in `atoms` at least once."""
     if size < 1:
-        raise ValueError("size must be at least 1")
+        raise InputError("size must be at least 1")
     if size < 2 * len(atoms) - 1:
-        raise ValueError(f"a tree of size {size} cannot hold {len(atoms)} distinct atoms")
+        raise InputError(f"a tree of size {size} cannot hold {len(atoms)} distinct atoms")
     for _ in range(max_tries):
         text, used = _tree(rng, list(atoms), size, unary, binary)
         if used == set(atoms):
             return text
-    raise ValueError(f"no formula of size {size} over {len(atoms)} atoms in {max_tries} tries")
+    raise InputError(f"no formula of size {size} over {len(atoms)} atoms in {max_tries} tries")
 
 
 def _tree(rng, atoms, size, unary, binary) -> tuple[str, set[str]]:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 from collections.abc import Collection, Iterable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -46,9 +47,7 @@ def compile_rules(formulas: Iterable[str], settings: CompileSettings | None = No
 
     Raises InputError naming the first formula that does not compile.
     """
-    settings = settings or CompileSettings(alphabet="one-hot")
-    if settings.alphabet != "one-hot":
-        raise InputError("rule sets are compiled over the one-hot alphabet, not the powerset")
+    settings = replace(settings or CompileSettings(), alphabet="one-hot")
     fresh = list(dict.fromkeys(f for f in formulas if (f, settings.timeout) not in _COMPILED))
     if not fresh:
         return
@@ -62,9 +61,8 @@ def compile_rules(formulas: Iterable[str], settings: CompileSettings | None = No
 
 def formula_dfa(formula: str, settings: CompileSettings | None = None) -> DFA:
     """The minimal one-hot DFA of one formula (compiled once per process)."""
-    settings = settings or CompileSettings(alphabet="one-hot")
     compile_rules([formula], settings)
-    return _COMPILED[(formula, settings.timeout)]
+    return _COMPILED[(formula, (settings or CompileSettings()).timeout)]
 
 
 class RuleSet:
@@ -75,7 +73,8 @@ class RuleSet:
             be an item of `vocabulary`.
         vocabulary: the model's output items, in the order of its last dimension.
         name: an id for reports and caches; default a hash of the sorted formulas.
-        compile_settings: MONA timeout, cache folder, parallel jobs (alphabet must be one-hot).
+        compile_settings: MONA timeout, cache folder, parallel jobs (the alphabet is one-hot,
+            whatever the settings say).
 
     Attributes: `dfa` (letter 0 = none of its atoms, letter k+1 = `dfa.atoms[k]`), `index`
     (int64 [k], vocabulary position of each atom), `satisfiable` (some non-empty sequence is
@@ -99,10 +98,10 @@ class RuleSet:
         self.name = name or "rs-" + _digest(sorted(self.formulas))
         self.formula = " & ".join(f"({f})" for f in self.formulas)
         compile_rules(self.formulas, compile_settings)
-        settings = compile_settings or CompileSettings(alphabet="one-hot")
-        dfa = _COMPILED[(self.formulas[0], settings.timeout)]
+        timeout = (compile_settings or CompileSettings()).timeout
+        dfa = _COMPILED[(self.formulas[0], timeout)]
         for formula in self.formulas[1:]:
-            dfa = dfa.intersect(_COMPILED[(formula, settings.timeout)])
+            dfa = dfa.intersect(_COMPILED[(formula, timeout)])
         self.dfa = dfa.minimize_nonempty()
         position = {item: i for i, item in enumerate(self.vocabulary)}
         missing = [a for a in self.dfa.atoms if a not in position]
@@ -151,8 +150,9 @@ class KnowledgeRuleSets:
     A sequence's rule set is the conjunction of the rules whose atoms all occur among its atoms
     (`knowledge.rules_for`); with `per_ingredient`, one conjunction per ingredient
     (`knowledge.by_ingredient`). With `known` (the atoms an embedder can read), rules naming other
-    atoms are left out; `skipped_rules` counts how often. All KB rules are compiled in one batch
-    the first time any is needed.
+    atoms are left out; `skipped_rules` counts how often. The rules of each call's fresh sets are
+    compiled in one batch; `prepare()` compiles every rule up front (before training, so that
+    epochs do not pay for it).
     """
 
     def __init__(
@@ -168,12 +168,15 @@ class KnowledgeRuleSets:
         self.settings = compile_settings or CompileSettings(alphabet="one-hot")
         self.by_id: dict[str, RuleSet] = {}
         self.skipped_rules = 0
-        self._rules_compiled = False
 
     @property
     def compiled(self) -> int:
         """Distinct rule sets built so far."""
         return len(self.by_id)
+
+    def prepare(self) -> None:
+        """Compile every rule of the knowledge base now (in one batch)."""
+        compile_rules([r.formula for r in self.kb], self.settings)
 
     def rules(self, present_atoms: Collection[str]) -> list[Rule]:
         """The KB rules whose atoms all occur in `present_atoms` (and that q can read)."""
@@ -189,12 +192,15 @@ class KnowledgeRuleSets:
     ) -> list[list[RuleSet]]:
         """Each sequence's rule sets: one (the whole set) or one per ingredient; [] where no rule
         applies."""
-        out = []
+        groups = []
         for present in atoms_per_sequence:
             rules = self.rules(present)
-            groups = by_ingredient(rules) if per_ingredient else [rules]
-            out.append([self.rule_set(g) for g in groups if g])
-        return out
+            groups.append([g for g in (by_ingredient(rules) if per_ingredient else [rules]) if g])
+        fresh = [
+            r.formula for gs in groups for g in gs if rule_set_id(g) not in self.by_id for r in g
+        ]
+        compile_rules(fresh, self.settings)  # one batch for every rule of the new sets
+        return [[self.rule_set(g) for g in gs] for gs in groups]
 
     def one_each(self, atoms_per_sequence: Sequence[Collection[str]]) -> list[RuleSet | None]:
         """Each sequence's whole rule set (None where no rule applies)."""
@@ -204,9 +210,6 @@ class KnowledgeRuleSets:
         """The rule set of `rules` (built on first sight, named by `knowledge.rule_set_id`)."""
         rid = rule_set_id(rules)
         if rid not in self.by_id:
-            if not self._rules_compiled:
-                compile_rules([r.formula for r in self.kb], self.settings)
-                self._rules_compiled = True
             ordered = sorted(rules, key=lambda r: r.name)
             rule_set = RuleSet([r.formula for r in ordered], self.vocabulary, rid, self.settings)
             rule_set.formula = sample_formula(rules)  # the text kb-extract writes for this set

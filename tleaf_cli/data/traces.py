@@ -27,7 +27,7 @@ from tleaf_cli.data.artifacts import (
 )
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.defaults import MAX_LEN, MIN_LEN
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.sampling import WordSampler, once_each_words, one_hot_letters
@@ -60,20 +60,21 @@ class TraceSettings:
 
     def check(self) -> None:
         if not 1 <= self.min_len <= self.max_len:
-            raise UsageError(
-                f"need 1 <= --min-len <= --max-len, got {self.min_len}, {self.max_len}"
+            raise SettingError(
+                "min_len",
+                f"must be between 1 and the longest length ({self.max_len}), got {self.min_len}",
             )
         if not 0.0 <= self.hard_fraction <= 1.0:
-            raise UsageError(f"--hard-fraction must be in [0, 1], got {self.hard_fraction}")
+            raise SettingError("hard_fraction", f"must be in [0, 1], got {self.hard_fraction}")
         if self.per_formula < 1:
-            raise UsageError("--per-formula must be at least 1")
+            raise SettingError("per_formula", f"must be at least 1, got {self.per_formula}")
         if self.max_none < 0:
-            raise UsageError(f"--max-none must be >= 0, got {self.max_none}")
+            raise SettingError("max_none", f"must be >= 0, got {self.max_none}")
         if self.split is not None and (
             len(self.split) != 3 or min(self.split) < 0 or abs(sum(self.split) - 1) > 1e-6
         ):
-            raise UsageError(
-                "--split takes three non-negative fractions summing to 1, e.g. 0.8,0.1,0.1"
+            raise SettingError(
+                "split", f"must be three non-negative fractions summing to 1, not {self.split}"
             )
 
 

@@ -42,6 +42,7 @@ from torch_geometric.nn import GCNConv, global_add_pool
 from torch_geometric.utils import degree, to_undirected
 
 from tleaf_cli.embed.graphs import EDGE
+from tleaf_cli.errors import SettingError
 
 KINDS = 2  # state, edge node
 FLAGS = 2  # initial, accepting
@@ -149,7 +150,7 @@ class AutomatonEncoder(nn.Module):
     ) -> None:
         super().__init__()
         if readout not in READOUTS:
-            raise ValueError(f"readout must be one of {READOUTS}, not {readout!r}")
+            raise SettingError("readout", f"must be one of {READOUTS}, not {readout!r}")
         dims = [KINDS + FLAGS + edge_dim] + [hidden] * layers
         self.convs = nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims))
         self.back = (

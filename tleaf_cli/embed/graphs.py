@@ -44,6 +44,7 @@ from ltlf2dfa.ltlf import (
 )
 from torch_geometric.data import Batch, Data
 
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.guards import guard_for
 
@@ -99,7 +100,7 @@ def cnf_graph(cnf: Clauses, atom_ids: Sequence[int]) -> Data:
         for lit in clause:
             k = abs(lit) - 1
             if not 0 <= k < len(atom_ids):
-                raise ValueError(f"literal {lit} out of range for {len(atom_ids)} atoms")
+                raise InputError(f"literal {lit} out of range for {len(atom_ids)} atoms")
             if k not in atom_node:
                 atom_node[k] = len(types)
                 types.append(ATOM)
@@ -185,7 +186,7 @@ def trace_graph(length: int) -> Data:
     a differentiable trace), so one graph shape serves every trace of that length.
     """
     if length < 1:
-        raise ValueError("traces are non-empty")
+        raise InputError("traces are non-empty")
     states = list(range(length + 1))
     edges = list(range(length + 1, 2 * length + 1))
     kinds = [STATE] * (length + 1) + [EDGE] * length

@@ -14,7 +14,7 @@ from torch_geometric.data import Batch, Data
 
 from tleaf_cli.embed.encoders import PropositionEncoder
 from tleaf_cli.embed.graphs import cnf_graph, dfa_graph, letter_cnf, trace_graph
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
 
 Key = tuple[tuple[str, ...], tuple[tuple[int, ...], ...]]
@@ -43,10 +43,10 @@ class GuardVectors:
         return torch.stack([self.cache[k] for k in keys])
 
     def ids(self, atoms: Sequence[str]) -> list[int]:
-        """Vocabulary indices of `atoms`; UsageError naming any the edge model never saw."""
+        """Vocabulary indices of `atoms`; InputError naming any the edge model never saw."""
         unknown = [a for a in atoms if a not in self.index]
         if unknown:
-            raise UsageError(
+            raise InputError(
                 f"atoms {unknown} are not in the edge model's vocabulary; train-edge on DFAs "
                 "that contain them"
             )

@@ -28,6 +28,7 @@ from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graphs, feature
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
 from tleaf_cli.embed.training import read_model_config
+from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
 
@@ -60,7 +61,7 @@ class Embedder:
         """[len(dfas), d]: q_m of compiled DFAs (a q of kind `dfa`; the syntax baseline reads
         formula text, `embed_formula_rows`)."""
         if self.kind != "dfa":
-            raise ValueError(f"a q of kind {self.kind!r} does not read DFAs")
+            raise InputError(f"a q of kind {self.kind!r} does not read DFAs")
         graphs = featured_dfa_graphs(dfas, self.vectors)
         return self._encode(self.model.embed_formulas, graphs, batch)
 
@@ -68,12 +69,13 @@ class Embedder:
         self,
         traces: Sequence[Sequence[Collection[str]]],
         atoms: Sequence[tuple[str, ...]],
-        one_hot: Sequence[bool] | None = None,
+        one_hot: bool | Sequence[bool] = False,
         batch: int = 256,
     ) -> torch.Tensor:
         """[len(traces), d] for discrete traces, trace i read over the atoms `atoms[i]` of a
-        one-hot alphabet where `one_hot[i]` (default: powerset)."""
-        kinds = one_hot if one_hot is not None else [False] * len(traces)
+        one-hot alphabet where `one_hot` (one bool for all, or one per trace; default:
+        powerset)."""
+        kinds = [one_hot] * len(traces) if isinstance(one_hot, bool) else one_hot
         graphs = [
             featured_trace_graph(t, a, self.vectors, h)
             for t, a, h in zip(traces, atoms, kinds, strict=True)
@@ -125,7 +127,7 @@ class Embedder:
                 for i in range(1 << len(atoms))
             ]
         else:
-            raise ValueError(f"domain must be one-hot or powerset, not {domain!r}")
+            raise SettingError("domain", f"must be one-hot or powerset, not {domain!r}")
         one_hot = domain == "one-hot"
         return letters, [(atoms, tuple(map(tuple, letter_cnf(x, atoms, one_hot)))) for x in letters]
 

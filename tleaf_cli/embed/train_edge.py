@@ -1,6 +1,7 @@
 """Training the edge embedder q_e with the triplet loss (`tleaf train-edge`).
 
-Read top to bottom: settings, data, model, the epoch loop, the model directory. Each triplet is
+Read top to bottom: settings, data, model, the shared loop (`training.fit` with the triplet
+step of `triplets`), the model directory. Each triplet is
 (guard G, letter that satisfies G, letter that violates G); the loss pulls q_e(G) towards the
 satisfying letter and pushes it from the violating one, and held-out triplet accuracy
 (d(G, sat) < d(G, unsat)) on formulas never trained on is measured after every epoch. The best
@@ -8,7 +9,8 @@ epoch's weights are kept. CPU training is repeatable for a seed.
 
 Model directory (DESIGN.md): `config.json` (architecture, settings, vocabulary, input hashes),
 `weights.pt` (state_dict of the best epoch, loadable with `torch.load(weights_only=True)`),
-`metrics.json` (curve and final figures), and `checkpoint.pt` (last epoch, for `--resume`).
+`metrics.json` (curve and final figures), and `checkpoint.pt` (last epoch, for `resume`:
+`training.fit`).
 """
 
 from __future__ import annotations
@@ -26,15 +28,9 @@ from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.embed.edge_data import guard_triplets, split_by_formula, triplet_graphs, vocabulary
 from tleaf_cli.embed.encoders import PropositionEncoder, atom_features, triplet_accuracy
-from tleaf_cli.embed.training import (
-    EpochReport,
-    LoopSettings,
-    chunks,
-    device_for,
-    fit,
-    read_model_config,
-)
-from tleaf_cli.errors import UsageError
+from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit, read_model_config
+from tleaf_cli.embed.triplets import SCORE, EpochReport, reporting, triplet_step
+from tleaf_cli.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -73,7 +69,7 @@ def train_edge(
     table = read_dfas(dfas_path)
     vocab = vocabulary(table)
     if not vocab:
-        raise UsageError(f"{dfas_path}: no compiled formula with atoms to train on")
+        raise InputError(f"{dfas_path}: no compiled formula with atoms to train on")
     index = {a: i for i, a in enumerate(vocab)}
     train, heldout = split_by_formula(
         guard_triplets(table, settings.per_guard, settings.random_guards, rng),
@@ -81,7 +77,7 @@ def train_edge(
         rng,
     )
     if not train or not heldout:
-        raise UsageError(f"{dfas_path}: too few formulas for a train / held-out split")
+        raise InputError(f"{dfas_path}: too few formulas for a train / held-out split")
     train_graphs = [triplet_graphs(t, index) for t in train]
     heldout_graphs = [triplet_graphs(t, index) for t in heldout]
 
@@ -94,13 +90,14 @@ def train_edge(
 
     metrics = fit(
         model,
-        lambda generator: chunks(train_graphs, settings.batch_size, generator),
-        embed,
+        lambda epoch, generator: chunks(train_graphs, settings.batch_size, generator),
+        triplet_step(embed, settings.margin),
         lambda: evaluate(model, heldout_graphs, settings.batch_size, device),
         LoopSettings.of(settings),
         out_dir,
-        resume,
-        on_epoch,
+        score=SCORE,
+        resume=resume,
+        on_epoch=reporting(on_epoch),
     )
 
     # ---- the model directory

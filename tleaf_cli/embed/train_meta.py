@@ -7,8 +7,8 @@ paper samples pairs per formula). The val split's fixed pairs choose the best ep
 split, formulas never trained on, gives the final triplet accuracy, also per kind of violating
 trace (uniform / hard).
 
-`--embedder dfa` (T-LEAF): formulas are expanded DFA graphs and traces chains, both through one
-AutomatonEncoder whose edge nodes carry the frozen q_e's vectors. `--embedder syntax` (the
+`embedder="dfa"` (T-LEAF): formulas are expanded DFA graphs and traces chains, both through one
+AutomatonEncoder whose edge nodes carry the frozen q_e's vectors. `embedder="syntax"` (the
 paper's baseline): formulas are parse trees through a SyntaxEncoder; traces as before.
 """
 
@@ -34,15 +34,9 @@ from tleaf_cli.embed.graphs import EDGE, syntax_graph
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
 from tleaf_cli.embed.syntax import SyntaxEncoder
 from tleaf_cli.embed.train_edge import load_edge_model
-from tleaf_cli.embed.training import (
-    SCHEDULES,
-    EpochReport,
-    LoopSettings,
-    chunks,
-    device_for,
-    fit,
-)
-from tleaf_cli.errors import UsageError
+from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit
+from tleaf_cli.embed.triplets import SCORE, EpochReport, reporting, triplet_step
+from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.formulas import parse
 
 EMBEDDERS = ("dfa", "syntax")
@@ -150,12 +144,13 @@ def train_meta(
     on_epoch: Callable[[EpochReport], None] | None = None,
 ) -> dict:
     out_dir = Path(out_dir)
-    if settings.embedder not in EMBEDDERS:
-        raise UsageError(f"--embedder must be one of {', '.join(EMBEDDERS)}")
-    if settings.schedule not in SCHEDULES:
-        raise UsageError(f"--schedule must be one of {', '.join(SCHEDULES)}")
-    if settings.readout not in READOUTS:
-        raise UsageError(f"--readout must be one of {', '.join(READOUTS)}")
+    for name, value, allowed in (
+        ("embedder", settings.embedder, EMBEDDERS),
+        ("readout", settings.readout, READOUTS),
+    ):
+        if value not in allowed:
+            raise SettingError(name, f"must be one of {', '.join(allowed)}, not '{value}'")
+    loop = LoopSettings.of(settings)  # SettingError for an unknown schedule
     torch.manual_seed(settings.seed)
     device = device_for(settings.device)
 
@@ -166,7 +161,7 @@ def train_meta(
     rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
     traces = read_traces(traces_path)
     if "split" not in traces.column_names:
-        raise UsageError(f"{traces_path}: no split column; run gen-traces with --split")
+        raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
     formula_graphs = {}
     for fid, row in rows.items():
         if settings.embedder == "dfa":
@@ -196,7 +191,7 @@ def train_meta(
 
     train_formulas = [f for f, s in by_split["train"].items() if s[True] and s[False]]
     if not train_formulas or not fixed_pairs("val"):
-        raise UsageError(f"{traces_path}: needs satisfying and violating traces in train and val")
+        raise InputError(f"{traces_path}: needs satisfying and violating traces in train and val")
 
     # ---- model and the shared triplet loop
     model = build_model(settings, vectors.dim, edge_model.atom_table)
@@ -215,7 +210,7 @@ def train_meta(
         )
     model = model.to(device)
 
-    def epoch_triplets(generator: torch.Generator):
+    def epoch_triplets(epoch: int, generator: torch.Generator):
         # Triplets travel in groups of GROUP from one formula, the groups shuffled: a batch still
         # mixes many formulas, and each formula graph is embedded once per group, not per triplet.
         groups = []
@@ -268,17 +263,18 @@ def train_meta(
     metrics = fit(
         model,
         epoch_triplets,
-        embed,
+        triplet_step(
+            embed, settings.margin, extra_loss if settings.pair_weight or settings.pull else None
+        ),
         lambda: scores(val)["accuracy"],
-        LoopSettings.of(settings),
+        loop,
         out_dir,
-        resume,
-        on_epoch,
-        extra_loss=extra_loss if settings.pair_weight or settings.pull else None,
+        score=SCORE,
+        resume=resume,
+        on_epoch=reporting(on_epoch),
     )
 
-    # ---- test split with the best weights
-    model.load_state_dict(torch.load(out_dir / "weights.pt", weights_only=True))
+    # ---- test split with the best weights (the model leaves the loop with them)
     model.eval()
     with torch.no_grad():
         test = fixed_pairs("test")

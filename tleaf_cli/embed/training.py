@@ -1,46 +1,75 @@
-"""The triplet-training loop shared by the edge and meta embedders.
+"""The one training loop of tleaf's models (edge and meta embedders, the action recognizer),
+and the helpers every trainer shares (`chunks`, `device_for`, `read_model_config`).
 
-One epoch: the model embeds batches of (anchor, positive, negative), the triplet loss is
-minimised with Adam, then `evaluate()` scores held-out data. The best epoch's weights go to
-`weights.pt`; every epoch also writes `checkpoint.pt` (model, optimiser, history, RNG) so that
-`resume=True` continues where a run stopped. Stops after `epochs`, after `patience` epochs
-without a better score, or after the epoch that passes `max_minutes`.
+A trainer gives `fit` what is its own: `batches(epoch, generator)`, the epoch's training batches
+(shuffled by `generator`); `step(batch)`, the batch's loss and the figures to report (a `Step`;
+the triplet loss of the embedders, ℓ_task + λ·ℓ_logic of the action recognizer); `evaluate()`,
+the validation score that chooses the best epoch. The loop does the rest, the same for all:
+
+* Adam on the trainable parameters, the learning rate constant or on a cosine schedule;
+* per epoch a record: the epoch, each step figure's mean over the epoch, `seconds` (training time
+  of the epoch, without evaluation) and the score under its name (e.g. `val_action_accuracy`);
+* the best epoch's weights kept; stop after `epochs`, after `patience` epochs without a better
+  score, or after the epoch that passes `max_minutes`; the model ends with the best weights,
+  written to `weights.pt`;
+* after every epoch `checkpoint.pt`: model, optimiser, schedule, history, best weights, epochs
+  since the best, torch's RNG. `resume=True` continues from it and ends with the weights and
+  records (but `seconds`) of a run never interrupted: an epoch's batches depend only on the seed
+  and the epoch (epoch e shuffles with seed · 100003 + e), everything else is in the checkpoint.
+
+Both files are written atomically (a temporary file renamed over the target), so a crash
+never leaves half a checkpoint; `on_epoch(record)` is called once the epoch's checkpoint is
+written (the CLI's progress lines).
 """
 
 from __future__ import annotations
 
 import json
+import os
+import pickle
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import Any, NamedTuple, TypeVar
 
 import torch
 
-from tleaf_cli.embed.encoders import triplet_accuracy, triplet_loss
+from tleaf_cli.data.artifacts import atomic_path
+from tleaf_cli.errors import InputError, SettingError
 
-Triplet = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
+B = TypeVar("B")  # a trainer's batch
 SCHEDULES = ("constant", "cosine")
+CHECKPOINT = "checkpoint.pt"
+WEIGHTS = "weights.pt"
 
 
-@dataclass
-class EpochReport:
-    epoch: int
-    loss: float
-    train_accuracy: float
-    heldout_accuracy: float
-    seconds: float
+class Step(NamedTuple):
+    """What `step(batch)` gives the loop for one training batch."""
+
+    loss: torch.Tensor  # minimised
+    figures: dict[str, float]  # reported per epoch: the mean over its batches, weighted by:
+    weight: int = 1  # the batch's weight in those means (the embedders: triplets in the batch)
 
 
 @dataclass(frozen=True)
 class LoopSettings:
-    epochs: int
-    patience: int
-    margin: float
-    lr: float
-    seed: int
-    max_minutes: float | None = None
+    """Every setting of the loop."""
+
+    epochs: int  # most epochs (a resumed run counts the epochs before it)
+    patience: int  # epochs without a better score before stopping
+    lr: float  # Adam's learning rate
+    seed: int  # the batches' order (and nothing else: the trainer seeds torch itself)
+    max_minutes: float | None = None  # stop after the epoch that passes this budget
     schedule: str = "constant"  # or "cosine": the learning rate falls to 0 over `epochs`
+
+    def __post_init__(self) -> None:
+        for name in ("epochs", "patience"):
+            if getattr(self, name) < 1:
+                raise SettingError(name, f"must be at least 1, not {getattr(self, name)}")
+        if self.schedule not in SCHEDULES:
+            choices = ", ".join(SCHEDULES)
+            raise SettingError("schedule", f"must be one of {choices}, not '{self.schedule}'")
 
     @classmethod
     def of(cls, settings: object) -> LoopSettings:
@@ -53,80 +82,76 @@ class LoopSettings:
 
 def fit(
     model: torch.nn.Module,
-    batches: Callable[[torch.Generator], Iterable[object]],
-    embed: Callable[[object], Triplet],
+    batches: Callable[[int, torch.Generator], Iterable[B]],
+    step: Callable[[B], Step],
     evaluate: Callable[[], float],
     settings: LoopSettings,
     out_dir: Path,
+    *,
+    score: str,
     resume: bool = False,
-    on_epoch: Callable[[EpochReport], None] | None = None,
-    extra_loss: Callable[[Triplet], torch.Tensor] | None = None,
-) -> dict:
-    """Train `model` (its state_dict is what is saved); returns {"best", "history"}.
+    on_epoch: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
+    """Train `model` as `settings` say; returns {"best": {"epoch", score}, "history": records}.
 
-    `extra_loss`, when given, is added to the triplet loss of every batch."""
+    `batches(epoch, generator)`: the epoch's training batches; `step(batch)`: its `Step`;
+    `evaluate()`: the validation score, higher better, named `score` in the records. The
+    model's state_dict is what `weights.pt` and the checkpoint hold. `resume`: continue from
+    out_dir's checkpoint when there is one. `on_epoch(record)`: after each epoch's checkpoint.
+    """
     start = time.perf_counter()
+    out_dir.mkdir(parents=True, exist_ok=True)
     optimiser = torch.optim.Adam([p for p in model.parameters() if p.requires_grad], lr=settings.lr)
-    if settings.schedule not in SCHEDULES:
-        raise ValueError(f"schedule must be one of {SCHEDULES}, not {settings.schedule!r}")
     # cosine: stepped once per epoch, so a resumed run continues on the same curve
     scheduler = (
         torch.optim.lr_scheduler.CosineAnnealingLR(optimiser, T_max=settings.epochs)
         if settings.schedule == "cosine"
         else None
     )
-    history: list[dict] = []
-    best = {"heldout_accuracy": -1.0, "epoch": 0}
-    first = 1
-    checkpoint = out_dir / "checkpoint.pt"
+    history: list[dict[str, Any]] = []
+    best: dict[str, Any] = {"epoch": 0, score: float("-inf")}  # any epoch beats none
+    best_weights = _snapshot(model)
+    stale = 0  # epochs since the best one
+    done = 0  # epochs trained
+    checkpoint = out_dir / CHECKPOINT
     if resume and checkpoint.exists():
-        state = torch.load(checkpoint, weights_only=False)
-        model.load_state_dict(state["model"])
-        optimiser.load_state_dict(state["optimiser"])
-        if scheduler is not None and "scheduler" in state:
-            scheduler.load_state_dict(state["scheduler"])
-        history, best, first = state["history"], state["best"], state["epoch"] + 1
-        torch.set_rng_state(state["torch_rng"])
-    out_dir.mkdir(parents=True, exist_ok=True)
+        history, best, best_weights, stale, done = _restore(checkpoint, model, optimiser, scheduler)
 
-    stale = 0
-    for epoch in range(first, settings.epochs + 1):
+    for epoch in range(done + 1, settings.epochs + 1):
+        over_budget = settings.max_minutes is not None and (
+            time.perf_counter() - start > 60 * settings.max_minutes
+        )
+        if stale >= settings.patience or over_budget:
+            break
         generator = torch.Generator().manual_seed(settings.seed * 100_003 + epoch)
         model.train()
-        loss_sum = acc_sum = 0.0
+        began = time.perf_counter()
+        sums: dict[str, float] = {}
         seen = 0
-        for batch in batches(generator):
-            anchor, pos, neg = embed(batch)
-            loss = triplet_loss(anchor, pos, neg, settings.margin)
-            if extra_loss is not None:
-                loss = loss + extra_loss((anchor, pos, neg))
+        for batch in batches(epoch, generator):
+            loss, figures, weight = step(batch)
             optimiser.zero_grad()
             loss.backward()
             optimiser.step()
-            n = anchor.shape[0]
-            loss_sum += loss.item() * n
-            acc_sum += triplet_accuracy(anchor.detach(), pos.detach(), neg.detach()) * n
-            seen += n
+            for name, value in figures.items():
+                sums[name] = sums.get(name, 0.0) + value * weight
+            seen += weight
         if scheduler is not None:
             scheduler.step()
+        seconds = time.perf_counter() - began
         model.eval()
         with torch.no_grad():
-            score = evaluate()
-        report = EpochReport(
-            epoch,
-            loss_sum / max(seen, 1),
-            acc_sum / max(seen, 1),
-            score,
-            time.perf_counter() - start,
-        )
-        history.append(asdict(report))
-        if score > best["heldout_accuracy"]:
-            best = {"heldout_accuracy": score, "epoch": epoch}
-            torch.save(model.state_dict(), out_dir / "weights.pt")
+            value = evaluate()
+        means = {name: total / max(seen, 1) for name, total in sums.items()}
+        record = {"epoch": epoch, **means, "seconds": seconds, score: value}
+        history.append(record)
+        if value > best[score]:
+            best = {"epoch": epoch, score: value}
+            best_weights = _snapshot(model)
             stale = 0
         else:
             stale += 1
-        torch.save(
+        save_atomic(
             {
                 "model": model.state_dict(),
                 "optimiser": optimiser.state_dict(),
@@ -134,18 +159,76 @@ def fit(
                 "epoch": epoch,
                 "history": history,
                 "best": best,
+                "best_model": best_weights,
+                "stale": stale,
                 "torch_rng": torch.get_rng_state(),
+                "cuda_rng": torch.cuda.get_rng_state_all() if torch.cuda.is_initialized() else None,
             },
             checkpoint,
         )
-        if on_epoch:
-            on_epoch(report)
-        over_budget = settings.max_minutes is not None and (
-            time.perf_counter() - start > 60 * settings.max_minutes
-        )
-        if stale >= settings.patience or over_budget:
-            break
+        if on_epoch is not None:
+            on_epoch(record)
+
+    model.load_state_dict(best_weights)
+    save_atomic(best_weights, out_dir / WEIGHTS)
     return {"best": best, "history": history}
+
+
+def save_atomic(obj: object, path: Path) -> None:
+    """`torch.save` to a temporary file beside `path`, then renamed over it: `path` is either
+    the old file or the whole new one, never half of one."""
+    tmp = atomic_path(path)
+    try:
+        torch.save(obj, tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _snapshot(model: torch.nn.Module) -> dict[str, torch.Tensor]:
+    """A copy of the model's state_dict as it is now. Entries that share memory (q_m's one
+    encoder under two names) share their copy too, so that `weights.pt` stores it once."""
+    copies: dict[tuple, torch.Tensor] = {}
+    out = {}
+    for name, tensor in model.state_dict().items():
+        key = (tensor.data_ptr(), tensor.dtype, tuple(tensor.shape), tensor.stride())
+        if key not in copies:
+            copies[key] = tensor.detach().clone()
+        out[name] = copies[key]
+    return out
+
+
+def _restore(
+    checkpoint: Path,
+    model: torch.nn.Module,
+    optimiser: torch.optim.Optimizer,
+    scheduler: torch.optim.lr_scheduler.LRScheduler | None,
+) -> tuple[list[dict[str, Any]], dict[str, Any], dict[str, torch.Tensor], int, int]:
+    """Load a checkpoint into the model, optimiser, schedule and torch's RNG; returns the
+    run's (history, best, best weights, epochs since the best, epochs trained). InputError
+    for a file that is not a checkpoint of this model."""
+    try:
+        state = torch.load(checkpoint, weights_only=True)
+        model.load_state_dict(state["model"])
+        optimiser.load_state_dict(state["optimiser"])
+        if scheduler is not None and state["scheduler"] is not None:
+            scheduler.load_state_dict(state["scheduler"])
+        torch.set_rng_state(state["torch_rng"])
+        if state["cuda_rng"] is not None and torch.cuda.is_available():
+            torch.cuda.set_rng_state_all(state["cuda_rng"])
+        return (
+            state["history"],
+            state["best"],
+            state["best_model"],
+            state["stale"],
+            state["epoch"],
+        )
+    except (KeyError, TypeError, ValueError, RuntimeError, EOFError, pickle.UnpicklingError) as e:
+        first = (str(e).strip().splitlines() or [type(e).__name__])[0]
+        raise InputError(
+            f"{checkpoint}: not a checkpoint of this model and settings ({first}); "
+            "train afresh without resuming"
+        ) from None
 
 
 def chunks(items: list, size: int, generator: torch.Generator) -> Iterable[list]:
@@ -156,24 +239,20 @@ def chunks(items: list, size: int, generator: torch.Generator) -> Iterable[list]
 
 
 def read_model_config(model_dir: Path, kind: str) -> dict:
-    """A model directory's config.json, checked to be of `kind` (UsageError otherwise)."""
-    from tleaf_cli.errors import UsageError
-
+    """A model directory's config.json, checked to be of `kind` (InputError otherwise)."""
     try:
         config = json.loads((model_dir / "config.json").read_text())
     except (OSError, ValueError) as e:
-        raise UsageError(f"{model_dir}: not a tleaf model directory ({e})") from None
+        raise InputError(f"{model_dir}: not a tleaf model directory ({e})") from None
     if config.get("kind") != kind:
-        raise UsageError(f"{model_dir}: a '{config.get('kind')}' model, expected '{kind}'")
+        raise InputError(f"{model_dir}: a '{config.get('kind')}' model, expected '{kind}'")
     return config
 
 
 def device_for(name: str) -> torch.device:
-    """cpu or cuda (UsageError when cuda is asked for and absent)."""
-    from tleaf_cli.errors import UsageError
-
-    if name == "cuda" and not torch.cuda.is_available():
-        raise UsageError("--device cuda: no CUDA device is available here")
+    """cpu or cuda (SettingError when cuda is asked for and absent)."""
     if name not in ("cpu", "cuda"):
-        raise UsageError(f"--device must be cpu or cuda, not '{name}'")
+        raise SettingError("device", f"must be cpu or cuda, not '{name}'")
+    if name == "cuda" and not torch.cuda.is_available():
+        raise SettingError("device", "cuda asked for, and no CUDA device is available here")
     return torch.device(name)

@@ -23,7 +23,7 @@ from tleaf_cli.data.artifacts import (
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.soft import load_embedder
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError, SettingError
 
 KIND = "embeddings"
 SCHEMA_VERSION = 1
@@ -54,7 +54,7 @@ def embed_file(
         traces = read_traces(source).select(["formula_id", "trace_id", "trace"]).to_pylist()
         missing = {t["formula_id"] for t in traces} - atoms.keys()
         if missing:
-            raise UsageError(
+            raise InputError(
                 f"{dfas}: no formula {sorted(missing)[0]!r} for the traces of {source}"
             )
         ids = [f"{t['formula_id']}:{t['trace_id']}" for t in traces]
@@ -66,7 +66,7 @@ def embed_file(
         label = "trace"
         inputs = [source, dfas]
     else:
-        raise UsageError(f"{source}: a '{kind}' artifact; embed reads dfa or traces artifacts")
+        raise InputError(f"{source}: a '{kind}' artifact; embed reads dfa or traces artifacts")
     if on_progress:
         on_progress(len(ids), len(ids))
     dim = int(matrix.shape[1])
@@ -95,5 +95,5 @@ def _recorded_dfas(traces_path: str | os.PathLike) -> Path:
     recorded = read_provenance(traces_path).inputs
     path = Path(recorded[0]["path"]) if recorded else None
     if path is None or not path.exists():
-        raise UsageError(f"{traces_path}: its dfas.parquet is not where recorded; pass --dfas")
+        raise SettingError("dfas", f"needed: {traces_path} records no dfas.parquet that exists")
     return path

@@ -40,9 +40,9 @@ class Alphabet:
 
     def __post_init__(self) -> None:
         if list(self.atoms) != sorted(set(self.atoms)):
-            raise ValueError("alphabet atoms must be sorted and distinct")
+            raise InputError("alphabet atoms must be sorted and distinct")
         if self.kind not in ALPHABET_KINDS:
-            raise ValueError(f"alphabet kind must be one of {ALPHABET_KINDS}, not {self.kind!r}")
+            raise InputError(f"alphabet kind must be one of {ALPHABET_KINDS}, not {self.kind!r}")
         if self.kind == "powerset" and len(self.atoms) > MAX_POWERSET_ATOMS:
             raise LetterError(
                 f"a powerset alphabet over {len(self.atoms)} atoms has 2^{len(self.atoms)} letters "
@@ -82,10 +82,10 @@ class Alphabet:
     def lift(self, other: Alphabet) -> np.ndarray:
         """For each letter of the larger alphabet `other`, the index of its restriction to self."""
         if other.kind != self.kind:
-            raise ValueError(f"cannot combine a {self.kind} and a {other.kind} alphabet")
+            raise InputError(f"cannot combine a {self.kind} and a {other.kind} alphabet")
         missing = set(self.atoms) - set(other.atoms)
         if missing:
-            raise ValueError(f"atoms {sorted(missing)} are not in the target alphabet")
+            raise InputError(f"atoms {sorted(missing)} are not in the target alphabet")
         return np.array([self.index(other.letter(i)) for i in range(other.size)], dtype=np.int64)
 
     def encode(self, traces: Sequence[Sequence[Collection[str]]]) -> tuple[np.ndarray, np.ndarray]:

@@ -13,6 +13,7 @@ from collections.abc import Collection, Sequence
 
 import numpy as np
 
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
 
 
@@ -43,7 +44,7 @@ class PackedDFAs:
         which = np.asarray(which, dtype=np.int64)
         lengths = np.asarray(lengths, dtype=np.int64)
         if len(lengths) and lengths.min() < 1:
-            raise ValueError("traces are non-empty")
+            raise InputError("traces are non-empty")
         order = np.argsort(-lengths, kind="stable")
         running = np.searchsorted(-lengths[order], -np.arange(letters.shape[1]), side="left")
         state = self.initial[which[order]]

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.guards import Guard, cnf_holds, guard_for
 
@@ -33,11 +34,11 @@ class DFA:
         accepting = np.asarray(self.accepting, dtype=bool)
         n = table.shape[0]
         if table.ndim != 2 or table.shape[1] != self.alphabet.size:
-            raise ValueError(f"table must be [states, {self.alphabet.size}], got {table.shape}")
+            raise InputError(f"table must be [states, {self.alphabet.size}], got {table.shape}")
         if accepting.shape != (n,) or not 0 <= self.initial < n:
-            raise ValueError("accepting/initial do not match the table")
+            raise InputError("accepting/initial do not match the table")
         if n and (table.min() < 0 or table.max() >= n):
-            raise ValueError("table points outside the states")
+            raise InputError("table points outside the states")
         object.__setattr__(self, "table", table)
         object.__setattr__(self, "accepting", accepting)
 
@@ -60,7 +61,7 @@ class DFA:
     def accepts(self, trace: Sequence[Collection[str]]) -> bool:
         """Whether the non-empty trace (a sequence of sets of true atoms) is accepted."""
         if len(trace) == 0:
-            raise ValueError("traces are non-empty")
+            raise InputError("traces are non-empty")
         return bool(self.accepting[self.run([self.alphabet.index(x) for x in trace])])
 
     # ------------------------------------------------------------ construction
@@ -79,13 +80,13 @@ class DFA:
             hit = cnf_holds(cnf, alphabet)
             row = table[src]
             if (row[hit] >= 0).any():
-                raise ValueError(f"state {src}: guards overlap (the DFA is not deterministic)")
+                raise InputError(f"state {src}: guards overlap (the DFA is not deterministic)")
             row[hit] = dst
         holes = np.argwhere(table < 0)
         if len(holes):
             s, i = holes[0]
             letter = sorted(alphabet.letter(int(i)))
-            raise ValueError(f"state {s}: no edge for letter {letter} (the DFA is not complete)")
+            raise InputError(f"state {s}: no edge for letter {letter} (the DFA is not complete)")
         acc = np.zeros(num_states, dtype=bool)
         acc[list(accepting)] = True
         return cls(alphabet, table, initial, acc)
@@ -98,7 +99,7 @@ class DFA:
         """Synchronous product over the union of both alphabets' atoms; `mode` and/or/xor."""
         combine = {"and": np.logical_and, "or": np.logical_or, "xor": np.logical_xor}[mode]
         if self.alphabet.kind != other.alphabet.kind:
-            raise ValueError("cannot combine DFAs over a powerset and a one-hot alphabet")
+            raise InputError("cannot combine DFAs over a powerset and a one-hot alphabet")
         union = Alphabet(tuple(sorted(set(self.atoms) | set(other.atoms))), self.alphabet.kind)
         ta = self.table[:, self.alphabet.lift(union)]
         tb = other.table[:, other.alphabet.lift(union)]

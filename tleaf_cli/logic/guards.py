@@ -26,6 +26,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 
 Clause = tuple[int, ...]
@@ -43,7 +44,7 @@ def guard_for(letters: np.ndarray, alphabet: Alphabet) -> Guard:
     """The guard that holds exactly on the letters where the bool vector `letters` is True."""
     letters = np.asarray(letters, dtype=bool)
     if letters.shape != (alphabet.size,):
-        raise ValueError(f"expected {alphabet.size} letters, got shape {letters.shape}")
+        raise InputError(f"expected {alphabet.size} letters, got shape {letters.shape}")
     if letters.all():
         return Guard("true", ())
     if not letters.any():
@@ -79,7 +80,7 @@ def cnf_holds(cnf: tuple[Clause, ...] | list[list[int]], alphabet: Alphabet) -> 
         for lit in clause:
             k = abs(lit) - 1
             if not 0 <= k < len(alphabet.atoms):
-                raise ValueError(f"literal {lit} out of range for {len(alphabet.atoms)} atoms")
+                raise InputError(f"literal {lit} out of range for {len(alphabet.atoms)} atoms")
             sat |= truth[:, k] if lit > 0 else ~truth[:, k]
         out &= sat
     return out

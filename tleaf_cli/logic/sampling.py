@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
 
 
@@ -69,7 +70,7 @@ class WordSampler:
         """n words of `length` (letter indices), uniform among the (not) accepted ones."""
         counts, _ = self.accepting if accept else self.rejecting
         if counts[length, self.dfa.initial] == 0:
-            raise ValueError(f"no {'accepted' if accept else 'rejected'} word of length {length}")
+            raise InputError(f"no {'accepted' if accept else 'rejected'} word of length {length}")
         state = np.full(n, self.dfa.initial, dtype=np.int64)
         out = np.empty((n, length), dtype=np.int64)
         for t in range(length):
@@ -96,7 +97,7 @@ class WordSampler:
         final = np.where(self.dfa.accepting, inf, cost[length])
         best = final.min()
         if best >= inf:
-            raise ValueError("no rejected word of this length")
+            raise InputError("no rejected word of this length")
         state = rng.choice(np.flatnonzero(final == best))
         out = np.empty(length, dtype=np.int64)
         for t in range(length - 1, -1, -1):

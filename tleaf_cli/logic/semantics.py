@@ -31,13 +31,15 @@ from ltlf2dfa.ltlf import (
     LTLfWeakNext,
 )
 
+from tleaf_cli.errors import InputError
+
 Trace = Sequence[Collection[str]]
 
 
 def satisfies(trace: Trace, formula: LTLfFormula) -> bool:
     """True when the non-empty `trace` satisfies `formula` at its first position."""
     if len(trace) == 0:
-        raise ValueError("traces are non-empty")
+        raise InputError("traces are non-empty")
     return _eval(formula, trace)[0]
 
 

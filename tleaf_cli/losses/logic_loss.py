@@ -82,6 +82,7 @@ def logic_loss(
     if lengths is None:
         lengths = torch.full((batch,), steps, dtype=torch.long)
     lengths = lengths.to(log_probs.device)
+    _check_normalised(log_probs, lengths)
 
     out = log_probs.new_zeros(batch)
     rows = [
@@ -108,3 +109,20 @@ def logic_loss(
     if reduction == "none":
         return out
     return out.sum() if reduction == "sum" else out.mean()
+
+
+def _check_normalised(log_probs: torch.Tensor, lengths: torch.Tensor) -> None:
+    """InputError unless every read step's probabilities sum to 1 (logits passed by mistake
+    would give wrong losses silently)."""
+    with torch.no_grad():
+        steps = torch.arange(log_probs.shape[1], device=log_probs.device)
+        read = steps[None, :] < lengths[:, None]
+        total = torch.logsumexp(log_probs.float(), dim=-1)[read]  # log Σ_v P_t(v), 0 if normalised
+        if not total.numel():
+            return
+        worst = total[total.abs().argmax()]
+    if abs(float(worst)) > 1e-3:
+        raise InputError(
+            f"log_probs are not normalised over the vocabulary (a step's probabilities sum to "
+            f"{float(worst.exp()):.4g}): pass log_softmax(logits, -1), not logits"
+        )

@@ -27,7 +27,7 @@ from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.soft import load_embedder
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError, SettingError
 
 
 @dataclass(frozen=True)
@@ -51,12 +51,15 @@ class Split:
     source: list[str]
 
 
+PAIR_FEATURES = ("concat", "rich")
+
+
 def pair_features(z_f: torch.Tensor, z_w: torch.Tensor, kind: str) -> torch.Tensor:
     if kind == "concat":
         return torch.cat([z_f, z_w], dim=1)
     if kind == "rich":
         return torch.cat([z_f, z_w, (z_f - z_w).abs(), z_f * z_w], dim=1)
-    raise UsageError(f"--pair-features must be concat or rich, not '{kind}'")
+    raise SettingError("pair_features", f"must be concat or rich, not '{kind}'")
 
 
 def evaluate_model_checking(
@@ -66,6 +69,10 @@ def evaluate_model_checking(
     out_dir: str | Path,
     settings: EvalSettings,
 ) -> dict:
+    if settings.pair_features not in PAIR_FEATURES:  # before any work
+        raise SettingError(
+            "pair_features", f"must be concat or rich, not '{settings.pair_features}'"
+        )
     out_dir = Path(out_dir)
     check_writable(out_dir / "report.json")
     torch.manual_seed(settings.seed)
@@ -75,7 +82,7 @@ def evaluate_model_checking(
     rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
     traces = read_traces(traces_path)
     if "split" not in traces.column_names:
-        raise UsageError(f"{traces_path}: no split column; run gen-traces with --split")
+        raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
     traces = [t for t in traces.to_pylist() if t["formula_id"] in rows]
     ids = list(rows)
     z_formulas = dict(zip(ids, embedder.embed_formula_rows([rows[i] for i in ids]), strict=True))
@@ -88,7 +95,7 @@ def evaluate_model_checking(
     for name in ("train", "val", "test"):
         keep = [k for k, t in enumerate(traces) if t["split"] == name]
         if not keep:
-            raise UsageError(f"{traces_path}: the {name} split is empty")
+            raise InputError(f"{traces_path}: the {name} split is empty")
         fids = [traces[k]["formula_id"] for k in keep]
         splits[name] = Split(
             fids,
@@ -99,9 +106,9 @@ def evaluate_model_checking(
         )
     overlap = set(splits["train"].formula_ids) & set(splits["test"].formula_ids)
     if overlap:  # the evaluation must never train on a test formula
-        raise UsageError(
+        raise InputError(
             f"{traces_path}: formula {sorted(overlap)[0]!r} has traces in both train and test; "
-            "split by formula (gen-traces --split)"
+            "split by formula"
         )
 
     # ---- classifiers

@@ -20,7 +20,7 @@ from tleaf_cli.data.artifacts import check_writable
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import TraceSettings, read_traces, traces_for_dfa
 from tleaf_cli.embed.soft import load_embedder
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.figures import pyplot, save_png
 
 STYLE = {  # kind of point -> (marker, colour, legend)
@@ -42,7 +42,7 @@ def pick_test_formula(traces_path: str | Path, rows: dict[str, dict]) -> str:
     """The test-split formula with the most traces in the file (ties: the smallest id)."""
     table = read_traces(traces_path)
     if "split" not in table.column_names:
-        raise UsageError(f"{traces_path}: no split column; run gen-traces with --split")
+        raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
     counts: dict[str, int] = {}
     for fid, split in zip(
         table.column("formula_id").to_pylist(), table.column("split").to_pylist(), strict=True
@@ -50,7 +50,7 @@ def pick_test_formula(traces_path: str | Path, rows: dict[str, dict]) -> str:
         if split == "test" and fid in rows:
             counts[fid] = counts.get(fid, 0) + 1
     if not counts:
-        raise UsageError(f"{traces_path}: no compiled test-split formula to draw")
+        raise InputError(f"{traces_path}: no compiled test-split formula to draw")
     return min(counts, key=lambda f: (-counts[f], f))
 
 
@@ -69,7 +69,7 @@ def tsne_figure(
     rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
     fid = settings.formula_id or pick_test_formula(traces_path, rows)
     if fid not in rows:
-        raise UsageError(f"{dfas_path}: no compiled formula with id {fid!r}")
+        raise InputError(f"{dfas_path}: no compiled formula with id {fid!r}")
     row = rows[fid]
     dfa = dfa_from_row(row)
     drawn = traces_for_dfa(
@@ -78,7 +78,7 @@ def tsne_figure(
         np.random.default_rng(settings.seed),
     )
     if not drawn.words:
-        raise UsageError(f"formula {fid!r}: {drawn.shortfall}")
+        raise InputError(f"formula {fid!r}: {drawn.shortfall}")
     traces = [[set(dfa.alphabet.letter(int(x))) for x in w] for w in drawn.words]
     kinds = np.array(
         ["sat" if ok else src for ok, src in zip(drawn.labels, drawn.sources, strict=True)]

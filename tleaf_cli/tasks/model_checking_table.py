@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from tleaf_cli.data.artifacts import write_text_atomic
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 
 # Table I of the paper: accuracy %, mean (s.e.) over 3 runs.
 PAPER = {
@@ -41,7 +41,7 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
             mlp, dist = r["mlp"]["accuracy"], r["distance"]["accuracy"]
             hard = r["mlp"]["hard_negative_accuracy"]
         except (OSError, ValueError, KeyError) as e:
-            raise UsageError(f"{path}: not a model-checking report ({e})") from None
+            raise InputError(f"{path}: not a model-checking report ({e})") from None
         cells[(*key, "mlp")].append(100 * mlp)
         cells[(*key, "distance")].append(100 * dist)
         if hard is not None:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from tleaf_cli.data.artifacts import check_writable, write_text_atomic
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.figures import pyplot, save_png
 
 LOSS_ORDER = ("tleaf", "exact", "checker")
@@ -28,14 +28,14 @@ MEASURES = ("action_accuracy", "ingredient_accuracy", "pair_accuracy")
 
 
 def read_run(run_dir: Path) -> dict:
-    """One run's settings and test figures; UsageError when it is not a finished run."""
+    """One run's settings and test figures; InputError when it is not a finished run."""
     try:
         config = json.loads((run_dir / "config.json").read_text())
         metrics = json.loads((run_dir / "metrics.json").read_text())
     except (OSError, ValueError) as e:
-        raise UsageError(f"{run_dir}: not a finished train-task run ({e})") from None
+        raise InputError(f"{run_dir}: not a finished train-task run ({e})") from None
     if config.get("kind") != "action-recognizer":
-        raise UsageError(
+        raise InputError(
             f"{run_dir}: a '{config.get('kind')}' directory, expected a train-task run"
         )
     s, test = config["settings"], metrics["test"]
@@ -186,7 +186,7 @@ def evaluate_runs(run_dirs: Sequence[str | Path], out_dir: str | Path) -> dict:
     out_dir = Path(out_dir)
     check_writable(out_dir / "report.json")
     if not run_dirs:
-        raise UsageError("give at least one train-task run directory")
+        raise InputError("give at least one train-task run directory")
     runs = [read_run(Path(d)) for d in run_dirs]
     pairs = pair_with_references(runs)
     summary = summarise(runs, pairs)

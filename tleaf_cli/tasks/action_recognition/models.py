@@ -18,6 +18,8 @@ import torch
 from torch import nn
 from torch.nn.utils.rnn import pack_padded_sequence, pad_packed_sequence
 
+from tleaf_cli.errors import SettingError
+
 MODELS = ("lstm", "tcn")
 
 
@@ -81,7 +83,7 @@ class ActionRecognizer(nn.Module):
             self.backbone = TCN(feature_dim, hidden)
             width = hidden
         else:
-            raise ValueError(f"model must be one of {', '.join(MODELS)}, not {model!r}")
+            raise SettingError("model", f"must be one of {', '.join(MODELS)}, not {model!r}")
         self.dropout = nn.Dropout(dropout)
         self.action_rnn = BiLSTM(width, head_hidden)
         self.ingredient_rnn = BiLSTM(width, head_hidden)

@@ -25,13 +25,13 @@ Same seed, same run: h's initial weights, batch order and dropout masks depend o
 only, so runs that differ only in the logic loss start from the same point (and the checker
 loss, which has no gradient, reproduces the reference run).
 
-Model directory (DESIGN.md): `config.json`, `weights.pt` (best epoch), `metrics.json`.
+Model directory (DESIGN.md): `config.json`, `weights.pt` (best epoch), `metrics.json`, and
+`checkpoint.pt` (last epoch, for `resume`: `embed.training.fit`).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import asdict, dataclass
@@ -42,11 +42,11 @@ import torch
 from torch.nn import functional as F
 
 from tleaf_cli.data.activities import UNLABELLED, Activities, Video, read_activities
-from tleaf_cli.data.artifacts import atomic_path, check_writable, describe_inputs, write_text_atomic
+from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.knowledge import RULE_SET_SPLITS, read_knowledge_base
 from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
 from tleaf_cli.embed.soft import Embedder, load_embedder
-from tleaf_cli.embed.training import chunks, device_for
+from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.losses import (
     LOGIC_LOSSES,
@@ -204,8 +204,12 @@ def train_action_recognition(
     out_dir: str | Path,
     settings: TaskSettings,
     on_epoch: Callable[[EpochRecord], None] | None = None,
+    resume: bool = False,
 ) -> dict:
-    """Train h, keep the best val epoch, score it on test; returns the metrics written."""
+    """Train h, keep the best val epoch, score it on test; returns the metrics written.
+
+    The epochs are `embed.training.fit`'s loop; `resume` continues from out_dir's
+    `checkpoint.pt` and ends as the run never interrupted would."""
     settings.check()
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
@@ -229,6 +233,8 @@ def train_action_recognition(
         loss_rules = KnowledgeRuleSets(kb, vocabulary, set(embedder.vectors.index))
     else:
         loss_rules = checker_rules
+    if settings.logic_loss != "none":
+        loss_rules.prepare()  # every KB rule compiled once now: epochs only build their products
     objective = LogicObjective(settings, data, loss_rules, embedder)
     setup_seconds = time.perf_counter() - setup_start  # rules compiled, q loaded (and embedded)
 
@@ -242,57 +248,48 @@ def train_action_recognition(
         settings.head_hidden,
         settings.dropout,
     ).to(device)
-    optimiser = torch.optim.Adam(model.parameters(), lr=settings.lr)
+    per_epoch = -(-len(splits["train"]) // settings.batch_size)  # training batches per epoch
 
-    history: list[dict] = []
-    best = {"epoch": 0, "val_action_accuracy": -1.0}
-    best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
-    stale = 0
-    unlabelled = unlabelled_batches(data, settings, device)
-    for epoch in range(1, settings.epochs + 1):
-        generator = torch.Generator().manual_seed(settings.seed * 100_003 + epoch)
-        model.train()
-        start = time.perf_counter()
-        task_sum = logic_sum = 0.0
-        batches = 0
+    def epoch_batches(
+        epoch: int, generator: torch.Generator
+    ) -> Iterator[tuple[Batch, Batch | None]]:
+        """The epoch's training batches, each with the batch of unlabelled videos that joins it
+        (None when they are not used): the unlabelled stream is read on from where the epochs
+        before left it, so that the batches depend on the seed and the epoch alone."""
+        unlabelled = unlabelled_batches(data, settings, device, skip=(epoch - 1) * per_epoch)
         for videos in chunks(splits["train"], settings.batch_size, generator):
-            batch = Batch.of(videos, device)
-            actions, ingredients = model(batch.features, batch.lengths)
-            task = F.cross_entropy(
-                actions.flatten(0, 1), batch.actions.flatten(), ignore_index=-100
-            ) + F.cross_entropy(
-                ingredients.flatten(0, 1), batch.ingredients.flatten(), ignore_index=-100
-            )
-            per_video = [objective(batch, actions, ingredients)]
-            if unlabelled is not None:
-                extra = next(unlabelled)
-                per_video.append(objective(extra, *model(extra.features, extra.lengths)))
-            logic = torch.cat(per_video).mean()
-            loss = task + settings.lam * logic
-            optimiser.zero_grad()
-            loss.backward()
-            optimiser.step()
-            task_sum += task.item()
-            logic_sum += logic.item()
-            batches += 1
-        seconds = time.perf_counter() - start
-        val = score(model, data, splits["val"], settings.batch_size, device)
-        record = EpochRecord(
-            epoch, task_sum / batches, logic_sum / batches, seconds, val["action_accuracy"]
-        )
-        history.append(asdict(record))
-        if record.val_action_accuracy > best["val_action_accuracy"]:
-            best = {"epoch": epoch, "val_action_accuracy": record.val_action_accuracy}
-            best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
-            stale = 0
-        else:
-            stale += 1
-        if on_epoch:
-            on_epoch(record)
-        if stale >= settings.patience:
-            break
+            yield Batch.of(videos, device), None if unlabelled is None else next(unlabelled)
 
-    model.load_state_dict(best_state)
+    def step(batches: tuple[Batch, Batch | None]) -> Step:
+        """ℓ_task + λ·ℓ_logic of a batch, ℓ_logic the mean over its and the unlabelled
+        batch's videos; reported: ℓ_task and ℓ_logic, each the mean over the epoch's batches."""
+        batch, extra = batches
+        actions, ingredients = model(batch.features, batch.lengths)
+        task = F.cross_entropy(
+            actions.flatten(0, 1), batch.actions.flatten(), ignore_index=-100
+        ) + F.cross_entropy(
+            ingredients.flatten(0, 1), batch.ingredients.flatten(), ignore_index=-100
+        )
+        per_video = [objective(batch, actions, ingredients)]
+        if extra is not None:
+            per_video.append(objective(extra, *model(extra.features, extra.lengths)))
+        logic = torch.cat(per_video).mean()
+        loss = task + settings.lam * logic
+        return Step(loss, {"task_loss": task.item(), "logic_loss": logic.item()})
+
+    run = fit(
+        model,
+        epoch_batches,
+        step,
+        lambda: score(model, data, splits["val"], settings.batch_size, device)["action_accuracy"],
+        LoopSettings.of(settings),
+        out_dir,
+        score="val_action_accuracy",
+        resume=resume,
+        on_epoch=None if on_epoch is None else lambda record: on_epoch(EpochRecord(**record)),
+    )
+    history, best = run["history"], run["best"]  # the model now holds the best epoch's weights
+
     test = score(model, data, splits["test"], settings.batch_size, device, checker_rules)
     metrics = {
         "task": "action-recognition",
@@ -319,32 +316,29 @@ def train_action_recognition(
         "inputs": describe_inputs([activities_path, kb_path]),
         "embedder": None if embedder_dir is None else str(embedder_dir),
     }
-    out_dir.mkdir(parents=True, exist_ok=True)
-    tmp = atomic_path(out_dir / "weights.pt")
-    try:
-        torch.save(best_state, tmp)
-        os.replace(tmp, out_dir / "weights.pt")
-    finally:
-        tmp.unlink(missing_ok=True)
     write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
 
 
 def unlabelled_batches(
-    data: Activities, settings: TaskSettings, device: torch.device
+    data: Activities, settings: TaskSettings, device: torch.device, skip: int = 0
 ) -> Iterator[Batch] | None:
     """Endless batches of the unlabelled videos, reshuffled each pass (their own seeded order,
-    so the labelled batches are the same as without them); None when they are not used."""
+    so the labelled batches are the same as without them), from the `skip`-th batch on; None
+    when they are not used."""
     videos = data.split(UNLABELLED)
     if not (videos and settings.unlabelled and settings.logic_loss in GRADIENT_LOSSES):
         return None
 
     def endless() -> Iterator[Batch]:
         generator = torch.Generator().manual_seed(settings.seed * 100_003 + 99_991)
+        drawn = 0
         while True:
             for chunk in chunks(videos, settings.batch_size, generator):
-                yield Batch.of(chunk, device)
+                if drawn >= skip:
+                    yield Batch.of(chunk, device)
+                drawn += 1
 
     return endless()
 

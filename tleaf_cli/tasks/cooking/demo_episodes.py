@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from tleaf_cli.data.artifacts import check_writable, read_artifact
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.cooking.demos import KIND, SCHEMA
 from tleaf_cli.tasks.cooking.domain import Domain
 from tleaf_cli.tasks.cooking.knowledge import Rule, knowledge_base, write_knowledge_base
@@ -33,10 +33,10 @@ class DemoEpisode:
 
 
 def read_demo_episodes(path: str | Path, domain: Domain) -> list[DemoEpisode]:
-    """The episodes of a demos.parquet (gen-demos), in order; UsageError on a foreign file."""
+    """The episodes of a demos.parquet (gen-demos), in order; InputError on a foreign file."""
     table, _ = read_artifact(path, KIND, SCHEMA)
     if table.num_rows == 0:
-        raise UsageError(f"{path}: no demonstration steps")
+        raise InputError(f"{path}: no demonstration steps")
     episode = table.column("episode").to_numpy()
     observations = np.asarray(table.column("observation").to_pylist(), dtype=np.int64)
     actions = table.column("action").to_numpy().astype(np.int64)
@@ -48,7 +48,7 @@ def read_demo_episodes(path: str | Path, domain: Domain) -> list[DemoEpisode]:
         first = observations[rows[0]]
         indices = first[2::2]  # ingredient index of slots 1..5 (all present at step 0)
         if not all(1 <= i <= len(names) for i in indices):
-            raise UsageError(
+            raise InputError(
                 f"{path}: row {rows[0]}: episode {e} does not start with five ingredients of "
                 f"{domain.source} (indices {indices.tolist()})"
             )

@@ -17,6 +17,8 @@ import torch.nn.functional as F
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from torch import nn
 
+from tleaf_cli.errors import InputError
+
 
 class Discriminator(nn.Module):
     """D(s, a): an MLP on [one-hot of each observation entry, one-hot action] -> expert logit."""
@@ -52,7 +54,7 @@ class Discriminator(nn.Module):
         if form == "logit":
             return logits.numpy().astype(np.float32)
         if form != "log_d":
-            raise ValueError(f"reward form {form!r}: expected log_d or logit")
+            raise InputError(f"reward form {form!r}: expected log_d or logit")
         return (-F.softplus(-logits)).numpy().astype(np.float32)
 
 

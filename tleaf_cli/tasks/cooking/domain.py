@@ -3,7 +3,7 @@
 The domain is data (examples/creative_cooking.toml): statuses in rank order, properties, the goal
 status of each property, ingredients with their properties, and actions with their category,
 arity, affordances (`only` / `never` properties), pre-requisite statuses and resulting status.
-A mistake in the file is a UsageError naming the key, e.g.
+A mistake in the file is an InputError naming the key, e.g.
 `creative_cooking.toml: actions.fry.only: unknown property 'meet'`.
 """
 
@@ -17,7 +17,7 @@ from functools import cached_property
 from pathlib import Path
 from typing import Any
 
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 
 DEFAULT_DOMAIN = Path(__file__).resolve().parents[3] / "examples" / "creative_cooking.toml"
 
@@ -106,19 +106,19 @@ class Domain:
         try:
             return self.by_name[name]
         except KeyError:
-            raise UsageError(f"{self.source}: no ingredient '{name}'") from None
+            raise InputError(f"{self.source}: no ingredient '{name}'") from None
 
 
 def load_domain(path: str | Path = DEFAULT_DOMAIN) -> Domain:
-    """Read and check a domain TOML file; UsageError naming the file and key on any mistake."""
+    """Read and check a domain TOML file; InputError naming the file and key on any mistake."""
     path = Path(path)
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
     except FileNotFoundError:
-        raise UsageError(f"{path}: no such file") from None
+        raise InputError(f"{path}: no such file") from None
     except tomllib.TOMLDecodeError as e:
-        raise UsageError(f"{path}: not valid TOML ({e})") from None
+        raise InputError(f"{path}: not valid TOML ({e})") from None
     return parse_domain(data, str(path))
 
 
@@ -245,13 +245,13 @@ def _check_goals_reachable(check, domain: Domain) -> None:
 
 
 class _Checker:
-    """Small helpers that raise UsageError naming the source file and key."""
+    """Small helpers that raise InputError naming the source file and key."""
 
     def __init__(self, source: str) -> None:
         self.source = source
 
     def fail(self, message: str):
-        raise UsageError(f"{self.source}: {message}")
+        raise InputError(f"{self.source}: {message}")
 
     def table(self, data: Mapping[str, Any], key: str) -> Mapping[str, Any]:
         value = data.get(key)

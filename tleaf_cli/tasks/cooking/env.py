@@ -28,6 +28,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, Domain, load_domain
 from tleaf_cli.tasks.cooking.render import render_text
 from tleaf_cli.tasks.cooking.rules import NUM_INGREDIENTS, NUM_SLOTS, ActionCodec, EpisodeRules
@@ -50,7 +51,7 @@ class CreativeCookingEnv(gym.Env):
         self, domain: Domain | str | Path | None = None, render_mode: str | None = None
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
-            raise ValueError(f"render_mode must be None or 'ansi', not {render_mode!r}")
+            raise InputError(f"render_mode must be None or 'ansi', not {render_mode!r}")
         self.domain = (
             domain if isinstance(domain, Domain) else load_domain(domain or DEFAULT_DOMAIN)
         )
@@ -132,7 +133,7 @@ class CreativeCookingEnv(gym.Env):
             return [self.domain.ingredients[i] for i in sorted(chosen)]
         unknown = [n for n in names if n not in self.domain.by_name]
         if unknown or len(set(names)) != NUM_INGREDIENTS or len(names) != NUM_INGREDIENTS:
-            raise ValueError(
+            raise InputError(
                 f"options['ingredients'] must name {NUM_INGREDIENTS} distinct ingredients of the "
                 f"domain (unknown: {unknown or 'none'})"
             )

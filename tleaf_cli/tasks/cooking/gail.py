@@ -95,9 +95,7 @@ class GailSettings:
         if self.device not in ("cpu", "cuda") or (
             self.device == "cuda" and not torch.cuda.is_available()
         ):
-            raise SettingError(
-                "device", f"{self.device!r}: expected cpu (or cuda where available)"
-            )
+            raise SettingError("device", f"{self.device!r}: expected cpu (or cuda where available)")
 
 
 # --------------------------------------------------------------------------- environments

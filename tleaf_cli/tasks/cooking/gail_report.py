@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from tleaf_cli.data.artifacts import write_text_atomic
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.figures import pyplot, save_png
 
 ORDER = ("none", "checker", "exact", "tleaf")
@@ -43,12 +43,12 @@ def read_run(run: str | Path) -> dict:
     try:
         metrics = json.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
-        raise UsageError(f"{path}: no such file (not a train-task cooking run)") from None
+        raise InputError(f"{path}: no such file (not a train-task cooking run)") from None
     except json.JSONDecodeError as e:
-        raise UsageError(f"{path}: line {e.lineno}: not JSON ({e.msg})") from None
+        raise InputError(f"{path}: line {e.lineno}: not JSON ({e.msg})") from None
     missing = [k for k in ("variant", "seed", "curve", "expert_return") if k not in metrics]
     if missing:
-        raise UsageError(f"{path}: missing {', '.join(missing)} (not a train-task cooking run)")
+        raise InputError(f"{path}: missing {', '.join(missing)} (not a train-task cooking run)")
     return metrics
 
 
@@ -133,7 +133,7 @@ def summarise(runs: list[dict]) -> dict:
 def evaluate_cooking_runs(runs: list[str | Path], out_dir: str | Path) -> dict:
     """Write report.json, report.md and report.png for the runs; return the report."""
     if not runs:
-        raise UsageError("no run directories given")
+        raise InputError("no run directories given")
     out_dir = Path(out_dir)
     variants = summarise([read_run(r) for r in runs])
     report = {"runs": [str(r) for r in runs], "variants": variants}

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tleaf_cli.data.artifacts import check_writable, write_text_atomic
-from tleaf_cli.errors import UsageError
+from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.cooking.domain import (
     DEFAULT_DOMAIN,
     MIXTURE,
@@ -62,9 +62,9 @@ def knowledge_base(
     """
     names = [i.name for i in domain.ingredients] if ingredients is None else list(ingredients)
     for name in names:
-        domain.ingredient(name)  # UsageError for an unknown name
+        domain.ingredient(name)  # InputError for an unknown name
     if len(set(names)) != len(names):
-        raise UsageError(f"{domain.source}: an ingredient is named twice in {', '.join(names)}")
+        raise InputError(f"{domain.source}: an ingredient is named twice in {', '.join(names)}")
     return _Builder(domain, names).rules(mixture)
 
 

@@ -39,6 +39,7 @@ from tleaf_cli.data.knowledge import KnowledgeBase
 from tleaf_cli.data.knowledge import Rule as KbRule
 from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
 from tleaf_cli.embed.soft import Embedder
+from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.formulas import atoms, parse
 from tleaf_cli.losses import logic_loss, violates
 from tleaf_cli.tasks.cooking.domain import Domain
@@ -133,7 +134,7 @@ class LogicTerm:
 
     def __init__(self, kind: str, knowledge: CookingKnowledge) -> None:
         if kind not in ("tleaf", "exact", "checker"):
-            raise ValueError(f"logic loss {kind!r}: expected tleaf, exact or checker")
+            raise SettingError("kind", f"{kind!r}: expected tleaf, exact or checker")
         self.kind = kind
         self.knowledge = knowledge
 

@@ -19,6 +19,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
+from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.cooking.domain import (
     MIXTURE,
     Action,
@@ -87,7 +88,7 @@ class EpisodeRules:
         self, domain: Domain, ingredients: Sequence[Ingredient], codec: ActionCodec | None = None
     ) -> None:
         if len(ingredients) != NUM_INGREDIENTS or len(set(ingredients)) != NUM_INGREDIENTS:
-            raise ValueError(f"an episode has {NUM_INGREDIENTS} distinct ingredients")
+            raise InputError(f"an episode has {NUM_INGREDIENTS} distinct ingredients")
         self.domain = domain
         self.ingredients = tuple(ingredients)
         self.codec = codec or ActionCodec(domain)
