@@ -16,11 +16,12 @@ import sys
 
 import torch
 
+import tleaf_cli as tl
 from tleaf_cli.data.activities import read_activities
 from tleaf_cli.data.knowledge import read_knowledge_base
-from tleaf_cli.embed.soft import load_embedder
-from tleaf_cli.losses import RuleSets, tleaf_loss, violations
-from tleaf_cli.tasks.action_recognition.train import Batch, pair_index
+from tleaf_cli.data.rule_set import KnowledgeRuleSets
+from tleaf_cli.losses import pair_log_probs, pair_vocabulary, violates
+from tleaf_cli.tasks.action_recognition.train import Batch
 
 BIG = 30.0  # logits of a certain prediction
 
@@ -47,16 +48,21 @@ def main(activities: str, kb: str, q_dirs: list[str]) -> None:
         "violating shuffle": (certain(shuffled_a, a), certain(shuffled_i, i)),
         "uniform": (torch.zeros(*batch.actions.shape, a), torch.zeros(*batch.ingredients.shape, i)),
     }
+    vocabulary = pair_vocabulary(data.actions, data.ingredients)
     for q_dir in q_dirs:
-        rules = RuleSets(knowledge, pair_index(data), load_embedder(q_dir))
-        sets = rules.for_videos([set(data.atoms(v)) for v in videos])
+        q = tl.load_embedder(q_dir)
+        rules = KnowledgeRuleSets(knowledge, vocabulary, set(q.vectors.index))
+        sets = rules.one_each([set(data.atoms(v)) for v in videos])
         kept = [b for b, s in enumerate(sets) if s is not None]
         pairs = (shuffled_a * i + shuffled_i).numpy()
-        bad = violations(
-            [sets[b] for b in kept], [pairs[b, : batch.lengths[b]] for b in kept]
-        )  # fmt: skip
+        bad = violates([sets[b] for b in kept], [pairs[b, : batch.lengths[b]] for b in kept])
         with torch.no_grad():
-            loss = {k: tleaf_loss(*x, batch.lengths, sets, rules)[kept] for k, x in traces.items()}
+            loss = {
+                k: tl.logic_loss(
+                    "tleaf", pair_log_probs(*x), sets, batch.lengths, q, reduction="none"
+                )[kept]
+                for k, x in traces.items()
+            }
         loss["violating shuffle"] = loss["violating shuffle"][torch.from_numpy(bad)]
         means = ", ".join(f"{k} {v.mean():.2f}" for k, v in loss.items())
         farther = (loss["violating shuffle"] > loss["true"][torch.from_numpy(bad)]).float().mean()

@@ -176,3 +176,27 @@ def test_rule_sets_per_ingredient_change_the_gradient_losses_only(tmp_path: Path
         {**h, "seconds": checker[0]["metrics"]["history"][n]["seconds"]}
         for n, h in enumerate(checker[1]["metrics"]["history"])
     ]  # the checker always checks the whole rule set: the same loss values
+
+
+def test_a_run_folder_records_portable_paths_and_reads_the_same_when_moved(
+    small_pipeline: Path, tmp_path: Path
+) -> None:
+    """Inputs absolute, the embedder absolute and relative to the run; a run tree copied
+    elsewhere gives the same report."""
+    import shutil
+
+    from tleaf_cli.tasks.action_recognition.evaluate import read_run
+
+    run = small_pipeline / "runs/lstm-tleaf-seed0"
+    config = json.loads((run / "config.json").read_text())
+    assert all(Path(i["path"]).is_absolute() and Path(i["path"]).exists() for i in config["inputs"])
+    assert Path(config["embedder"]).is_absolute()
+    assert (run / config["embedder_relative"]).resolve() == (small_pipeline / "meta").resolve()
+    moved = tmp_path / "elsewhere"
+    shutil.copytree(small_pipeline, moved)
+    copied = moved / "runs/lstm-tleaf-seed0"
+    assert (copied / config["embedder_relative"] / "config.json").exists()
+    want, got = read_run(run), read_run(copied)
+    assert {k: v for k, v in got.items() if k != "run"} == {
+        k: v for k, v in want.items() if k != "run"
+    }

@@ -170,3 +170,18 @@ def test_a_chain_longer_than_max_length_is_still_read_to_its_end() -> None:
             ]
         ),
     )
+
+
+def test_chain_weights_per_length_equal_the_batch_computation() -> None:
+    """The soft-trace path reuses each length's chain weights: exactly the batched values."""
+    from tleaf_cli.embed.automaton import AutomatonEncoder
+    from tleaf_cli.embed.graphs import trace_graph_batch
+
+    for readout in ("accept", "runs"):
+        encoder = AutomatonEncoder(4, hidden=8, layers=1, out_dim=4, readout=readout, bins=3)
+        lengths = [5, 1, 12, 5, 3]
+        batch, _ = trace_graph_batch(lengths)
+        want = encoder.run_weights(batch).t()
+        got = encoder.chain_run_weights(lengths)
+        assert got.shape == want.shape and torch.equal(got, want)
+        assert torch.equal(encoder.chain_run_weights([3, 12]), torch.cat([want[-7:], want[14:39]]))

@@ -46,7 +46,15 @@ def file_sha256(path: str | os.PathLike) -> str:
 
 
 def describe_inputs(paths: Iterable[str | os.PathLike]) -> list[dict[str, str]]:
-    return [{"path": str(p), "sha256": file_sha256(p)} for p in paths]
+    """Each input as an absolute path (a later stage run from another folder still finds it)
+    and the SHA-256 of its bytes."""
+    return [{"path": str(Path(p).resolve()), "sha256": file_sha256(p)} for p in paths]
+
+
+def relative_to(folder: str | os.PathLike, target: str | os.PathLike) -> str:
+    """`target` as a path relative to `folder`: how a model folder records a folder it depends
+    on, beside the absolute path, so that a whole tree moved or copied keeps loading."""
+    return os.path.relpath(Path(target).resolve(), Path(folder).resolve())
 
 
 def check_writable(target: str | os.PathLike) -> None:

@@ -41,7 +41,7 @@ from torch import nn
 from torch_geometric.nn import GCNConv, global_add_pool
 from torch_geometric.utils import degree, to_undirected
 
-from tleaf_cli.embed.graphs import EDGE
+from tleaf_cli.embed.graphs import EDGE, trace_graph_batch
 from tleaf_cli.errors import SettingError
 
 KINDS = 2  # state, edge node
@@ -171,6 +171,16 @@ class AutomatonEncoder(nn.Module):
         self.bins = bins
         self.max_length = max_length
         self.residual = residual
+        self._chains: dict[int, torch.Tensor] = {}  # trace length -> its chain's run weights
+
+    def chain_run_weights(self, lengths: list[int]) -> torch.Tensor:
+        """[num_nodes, parts]: `run_weights` of the trace chains of these lengths, batched as
+        `graphs.trace_graph_batch` batches them. A chain's weights depend on its length only
+        (the one accepted run reads it whole), so each length is computed once and reused: the
+        same values, since a graph's weights never depend on the others in its batch."""
+        for length in set(lengths) - set(self._chains):
+            self._chains[length] = self.run_weights(trace_graph_batch([length])[0]).t()
+        return torch.cat([self._chains[length] for length in lengths])
 
     @torch.no_grad()
     def run_weights(self, batch) -> torch.Tensor:

@@ -23,6 +23,7 @@ from torch_geometric.data import Batch
 
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.rule_set import RuleSet
+from tleaf_cli.embed.automaton import RUN_READOUTS
 from tleaf_cli.embed.graphs import letter_cnf, syntax_graph, trace_graph_batch
 from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graphs, featured_trace_graph
 from tleaf_cli.embed.train_edge import load_edge_model
@@ -178,6 +179,8 @@ def soft_trace_vectors(
     """q(w̃) [N, d] of soft traces whose step-t edge node carries expected[i, t] (t < lengths[i]);
     `model` is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
     batch, edge_nodes = trace_graph_batch(lengths.tolist())
+    if model.trace.readout in RUN_READOUTS:  # chains' readout weights, computed once per length
+        batch.run_weights = model.trace.chain_run_weights(lengths.tolist())
     batch, edge_nodes = batch.to(expected.device), edge_nodes.to(expected.device)
     valid = torch.arange(expected.shape[1], device=expected.device)[None, :] < lengths[:, None]
     edge_vec = expected.new_zeros(int(batch.num_nodes), expected.shape[-1])

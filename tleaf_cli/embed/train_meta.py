@@ -15,7 +15,6 @@ paper's baseline): formulas are parse trees through a SyntaxEncoder; traces as b
 from __future__ import annotations
 
 import json
-import os
 from collections import defaultdict
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -25,7 +24,7 @@ import torch
 from torch import nn
 from torch_geometric.data import Batch
 
-from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
+from tleaf_cli.data.artifacts import describe_inputs, relative_to, write_text_atomic
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.automaton import READOUTS, RUN_READOUTS, AutomatonEncoder
@@ -295,7 +294,7 @@ def train_meta(
         # both: relative to this folder, so that moving a whole tree (out/...) keeps it loadable,
         # and absolute, so that this folder copied alone still finds its edge model
         "edge_model": str(Path(edge_dir).resolve()),
-        "edge_model_relative": os.path.relpath(Path(edge_dir).resolve(), out_dir.resolve()),
+        "edge_model_relative": relative_to(out_dir, edge_dir),
         "edge_config": edge_config,
         "inputs": describe_inputs([dfas_path, traces_path]),
     }

@@ -42,7 +42,7 @@ import torch
 from torch.nn import functional as F
 
 from tleaf_cli.data.activities import UNLABELLED, Activities, Video, read_activities
-from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
+from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_to, write_text_atomic
 from tleaf_cli.data.knowledge import RULE_SET_SPLITS, read_knowledge_base
 from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
 from tleaf_cli.embed.soft import Embedder, load_embedder
@@ -314,7 +314,9 @@ def train_action_recognition(
         "feature_dim": data.feature_dim,
         "data": data.params.get("data", "synthetic" if data.params else "unknown"),
         "inputs": describe_inputs([activities_path, kb_path]),
-        "embedder": None if embedder_dir is None else str(embedder_dir),
+        # absolute, and relative to this folder (docs/artifacts.md: portable model folders)
+        "embedder": None if embedder_dir is None else str(Path(embedder_dir).resolve()),
+        "embedder_relative": None if embedder_dir is None else relative_to(out_dir, embedder_dir),
     }
     write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))

@@ -39,7 +39,13 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.utils import explained_variance, set_random_seed
 from stable_baselines3.common.vec_env import VecNormalize
 
-from tleaf_cli.data.artifacts import atomic_path, check_writable, describe_inputs, write_text_atomic
+from tleaf_cli.data.artifacts import (
+    atomic_path,
+    check_writable,
+    describe_inputs,
+    relative_to,
+    write_text_atomic,
+)
 from tleaf_cli.data.compile_dfas import CompileSettings
 from tleaf_cli.errors import SettingError
 from tleaf_cli.losses import LOGIC_LOSSES
@@ -443,7 +449,8 @@ def _write_run(out_dir, demos, embedder_dir, settings, pool, model, disc, metric
         "env": ENV_ID,
         "settings": {k: str(v) if isinstance(v, Path) else v for k, v in asdict(settings).items()},
         "pool": [list(p) for p in pool],
-        "embedder": str(embedder_dir) if embedder_dir is not None else None,
+        "embedder": None if embedder_dir is None else str(Path(embedder_dir).resolve()),
+        "embedder_relative": None if embedder_dir is None else relative_to(out_dir, embedder_dir),
         "inputs": inputs,
         "data": "synthetic: Creative Cooking environment built from the paper's appendix",
     }
