@@ -16,6 +16,9 @@ LAMBDA_none ?= 1
 LAMBDA_checker ?= 1
 # where tleaf's rule sets come from: predictions (the paper) or labels
 FORMULA_FROM ?= predictions
+# test videos decoded with argmax, and (constrained) also under the KB's rules; the report has both
+DECODE ?= constrained
+DECODE_TOP_K ?= 10
 # one torch thread per process: the models are small, and `make -j` runs several at once
 OMP_NUM_THREADS ?= 1
 export OMP_NUM_THREADS
@@ -81,7 +84,8 @@ $(OUT)/runs/$(1)-$(2)-seed$(3)/metrics.json: $(OUT)/activities.parquet $(OUT)/kb
     $(if $(filter tleaf,$(2)),$(OUT)/meta/metrics.json)
 	$(TLEAF) train-task action-recognition $(OUT)/activities.parquet --kb $(OUT)/kb.ltl \
 	    $(if $(filter tleaf,$(2)),--embedder $(OUT)/meta --formula-from $(FORMULA_FROM)) \
-	    --model $(1) --logic-loss $(2) --lambda $(LAMBDA_$(2)) --seed $(3) $(TASK) -o $$(@D) -q
+	    --model $(1) --logic-loss $(2) --lambda $(LAMBDA_$(2)) --seed $(3) $(TASK) \
+	    --decode $(DECODE) --decode-top-k $(DECODE_TOP_K) -o $$(@D) -q
 endef
 $(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach s,$(SEEDS),\
 	$(eval $(call RUN,$(m),$(l),$(s))))))

@@ -47,6 +47,11 @@ def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
         for key in ("action_accuracy", "ingredient_accuracy", "pair_accuracy"):
             assert 0.0 <= r[key] <= 1.0
         assert 0.0 <= r["violation_fraction"] <= 1.0
+    # every run's test videos were also decoded under the rules: no violation left
+    assert {(d["model"], d["logic_loss"]) for d in report["decodings"]} == {
+        ("lstm", "none"), ("lstm", "tleaf"), ("lstm", "checker")
+    }  # fmt: skip
+    assert all(d["constrained_violation_fraction"] == 0.0 for d in report["decodings"])
     runs = small_pipeline / "runs"
     tleaf = json.loads((runs / "lstm-tleaf-seed0/metrics.json").read_text())
     assert any(h["logic_loss"] > 0 for h in tleaf["history"])  # the loss saw rule sets

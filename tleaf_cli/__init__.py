@@ -8,6 +8,8 @@ The public Python API (DESIGN.md, "Python API"), for ``import tleaf_cli as tl``:
   vocabulary (a model's output items)
 * ``tl.logic_loss(kind, log_probs, rules, lengths=None, embedder=None, reduction="mean")``
   ``"exact"`` (−log P(rules hold)), ``"tleaf"`` (the paper's ‖q(A_φ) − q(w̃)‖²) or ``"checker"``
+* ``tl.constrained_decode(log_probs, rules, lengths=None)``  per sequence, the most probable
+  sequence the rules accept (Viterbi over steps × DFA states)
 * ``tl.load_embedder(model_dir)``        a trained q (a train-meta folder)
 * ``tl.TleafError``                      every error the library raises on purpose
 
@@ -29,6 +31,7 @@ _PUBLIC = {
     "check": "tleaf_cli.logic.checker",
     "RuleSet": "tleaf_cli.data.rule_set",
     "logic_loss": "tleaf_cli.losses.logic_loss",
+    "constrained_decode": "tleaf_cli.decode",
     "load_embedder": "tleaf_cli.embed.soft",
     "TleafError": "tleaf_cli.errors",
 }
@@ -38,12 +41,14 @@ __all__ = [
     "TleafError",
     "check",
     "compile_formula",
+    "constrained_decode",
     "load_embedder",
     "logic_loss",
 ]
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` loads them
     from tleaf_cli.data.rule_set import RuleSet
+    from tleaf_cli.decode import constrained_decode
     from tleaf_cli.embed.soft import load_embedder
     from tleaf_cli.errors import TleafError
     from tleaf_cli.logic.checker import check

@@ -7,6 +7,7 @@ kinds say what went wrong, not how the CLI reports it:
                   what was expected, rules whose atoms are not in the vocabulary;
 * `SettingError`  a setting's value is out of range; `setting` is its name as the library spells
                   it (a field of a settings object or a keyword argument, e.g. ``logic_loss``);
+* `RulesError`    rules that cannot do what was asked (no sequence of the given length meets them);
 * `TleafError` itself: the machine cannot do it (MONA or Graphviz missing or failing).
 
 Only `tleaf_cli/cli.py` turns them into exit codes and messages; it renders a `SettingError`'s
@@ -35,3 +36,7 @@ class SettingError(TleafError):
 
     def __str__(self) -> str:
         return f"{self.setting}: {self.args[0]}"
+
+
+class RulesError(TleafError):
+    """Rules that cannot do what was asked of them (no sequence of the length given meets them)."""

@@ -111,7 +111,7 @@ class RuleSet:
                 f"({len(self.vocabulary)} items)"
             )
         self.index = np.array([position[a] for a in self.dfa.atoms], dtype=np.int64)
-        self.satisfiable = bool(np.any(live_states(self.dfa)[self.dfa.table[self.dfa.initial]]))
+        self.satisfiable = bool(self.dfa.alive_letters(self.dfa.initial).any())
 
     @property
     def atoms(self) -> tuple[str, ...]:
@@ -128,16 +128,6 @@ class RuleSet:
             f"RuleSet({self.name}, {len(self.formulas)} formula(s), {self.dfa.num_states} states, "
             f"atoms {list(self.atoms)})"
         )
-
-
-def live_states(dfa: DFA) -> np.ndarray:
-    """bool [S]: the states from which some accepting state is reachable (in ≥ 0 steps)."""
-    live = dfa.accepting.copy()
-    while True:
-        grown = live | live[dfa.table].any(axis=1)
-        if np.array_equal(grown, live):
-            return live
-        live = grown
 
 
 def _digest(texts: Iterable[str]) -> str:

@@ -169,6 +169,21 @@ class DFA:
             variants.append(DFA(self.alphabet, table, n, acc).minimize())
         return min(variants, key=lambda d: d.num_states)
 
+    def live(self) -> np.ndarray:
+        """bool [S]: the states from which some accepting state can be reached (in ≥ 0 steps)."""
+        live = self.accepting.copy()
+        while True:
+            grown = live | live[self.table].any(axis=1)
+            if np.array_equal(grown, live):
+                return live
+            live = grown
+
+    def alive_letters(self, state: int) -> np.ndarray:
+        """bool [letters]: the letters after which, from `state`, the language can still be met
+        (some continuation, possibly empty, is accepted). The primitive of constrained decoding
+        and of shields: a letter outside it commits a sequence to violating the DFA."""
+        return self.live()[self.table[state]]
+
     def _reachable(self) -> np.ndarray:
         seen = np.zeros(self.num_states, dtype=bool)
         seen[self.initial] = True

@@ -20,15 +20,18 @@ from pathlib import Path
 import numpy as np
 
 from tleaf_cli.data.artifacts import check_writable, write_text_atomic
-from tleaf_cli.errors import InputError
+from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.tasks.action_recognition.decoding import DECODINGS
 from tleaf_cli.tasks.figures import pyplot, save_png
 
 LOSS_ORDER = ("tleaf", "exact", "checker")
 MEASURES = ("action_accuracy", "ingredient_accuracy", "pair_accuracy")
 
 
-def read_run(run_dir: Path) -> dict:
-    """One run's settings and test figures; InputError when it is not a finished run."""
+def read_run(run_dir: Path, decode: str = "argmax") -> dict:
+    """One run's settings and test figures — argmax decoding's, or constrained decoding's
+    (`decode`) — and, where the run has both, both under `decodings`; InputError when it is not
+    a finished run or lacks the figures asked for."""
     try:
         config = json.loads((run_dir / "config.json").read_text())
         metrics = json.loads((run_dir / "metrics.json").read_text())
@@ -39,7 +42,16 @@ def read_run(run_dir: Path) -> dict:
             f"{run_dir}: a '{config.get('kind')}' directory, expected a train-task run"
         )
     s, test = config["settings"], metrics["test"]
-    return {
+    constrained = test.get("constrained")
+    if decode == "constrained":
+        if constrained is None:
+            raise InputError(
+                f"{run_dir}: no constrained-decoding figures (trained with argmax decoding only)"
+            )
+        figures = constrained
+    else:
+        figures = test
+    row = {
         "run": str(run_dir),
         "model": s["model"],
         "logic_loss": s["logic_loss"],
@@ -47,12 +59,23 @@ def read_run(run_dir: Path) -> dict:
         "lambda": s["lam"],
         "seed": s["seed"],
         "data": config.get("data", "unknown"),
-        **{m: test[m] for m in MEASURES},
-        "violation_fraction": test["violation_fraction"],
+        "decode": decode,
+        **{m: figures[m] for m in MEASURES},
+        "violation_fraction": figures["violation_fraction"],
         "mean_epoch_seconds": metrics["mean_epoch_seconds"],
         "epochs": len(metrics["history"]),
         "best_epoch": metrics["best"]["epoch"],
     }
+    if constrained is not None:
+        keep = (*MEASURES, "violation_fraction")
+        row["decodings"] = {
+            "argmax": {m: test[m] for m in keep},
+            "constrained": {
+                **{m: constrained[m] for m in keep},
+                "decode_seconds_per_video": constrained["decode_seconds_per_video"],
+            },
+        }
+    return row
 
 
 def pair_with_references(runs: Sequence[dict]) -> list[dict]:
@@ -106,14 +129,43 @@ def _pct(v: float) -> str:
     return f"{100 * v:.2f}%"
 
 
-def markdown(runs: Sequence[dict], summary: Sequence[dict]) -> str:
+def decodings(runs: Sequence[dict]) -> list[dict]:
+    """Per (model, loss), over its runs that have both decodings: mean action accuracy and
+    violations with argmax and with constrained decoding, the mean relative change of action
+    accuracy (constrained against argmax, same run), and the decoding time per video."""
+    out = []
+    both = [r for r in runs if "decodings" in r]
+    for model, loss in sorted({(r["model"], r["logic_loss"]) for r in both}, key=_order):
+        group = [r["decodings"] for r in both if (r["model"], r["logic_loss"]) == (model, loss)]
+        row = {"model": model, "logic_loss": loss, "runs": len(group)}
+        for kind in ("argmax", "constrained"):
+            for m in ("action_accuracy", "violation_fraction"):
+                row[f"{kind}_{m}"] = float(np.mean([g[kind][m] for g in group]))
+        changes = [
+            100
+            * (g["constrained"]["action_accuracy"] - g["argmax"]["action_accuracy"])
+            / max(g["argmax"]["action_accuracy"], 1e-12)
+            for g in group
+        ]
+        row["action_change_pct_mean"] = float(np.mean(changes))
+        row["action_improved"] = int(sum(c > 0 for c in changes))
+        row["decode_ms_per_video"] = 1000 * float(
+            np.mean([g["constrained"]["decode_seconds_per_video"] for g in group])
+        )
+        out.append(row)
+    return out
+
+
+def markdown(runs: Sequence[dict], summary: Sequence[dict], by_decoding: Sequence[dict]) -> str:
     data = sorted({r["data"] for r in runs})
+    decode = runs[0]["decode"] if runs else "argmax"
     lines = [
         "# Action recognition: logic losses against the reference",
         "",
-        f"Data: {'; '.join(data)}. {len(runs)} runs. Δ = relative change of test accuracy "
-        "against the reference run (no logic loss) of the same model and seed. The checker loss "
-        "has no gradient, so its runs train exactly like the reference.",
+        f"Data: {'; '.join(data)}. {len(runs)} runs, test figures of {decode} decoding. Δ = "
+        "relative change of test accuracy against the reference run (no logic loss) of the same "
+        "model and seed. The checker loss has no gradient, so its runs train exactly like the "
+        "reference.",
         "",
         "| model | loss | runs | action acc | ingredient acc | pair acc | violations | "
         "Δ action (mean) | improved | Δ ingredient | time / epoch vs none |",
@@ -132,6 +184,27 @@ def markdown(runs: Sequence[dict], summary: Sequence[dict]) -> str:
             f"{_pct(s['ingredient_accuracy'])} | {_pct(s['pair_accuracy'])} | "
             f"{_pct(s['violation_fraction'])} | {delta} |"
         )
+    if by_decoding:
+        lines += [
+            "",
+            "## Argmax against constrained decoding",
+            "",
+            "The same runs' test videos decoded both ways; constrained: the most probable pair "
+            "sequence the knowledge base's rules accept (rules chosen from the outputs, never the "
+            "labels; docs/decoding.md). Δ = relative change of action accuracy, same run.",
+            "",
+            "| model | loss | runs | action acc argmax | action acc constrained | Δ action | "
+            "improved | violations argmax | violations constrained | decoding ms / video |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+        ]
+        for d in by_decoding:
+            lines.append(
+                f"| {d['model']} | {d['logic_loss']} | {d['runs']} | "
+                f"{_pct(d['argmax_action_accuracy'])} | {_pct(d['constrained_action_accuracy'])} | "
+                f"{d['action_change_pct_mean']:+.2f}% | {d['action_improved']}/{d['runs']} | "
+                f"{_pct(d['argmax_violation_fraction'])} | "
+                f"{_pct(d['constrained_violation_fraction'])} | {d['decode_ms_per_video']:.1f} |"
+            )
     lines += [
         "",
         "## Runs",
@@ -181,17 +254,24 @@ def boxplots(pairs: Sequence[dict], path: Path) -> None:
     save_png(fig, path)
 
 
-def evaluate_runs(run_dirs: Sequence[str | Path], out_dir: str | Path) -> dict:
-    """Read the runs, pair them, write report.json, report.md and report.png; return the report."""
+def evaluate_runs(
+    run_dirs: Sequence[str | Path], out_dir: str | Path, decode: str = "argmax"
+) -> dict:
+    """Read the runs, pair them, write report.json, report.md and report.png; return the report.
+
+    `decode`: whose test figures the main table reads (argmax or constrained decoding)."""
+    if decode not in DECODINGS:
+        raise SettingError("decode", f"must be one of {', '.join(DECODINGS)}, not '{decode}'")
     out_dir = Path(out_dir)
     check_writable(out_dir / "report.json")
     if not run_dirs:
         raise InputError("give at least one train-task run directory")
-    runs = [read_run(Path(d)) for d in run_dirs]
+    runs = [read_run(Path(d), decode) for d in run_dirs]
     pairs = pair_with_references(runs)
     summary = summarise(runs, pairs)
-    report = {"runs": runs, "pairs": pairs, "summary": summary}
+    by_decoding = decodings(runs)
+    report = {"runs": runs, "pairs": pairs, "summary": summary, "decodings": by_decoding}
     write_text_atomic(out_dir / "report.json", json.dumps(report, indent=2))
-    write_text_atomic(out_dir / "report.md", markdown(runs, summary))
+    write_text_atomic(out_dir / "report.md", markdown(runs, summary, by_decoding))
     boxplots(pairs, out_dir / "report.png")
     return report

@@ -55,6 +55,7 @@ from tleaf_cli.losses import (
     pair_vocabulary,
     violates,
 )
+from tleaf_cli.tasks.action_recognition.decoding import DECODINGS, decode_pairs
 from tleaf_cli.tasks.action_recognition.models import MODELS, ActionRecognizer
 
 FORMULA_SOURCES = ("predictions", "labels")
@@ -78,6 +79,8 @@ class TaskSettings:
     seed: int = 0
     unlabelled: bool = True
     device: str = "cpu"
+    decode: str = "argmax"  # constrained: test videos also decoded under the KB's rules
+    decode_top_k: int = 10  # candidate pairs per video for constrained decoding
 
     def check(self) -> None:
         """SettingError for a setting out of range."""
@@ -86,9 +89,12 @@ class TaskSettings:
             ("logic_loss", self.logic_loss, LOGIC_LOSSES),
             ("formula_from", self.formula_from, FORMULA_SOURCES),
             ("rule_sets", self.rule_sets, RULE_SET_SPLITS),
+            ("decode", self.decode, DECODINGS),
         ):
             if value not in allowed:
                 raise SettingError(name, f"must be one of {', '.join(allowed)}, not '{value}'")
+        if self.decode_top_k < 1:
+            raise SettingError("decode_top_k", f"must be at least 1, not {self.decode_top_k}")
 
 
 @dataclass
@@ -291,6 +297,11 @@ def train_action_recognition(
     history, best = run["history"], run["best"]  # the model now holds the best epoch's weights
 
     test = score(model, data, splits["test"], settings.batch_size, device, checker_rules)
+    if settings.decode == "constrained":  # the same model, its test videos decoded under rules
+        test["constrained"] = score(
+            model, data, splits["test"], settings.batch_size, device, checker_rules,
+            top_k=settings.decode_top_k,
+        )  # fmt: skip
     metrics = {
         "task": "action-recognition",
         "model": settings.model,
@@ -346,18 +357,36 @@ def unlabelled_batches(
 
 
 def predict(
-    model: ActionRecognizer, videos: Sequence[Video], batch_size: int, device: torch.device
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(predicted action indices, predicted ingredient indices) per video, argmax per step."""
+    model: ActionRecognizer,
+    videos: Sequence[Video],
+    batch_size: int,
+    device: torch.device,
+    rules: KnowledgeRuleSets | None = None,
+    top_k: int | None = None,
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], dict]:
+    """(predicted action indices, predicted ingredient indices) per video — argmax per step,
+    or, with `top_k`, the pairs of constrained decoding under `rules` (decoding.py) — and what
+    decoding took (`decode_seconds_per_video`, `decode_rounds`: the most rounds of a batch)."""
     model.eval()
-    out = []
+    out, seconds, rounds = [], 0.0, 0
     with torch.no_grad():
         for i in range(0, len(videos), batch_size):
             batch = Batch.of(videos[i : i + batch_size], device)
             actions, ingredients = model(batch.features, batch.lengths)
-            a, g = actions.argmax(-1).cpu().numpy(), ingredients.argmax(-1).cpu().numpy()
-            out += [(a[b, :n], g[b, :n]) for b, n in enumerate(batch.lengths.tolist())]
-    return out
+            lengths = batch.lengths.tolist()
+            if top_k is None:
+                a, g = actions.argmax(-1).cpu().numpy(), ingredients.argmax(-1).cpu().numpy()
+            else:
+                start = time.perf_counter()
+                log_pairs = pair_log_probs(actions, ingredients)
+                pairs, used = decode_pairs(log_pairs, batch.lengths, rules, top_k)
+                seconds += time.perf_counter() - start
+                rounds = max(rounds, used)
+                pairs = pairs.clamp(min=0).cpu().numpy()
+                a, g = pairs // ingredients.shape[-1], pairs % ingredients.shape[-1]
+            out += [(a[b, :n], g[b, :n]) for b, n in enumerate(lengths)]
+    stats = {"decode_seconds_per_video": seconds / max(len(videos), 1), "decode_rounds": rounds}
+    return out, stats
 
 
 def score(
@@ -367,10 +396,12 @@ def score(
     batch_size: int,
     device: torch.device,
     rules: KnowledgeRuleSets | None = None,
+    top_k: int | None = None,
 ) -> dict:
     """Per-step action / ingredient / pair accuracy; with `rules`, the share of videos whose
-    predicted sequence violates the rules relevant to its predicted pairs."""
-    predictions = predict(model, videos, batch_size, device)
+    predicted sequence violates the rules relevant to its predicted pairs. With `top_k`, the
+    predictions are constrained decoding's under `rules` (and the decoding time is reported)."""
+    predictions, stats = predict(model, videos, batch_size, device, rules, top_k)
     hit_a = np.concatenate([p[0] == v.actions for p, v in zip(predictions, videos, strict=True)])
     hit_i = np.concatenate(
         [p[1] == v.ingredients for p, v in zip(predictions, videos, strict=True)]
@@ -389,4 +420,6 @@ def score(
         bad = violates([r for r, _ in with_rules], [p for _, p in with_rules])
         out["violation_fraction"] = float(bad.sum() / len(videos))
         out["videos_with_rules"] = len(with_rules)
+    if top_k is not None:
+        out.update(stats)
     return out
