@@ -18,7 +18,7 @@ LAMBDA_checker ?= 1
 FORMULA_FROM ?= predictions
 # test videos decoded with argmax, and (constrained) also under the KB's rules; the report has both
 DECODE ?= constrained
-DECODE_TOP_K ?= 10
+DECODE_TOP_K ?= 5
 # one torch thread per process: the models are small, and `make -j` runs several at once
 OMP_NUM_THREADS ?= 1
 export OMP_NUM_THREADS

@@ -1,4 +1,5 @@
-"""Every ```python block of docs/library.md and docs/losses.md runs, and shows what it says.
+"""Every ```python block of docs/library.md, docs/losses.md and docs/decoding.md runs, and
+shows what it says.
 
 The blocks of one file run in order in one namespace, in a temporary working directory. A bare
 expression followed by a comment on its last line is a result: the comment must be the value's
@@ -18,7 +19,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).parent.parent
-DOCS = ("docs/library.md", "docs/losses.md")
+DOCS = ("docs/library.md", "docs/losses.md", "docs/decoding.md")
 FENCE = re.compile(r"^(`{3,})\s*(\S*)")
 PYTHON_LIKE = {"py", "python", "python3", "pycon", "ipython"}
 

@@ -931,7 +931,7 @@ def train_task_action_recognition(
     decode_top_k: Annotated[
         int,
         typer.Option(min=1, help="Constrained decoding: candidate pairs per video (top k)."),
-    ] = 10,
+    ] = 5,
     quiet: Quiet = False,
 ) -> None:
     """Train the action recognizer h with ℓ_task + λ·ℓ_logic; best val action accuracy is kept.
