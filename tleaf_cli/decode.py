@@ -27,8 +27,8 @@ from collections.abc import Sequence
 import torch
 
 from tleaf_cli.data.rule_set import RuleSet
-from tleaf_cli.errors import InputError, RulesError
-from tleaf_cli.losses.packed import PackedRuleSets, pack
+from tleaf_cli.errors import RulesError
+from tleaf_cli.losses.packed import PackedRuleSets, pack_rows, rules_per_sequence
 
 
 def constrained_decode(
@@ -47,32 +47,16 @@ def constrained_decode(
     Raises RulesError naming the sequence when no sequence of its length meets its rules, and
     InputError for shapes or rule sets that do not fit `log_probs`.
     """
-    if log_probs.dim() != 3:
-        raise InputError(f"log_probs must be [B, T, V], not {list(log_probs.shape)}")
-    batch, steps, vocabulary = log_probs.shape
-    per_sequence = [rules] * batch if isinstance(rules, RuleSet) else list(rules)
-    if len(per_sequence) != batch:
-        raise InputError(f"{len(per_sequence)} rule sets for a batch of {batch} sequences")
-    for r in {id(r): r for r in per_sequence if r is not None}.values():
-        if len(r.vocabulary) != vocabulary:
-            raise InputError(
-                f"rule set {r.name}: a vocabulary of {len(r.vocabulary)} items, but log_probs "
-                f"has {vocabulary}"
-            )
+    per_sequence, lengths = rules_per_sequence(log_probs, rules, lengths)
+    _, steps, vocabulary = log_probs.shape
     device = log_probs.device
-    lengths = (
-        torch.full((batch,), steps, dtype=torch.long) if lengths is None else lengths.long()
-    ).to(device)
     with torch.no_grad():
         scores = log_probs.detach().float()
         out = scores.argmax(dim=-1)
         rows = [b for b, r in enumerate(per_sequence) if r is not None]
         if rows:
             chosen = [per_sequence[b] for b in rows]
-            distinct = list({id(r): r for r in chosen}.values())
-            position = {id(r): k for k, r in enumerate(distinct)}
-            packed = pack(distinct, vocabulary, device)
-            index = torch.tensor([position[id(r)] for r in chosen], device=device)
+            packed, index = pack_rows(chosen, vocabulary, device)
             which = torch.tensor(rows, device=device)
             out[which] = _viterbi(scores[which], lengths[which], packed, index, chosen, rows)
         past = torch.arange(steps, device=device)[None, :] >= lengths[:, None]

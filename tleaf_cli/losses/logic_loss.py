@@ -26,7 +26,7 @@ from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.losses.checker import checker_loss
 from tleaf_cli.losses.exact import exact_loss
-from tleaf_cli.losses.packed import letter_log_probs, pack
+from tleaf_cli.losses.packed import letter_log_probs, pack_rows, rules_per_sequence
 from tleaf_cli.losses.tleaf import tleaf_loss
 
 LossKind = Literal["exact", "tleaf", "checker"]
@@ -67,21 +67,8 @@ def logic_loss(
         )
     if kind == "tleaf" and embedder is None:
         raise SettingError("embedder", "the tleaf loss needs an embedder (load_embedder(dir))")
-    if log_probs.dim() != 3:
-        raise InputError(f"log_probs must be [B, T, V], not {list(log_probs.shape)}")
-    batch, steps, vocabulary = log_probs.shape
-    per_sequence = [rules] * batch if isinstance(rules, RuleSet) else list(rules)
-    if len(per_sequence) != batch:
-        raise InputError(f"{len(per_sequence)} rule sets for a batch of {batch} sequences")
-    for r in {id(r): r for r in per_sequence if r is not None}.values():
-        if len(r.vocabulary) != vocabulary:
-            raise InputError(
-                f"rule set {r.name}: a vocabulary of {len(r.vocabulary)} items, but log_probs "
-                f"has {vocabulary}"
-            )
-    if lengths is None:
-        lengths = torch.full((batch,), steps, dtype=torch.long)
-    lengths = lengths.to(log_probs.device)
+    per_sequence, lengths = rules_per_sequence(log_probs, rules, lengths)
+    batch, _, vocabulary = log_probs.shape
     _check_normalised(log_probs, lengths)
 
     out = log_probs.new_zeros(batch)
@@ -96,10 +83,7 @@ def logic_loss(
         if kind == "checker":
             values = checker_loss(log_probs[which], lengths[which], chosen)
         else:
-            distinct = list({id(r): r for r in chosen}.values())
-            position = {id(r): k for k, r in enumerate(distinct)}
-            packed = pack(distinct, vocabulary, log_probs.device)
-            index = torch.tensor([position[id(r)] for r in chosen], device=log_probs.device)
+            packed, index = pack_rows(chosen, vocabulary, log_probs.device)
             letters = letter_log_probs(log_probs[which], packed, index)
             if kind == "exact":
                 values = exact_loss(letters, lengths[which], packed, index)

@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from tleaf_cli.data.rule_set import RuleSet
+from tleaf_cli.errors import InputError
 
 NEG = -1e30  # log of "impossible": finite, so logsumexp and its gradient stay defined
 
@@ -48,6 +49,41 @@ class PackedRuleSets:
     @property
     def num_letters(self) -> int:
         return int(self.targets.shape[2])
+
+
+def rules_per_sequence(
+    log_probs: torch.Tensor,
+    rules: RuleSet | Sequence[RuleSet | None],
+    lengths: torch.Tensor | None,
+) -> tuple[list[RuleSet | None], torch.Tensor]:
+    """One rule set (or None) per sequence of `log_probs` [B, T, V] — `rules` is one for all or
+    one per sequence — and the lengths [B] (default: all T steps), on log_probs' device.
+    InputError where the shapes or the rule sets' vocabularies do not fit."""
+    if log_probs.dim() != 3:
+        raise InputError(f"log_probs must be [B, T, V], not {list(log_probs.shape)}")
+    batch, steps, vocabulary = log_probs.shape
+    per_sequence = [rules] * batch if isinstance(rules, RuleSet) else list(rules)
+    if len(per_sequence) != batch:
+        raise InputError(f"{len(per_sequence)} rule sets for a batch of {batch} sequences")
+    for r in {id(r): r for r in per_sequence if r is not None}.values():
+        if len(r.vocabulary) != vocabulary:
+            raise InputError(
+                f"rule set {r.name}: a vocabulary of {len(r.vocabulary)} items, but log_probs "
+                f"has {vocabulary}"
+            )
+    if lengths is None:
+        lengths = torch.full((batch,), steps, dtype=torch.long)
+    return per_sequence, lengths.long().to(log_probs.device)
+
+
+def pack_rows(
+    rule_sets: Sequence[RuleSet], vocabulary_size: int, device: torch.device
+) -> tuple[PackedRuleSets, torch.Tensor]:
+    """The distinct rule sets among rows `rule_sets`, packed, and each row's index into them."""
+    distinct = list({id(r): r for r in rule_sets}.values())
+    position = {id(r): k for k, r in enumerate(distinct)}
+    index = torch.tensor([position[id(r)] for r in rule_sets], device=device)
+    return pack(distinct, vocabulary_size, device), index
 
 
 def pack(
