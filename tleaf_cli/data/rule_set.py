@@ -51,18 +51,12 @@ def compile_rules(formulas: Iterable[str], settings: CompileSettings | None = No
     fresh = list(dict.fromkeys(f for f in formulas if (f, settings.timeout) not in _COMPILED))
     if not fresh:
         return
-    sources = [FormulaSource(f"rule {i}", f, "rules", f"rule {i}") for i, f in enumerate(fresh)]
+    sources = [FormulaSource(f"rule {i}", f, "rules", f"rule {f!r}") for i, f in enumerate(fresh)]
     report = compile_sources(sources, settings)
     for text, row in zip(fresh, report.rows, strict=True):
         if row["error"] is not None:
-            raise InputError(f"rule {text!r}: {row['error']}")
+            raise InputError(row["error"])  # "rule '<text>'[, column c]: what is wrong"
         _COMPILED[(text, settings.timeout)] = dfa_from_row(row)
-
-
-def formula_dfa(formula: str, settings: CompileSettings | None = None) -> DFA:
-    """The minimal one-hot DFA of one formula (compiled once per process)."""
-    compile_rules([formula], settings)
-    return _COMPILED[(formula, (settings or CompileSettings()).timeout)]
 
 
 class RuleSet:
