@@ -286,7 +286,7 @@ def test_a_rule_set_that_fails_to_compile_exits_1(tiny, tmp_path, monkeypatch) -
         (["{kb}", "{missing}"], "no such file"),
         (["{data}", "{data}"], "expected columns formula_id and formula"),
         (["{kb}", "{kb}"], "not a readable Parquet file"),
-        (["{kb}", "{data}", "--formula-from", "predictions"], "--formula-from: must be one of"),
+        (["{kb}", "{data}", "--formula-from", "predictions"], "'predictions' is not one of"),
     ],
 )
 def test_kb_extract_bad_calls_exit_2(tiny, tmp_path, args, expected) -> None:

@@ -19,8 +19,33 @@ from tleaf_cli.errors import InputError, SettingError, TleafError
 # The library is imported inside each command, so `tleaf --help` and light commands start fast
 # (ltlf2dfa alone pulls in sympy).
 
+
+def _untyped_flags(params: list) -> list:
+    """`params` with every on/off flag given an empty metavar: typer's help would show a flag
+    as taking a `<bool>` value, which it does not."""
+    for param in params:
+        if getattr(param, "is_flag", False) and param.metavar is None:
+            param.metavar = ""
+    return params
+
+
+class Command(typer.core.TyperCommand):
+    """A tleaf command: its flags show no type in --help."""
+
+    def get_params(self, ctx) -> list:
+        return _untyped_flags(super().get_params(ctx))
+
+
+class Group(typer.core.TyperGroup):
+    """tleaf and its sub-apps (eval, train-task): their flags show no type in --help."""
+
+    def get_params(self, ctx) -> list:
+        return _untyped_flags(super().get_params(ctx))
+
+
 app = typer.Typer(
     name="tleaf",
+    cls=Group,
     help="T-LEAF toolchain: LTLf rules -> DFAs -> embeddings -> logic losses.",
     no_args_is_help=True,
     add_completion=False,
@@ -35,7 +60,7 @@ MinLen = Annotated[int, typer.Option(min=1, help="Shortest trace length.")]
 MaxLen = Annotated[int, typer.Option(min=1, help="Longest trace length.")]
 CacheDir = Annotated[
     Path | None,
-    typer.Option(help="Compile cache [default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
+    typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
 ]
 NoCache = Annotated[bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")]
 # Options shared by the training commands.
@@ -49,7 +74,23 @@ OutDim = Annotated[int, typer.Option(min=1, help="Embedding size.")]
 Margin = Annotated[float, typer.Option(help="Triplet loss margin.")]
 Lr = Annotated[float, typer.Option(help="Adam learning rate.")]
 BatchSize = Annotated[int, typer.Option(min=1, help="Triplets per batch.")]
-Device = Annotated[str, typer.Option(help="cpu or cuda.")]
+# Options with a fixed set of values are typed with them, so --help lists them and a value
+# outside them is refused before any work; tests/test_cli_help.py checks each against the
+# library's tuple of the same values (TIERS, READOUTS, ...).
+Tier = Literal["low", "moderate", "high"]
+DeviceName = Literal["cpu", "cuda"]
+AtomFeatures = Literal["onehot", "random", "text"]
+Embedder = Literal["dfa", "syntax"]
+Readout = Literal["walk", "steps", "accept", "runs"]
+Schedule = Literal["constant", "cosine"]
+KbFormulaFrom = Literal["labels"]
+RuleSets = Literal["video", "ingredient"]
+PairFeatures = Literal["concat", "rich"]
+TaskModel = Literal["lstm", "tcn"]
+LogicLoss = Literal["none", "tleaf", "checker", "exact"]
+TaskFormulaFrom = Literal["predictions", "labels"]
+
+Device = Annotated[DeviceName, typer.Option(help="Where to compute.")]
 MaxMinutes = Annotated[
     float | None, typer.Option(help="Stop after the epoch that passes this budget.")
 ]
@@ -111,6 +152,30 @@ def _exits(func):
     return wrapper
 
 
+def _targets(inputs, files=(), folders=()) -> None:
+    """Refuse the call (exit 2, nothing written) when an output cannot be written or would
+    overwrite an input or another output; called first thing, before any work."""
+    from tleaf_cli.data.artifacts import check_targets
+
+    check_targets(inputs, files, folders)
+
+
+def _given(ctx: typer.Context, *names: str) -> list[str]:
+    """The flags among `names` (parameter names) given on the command line, not defaulted."""
+    sources = [ctx.get_parameter_source(name) for name in names]
+    return [
+        flag(name)
+        for name, source in zip(names, sources, strict=True)
+        if source is not None and source.name in ("COMMANDLINE", "PROMPT")
+    ]
+
+
+def _refuse(given: list[str], reason: str) -> None:
+    """InputError when options that would be ignored were given: `reason` says why."""
+    if given:
+        raise InputError(f"{', '.join(given)}: {reason}")
+
+
 def _finish(failures: list[tuple[str, str]], summary: str, quiet: bool) -> None:
     """One stderr line per failure, the summary line, and exit status 1 if anything failed."""
     ui.failures(failures)
@@ -148,7 +213,7 @@ def _main(
     """T-LEAF toolchain: LTLf rules -> DFAs -> embeddings -> logic losses."""
 
 
-@app.command("compile-dfa")
+@app.command("compile-dfa", cls=Command)
 @_exits
 def compile_dfa(
     formulas: Annotated[
@@ -174,7 +239,7 @@ def compile_dfa(
     ] = None,
     cache_dir: Annotated[
         Path | None,
-        typer.Option(help="Compile cache [default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
+        typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
     ] = None,
     no_cache: Annotated[
         bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")
@@ -200,14 +265,15 @@ def compile_dfa(
     )
 
 
-@app.command("gen-formulas")
+@app.command("gen-formulas", cls=Command)
 @_exits
 def gen_formulas(
+    ctx: typer.Context,
     out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
         "formulas.ltl"
     ),
     tier: Annotated[
-        str | None,
+        Tier | None,
         typer.Option(
             help="The paper's settings: low (3 atoms, size 10), moderate (3, 20), "
             "high (6, 20). Overrides --atoms and --size."
@@ -233,7 +299,7 @@ def gen_formulas(
         bool, typer.Option("--one-hot", help="Judge formulas on one-hot traces.")
     ] = False,
     prefix: Annotated[
-        str | None, typer.Option(help="Formula id prefix [default: the tier, or f].")
+        str | None, typer.Option(help="Formula id prefix \\[default: the tier, or f].")
     ] = None,
     jobs: Jobs = 1,
     timeout: Annotated[
@@ -249,10 +315,11 @@ def gen_formulas(
     (satisfying, violating) pairs of equal length in [--min-len, --max-len], repeats of a
     language already kept, and candidates MONA cannot finish within --timeout.
     """
-    from tleaf_cli.data.artifacts import check_writable
     from tleaf_cli.data.formula_gen import FormulaSettings, generate_formulas, write_formula_file
 
+    _targets([], [out])
     if tier is not None:
+        _refuse(_given(ctx, "atoms", "size"), "set by --tier; give --tier or these, not both")
         if tier not in TIERS:
             raise SettingError("tier", f"must be one of {', '.join(TIERS)}, not '{tier}'")
         atoms, size = TIERS[tier]
@@ -268,7 +335,6 @@ def gen_formulas(
         prefix=prefix or (f"{tier}-" if tier else "f"),
         compile=_compile_settings(one_hot, timeout, cache_dir, no_cache, jobs),
     )
-    check_writable(out)
     with ui.progress("generating", quiet) as update:
         report = generate_formulas(settings, update)
     write_formula_file(report, settings, out)
@@ -295,9 +361,10 @@ def _fractions(text: str | None) -> tuple[float, float, float] | None:
     return parts  # type: ignore[return-value]
 
 
-@app.command("gen-traces")
+@app.command("gen-traces", cls=Command)
 @_exits
 def gen_traces(
+    ctx: typer.Context,
     dfas: Annotated[Path, typer.Argument(help="A dfas.parquet from compile-dfa.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="The traces.parquet to write.")] = Path(
         "traces.parquet"
@@ -345,6 +412,12 @@ def gen_traces(
     """
     from tleaf_cli.data.traces import TraceSettings, generate_traces
 
+    _targets([dfas], [out])
+    if once_each:
+        ignored = _given(ctx, "min_len", "max_len", "hard_fraction")
+        _refuse(ignored, "ignored with --once-each (a video's length is set by its atoms)")
+    else:
+        _refuse(_given(ctx, "max_none"), "only with --once-each")
     settings = TraceSettings(
         per_formula=per_formula,
         min_len=min_len,
@@ -369,7 +442,7 @@ def gen_traces(
     )
 
 
-@app.command("gen-activities")
+@app.command("gen-activities", cls=Command)
 @_exits
 def gen_activities(
     out: Annotated[
@@ -410,6 +483,7 @@ def gen_activities(
     """
     from tleaf_cli.data.activity_gen import ActivitySettings, generate_activities
 
+    _targets([], [out, kb_out])
     settings = ActivitySettings(
         actions=actions,
         ingredients=ingredients,
@@ -436,7 +510,7 @@ def gen_activities(
     )
 
 
-@app.command("kb-extract")
+@app.command("kb-extract", cls=Command)
 @_exits
 def kb_extract(
     inputs: Annotated[
@@ -450,10 +524,10 @@ def kb_extract(
         Path, typer.Option("--out", "-o", help="Folder for samples.parquet and dfas.parquet.")
     ] = Path("kb"),
     formula_from: Annotated[
-        str, typer.Option(help="Which pairs give a video its rules: labels.")
+        KbFormulaFrom, typer.Option(help="Which pairs give a video its rules: labels.")
     ] = "labels",
     rule_sets: Annotated[
-        str,
+        RuleSets,
         typer.Option(
             help="video: one rule set per video; ingredient: one per (video, ingredient), the "
             "formulas of a q for train-task --rule-sets ingredient."
@@ -484,6 +558,8 @@ def kb_extract(
     if not 1 <= len(inputs) <= 2:
         raise InputError("give [KB.ltl] ACTIVITIES.parquet: one or two files")
     kb = inputs[0] if len(inputs) == 2 else None
+    written = ["samples.parquet", "dfas.parquet"] + (["kb.ltl"] if mine else [])
+    _targets(inputs, [out / name for name in written], [out])
     if kb is None and not mine:
         raise InputError("give a knowledge base file, or --mine to mine one from the train split")
     settings = _compile_settings(True, timeout, cache_dir, no_cache, jobs)
@@ -501,7 +577,7 @@ def kb_extract(
     )
 
 
-@app.command("train-edge")
+@app.command("train-edge", cls=Command)
 @_exits
 def train_edge(
     dfas: Annotated[Path, typer.Argument(help="A dfas.parquet: its guards are the training data.")],
@@ -509,10 +585,10 @@ def train_edge(
         "edge_model"
     ),
     atom_features: Annotated[
-        str,
+        AtomFeatures,
         typer.Option(
             help="Atom node features: onehot (over the vocabulary), random, or text (the atom's "
-            "name through a packaged sentence model; needs tleaf[text])."
+            "name through a packaged sentence model; needs tleaf\\[text])."
         ),
     ] = "onehot",
     per_guard: Annotated[
@@ -544,6 +620,7 @@ def train_edge(
     from tleaf_cli.embed.train_edge import EdgeSettings
     from tleaf_cli.embed.train_edge import train_edge as run
 
+    _targets([dfas], folders=[out])
     if atom_features not in ATOM_FEATURE_KINDS:
         choices = ", ".join(ATOM_FEATURE_KINDS)
         raise SettingError("atom_features", f"must be one of {choices}, not '{atom_features}'")
@@ -573,9 +650,10 @@ def train_edge(
     )
 
 
-@app.command("train-meta")
+@app.command("train-meta", cls=Command)
 @_exits
 def train_meta(
+    ctx: typer.Context,
     dfas: Annotated[Path, typer.Argument(help="The dfas.parquet the traces were drawn from.")],
     traces: Annotated[Path, typer.Argument(help="A traces.parquet with a split column.")],
     edge: Annotated[Path, typer.Option(help="The edge model directory from train-edge.")],
@@ -583,7 +661,7 @@ def train_meta(
         "meta_model"
     ),
     embedder: Annotated[
-        str, typer.Option(help="dfa (T-LEAF) or syntax (the paper's syntax-tree baseline).")
+        Embedder, typer.Option(help="dfa (T-LEAF) or syntax (the paper's syntax-tree baseline).")
     ] = "dfa",
     epochs: Epochs = 30,
     patience: Patience = 5,
@@ -592,7 +670,7 @@ def train_meta(
     out_dim: OutDim = 200,
     steps: Annotated[int, typer.Option(min=1, help="Random-walk steps of the readout.")] = 24,
     readout: Annotated[
-        str,
+        Readout,
         typer.Option(
             help="walk: expected visits of the walk; steps: one projection per step; accept: "
             "where accepted runs of 1..--max-length letters go (uniform letters); runs: accepted "
@@ -644,7 +722,7 @@ def train_meta(
     margin: Margin = 1.0,
     lr: Lr = 1e-3,
     schedule: Annotated[
-        str,
+        Schedule,
         typer.Option(
             help="constant learning rate, or cosine: falls to 0 over --epochs (early stopping "
             "on val still applies)."
@@ -664,6 +742,10 @@ def train_meta(
     """
     from tleaf_cli.embed.train_meta import MetaSettings
     from tleaf_cli.embed.train_meta import train_meta as run
+
+    _targets([dfas, traces, edge], folders=[out])
+    if readout not in ("accept", "runs"):
+        _refuse(_given(ctx, "bins", "max_length"), "only with --readout accept or runs")
 
     settings = MetaSettings(
         embedder=embedder,
@@ -701,7 +783,7 @@ def train_meta(
     )
 
 
-@app.command("embed")
+@app.command("embed", cls=Command)
 @_exits
 def embed(
     model: Annotated[Path, typer.Argument(help="A meta model directory from train-meta.")],
@@ -711,19 +793,22 @@ def embed(
     ),
     dfas: Annotated[
         Path | None,
-        typer.Option(help="For traces: their dfas.parquet [default: the one their file records]."),
+        typer.Option(
+            help="For traces: their dfas.parquet \\[default: the one their file records]."
+        ),
     ] = None,
     quiet: Quiet = False,
 ) -> None:
     """Vectors for every DFA or trace (deterministic for a model and an input)."""
     from tleaf_cli.embed.vectors import embed_file
 
+    _targets([model, source, dfas], [out])
     with ui.progress("embedding", quiet) as update:
         count = embed_file(model, source, out, dfas, update)
     ui.summary(f"{out}: {count} vectors", quiet)
 
 
-@app.command("gen-demos")
+@app.command("gen-demos", cls=Command)
 @_exits
 def gen_demos(
     out: Annotated[Path, typer.Option("--out", "-o", help="The demos.parquet to write.")] = Path(
@@ -732,7 +817,7 @@ def gen_demos(
     episodes: Annotated[int, typer.Option(min=1, help="Expert episodes to record.")] = 32,
     domain: Annotated[
         Path | None,
-        typer.Option(help="Domain TOML [default: examples/creative_cooking.toml]."),
+        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
     ] = None,
     seed: Seed = 0,
     quiet: Quiet = False,
@@ -746,6 +831,7 @@ def gen_demos(
     from tleaf_cli.tasks.cooking.demos import DemoSettings, generate_demos
     from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN
 
+    _targets([domain], [out])
     settings = DemoSettings(episodes=episodes, seed=seed, domain=domain or DEFAULT_DOMAIN)
     with ui.progress("planning and playing", quiet) as update:
         report = generate_demos(out, settings, update)
@@ -757,7 +843,7 @@ def gen_demos(
     )
 
 
-@app.command("cooking-kb")
+@app.command("cooking-kb", cls=Command)
 @_exits
 def cooking_kb(
     out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
@@ -765,14 +851,14 @@ def cooking_kb(
     ),
     ingredients: Annotated[
         str | None,
-        typer.Option(help="Comma-separated ingredients (an episode's five) [default: all]."),
+        typer.Option(help="Comma-separated ingredients (an episode's five) \\[default: all]."),
     ] = None,
     mixture: Annotated[
         bool, typer.Option("--mixture/--no-mixture", help="Include rules on the mixture's actions.")
     ] = True,
     domain: Annotated[
         Path | None,
-        typer.Option(help="Domain TOML [default: examples/creative_cooking.toml]."),
+        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
     ] = None,
     quiet: Quiet = False,
 ) -> None:
@@ -783,6 +869,7 @@ def cooking_kb(
     from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN
     from tleaf_cli.tasks.cooking.knowledge import write_cooking_kb
 
+    _targets([domain], [out])
     names = [n.strip() for n in ingredients.split(",")] if ingredients else None
     rules = write_cooking_kb(out, domain or DEFAULT_DOMAIN, names, mixture)
     orderings = sum(r.kind == "ordering" for r in rules)
@@ -793,11 +880,13 @@ def cooking_kb(
     )
 
 
-eval_app = typer.Typer(help="Evaluate embedders and trained models.", no_args_is_help=True)
+eval_app = typer.Typer(
+    cls=Group, help="Evaluate embedders and trained models.", no_args_is_help=True
+)
 app.add_typer(eval_app, name="eval")
 
 
-@eval_app.command("model-checking")
+@eval_app.command("model-checking", cls=Command)
 @_exits
 def eval_model_checking(
     dfas: Annotated[Path, typer.Argument(help="The dfas.parquet of the formulas.")],
@@ -805,7 +894,7 @@ def eval_model_checking(
     embedder: Annotated[Path, typer.Option(help="A meta model directory (train-meta).")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Report folder.")] = Path("report"),
     pair_features: Annotated[
-        str, typer.Option(help="concat (the paper's) or rich (adds |a-b| and a*b).")
+        PairFeatures, typer.Option(help="concat (the paper's) or rich (adds |a-b| and a*b).")
     ] = "concat",
     label: Annotated[str, typer.Option(help="A name for the report (e.g. the tier).")] = "",
     seed: Seed = 0,
@@ -818,6 +907,7 @@ def eval_model_checking(
     """
     from tleaf_cli.tasks.model_checking import EvalSettings, evaluate_model_checking
 
+    _targets([dfas, traces, embedder], [out / "report.json", out / "report.md"], [out])
     settings = EvalSettings(pair_features=pair_features, seed=seed, label=label)
     with ui.progress("evaluating", quiet):
         report = evaluate_model_checking(embedder, dfas, traces, out, settings)
@@ -828,7 +918,7 @@ def eval_model_checking(
     )
 
 
-@eval_app.command("tsne")
+@eval_app.command("tsne", cls=Command)
 @_exits
 def eval_tsne(
     dfas: Annotated[Path, typer.Argument(help="The dfas.parquet of the formulas.")],
@@ -838,7 +928,7 @@ def eval_tsne(
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="The PNG to write.")] = Path("tsne.png"),
     formula: Annotated[
-        str | None, typer.Option(help="Formula id [default: the test formula with most traces].")
+        str | None, typer.Option(help="Formula id \\[default: the test formula with most traces].")
     ] = None,
     pairs: Annotated[int, typer.Option(min=2, help="Satisfying/violating pairs to draw.")] = 150,
     seed: Seed = 0,
@@ -847,6 +937,7 @@ def eval_tsne(
     """The paper's Fig. 3: a test formula and its traces, embedded, projected with t-SNE."""
     from tleaf_cli.tasks.model_checking_figure import FigureSettings, tsne_figure
 
+    _targets([dfas, traces, *embedder], [out])
     settings = FigureSettings(formula_id=formula, pairs=pairs, seed=seed)
     with ui.progress("t-SNE", quiet):
         shown = tsne_figure(embedder, dfas, traces, out, settings)
@@ -860,7 +951,7 @@ def eval_tsne(
     )
 
 
-@eval_app.command("table")
+@eval_app.command("table", cls=Command)
 @_exits
 def eval_table(
     reports: Annotated[list[Path], typer.Argument(help="report.json files of model-checking.")],
@@ -871,17 +962,19 @@ def eval_table(
     """One table: mean ± s.e. over seeds per embedder and tier, beside the paper's Table I."""
     from tleaf_cli.tasks.model_checking_table import results_table
 
+    _targets(reports, [out])
     ui.text(results_table(reports, out).rstrip())
 
 
 train_task_app = typer.Typer(
+    cls=Group,
     help="Train a target model h with a logic loss (the paper's downstream tasks).",
     no_args_is_help=True,
 )
 app.add_typer(train_task_app, name="train-task")
 
 
-@train_task_app.command("action-recognition")
+@train_task_app.command("action-recognition", cls=Command)
 @_exits
 def train_task_action_recognition(
     activities: Annotated[Path, typer.Argument(help="An activities.parquet (gen-activities).")],
@@ -890,17 +983,17 @@ def train_task_action_recognition(
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
-    model: Annotated[str, typer.Option(help="Backbone of h: lstm or tcn.")] = "lstm",
+    model: Annotated[TaskModel, typer.Option(help="Backbone of h: lstm or tcn.")] = "lstm",
     logic_loss: Annotated[
-        str, typer.Option(help="none (reference), tleaf, exact, or checker (no gradient).")
+        LogicLoss, typer.Option(help="none (reference), tleaf, exact, or checker (no gradient).")
     ] = "none",
     lam: Annotated[float, typer.Option("--lambda", help="Weight λ of the logic loss.")] = 5.0,
     formula_from: Annotated[
-        str,
+        TaskFormulaFrom,
         typer.Option(help="Rules relevant to the predicted pairs (the paper) or to the labels."),
     ] = "predictions",
     rule_sets: Annotated[
-        str,
+        RuleSets,
         typer.Option(
             help="video: one rule set φ per video (the paper); ingredient: φ split into one "
             "conjunction per ingredient, loss summed over them (tleaf, exact)."
@@ -941,6 +1034,8 @@ def train_task_action_recognition(
     --decode constrained the same under constrained decoding, with its time per video).
     """
     from tleaf_cli.tasks.action_recognition.train import TaskSettings, train_action_recognition
+
+    _targets([activities, kb, embedder], folders=[out])
 
     settings = TaskSettings(
         model=model,
@@ -990,7 +1085,7 @@ def train_task_action_recognition(
         )
 
 
-@eval_app.command("action-recognition")
+@eval_app.command("action-recognition", cls=Command)
 @_exits
 def eval_action_recognition(
     runs: Annotated[list[Path], typer.Argument(help="train-task action-recognition run dirs.")],
@@ -1011,6 +1106,7 @@ def eval_action_recognition(
     """
     from tleaf_cli.tasks.action_recognition.evaluate import evaluate_runs
 
+    _targets(runs, [out / f"report.{ext}" for ext in ("json", "md", "png")], [out])
     report = evaluate_runs(runs, out, decode)
     ui.summary(
         f"{out}/report.md: {len(report['runs'])} runs, {len(report['pairs'])} compared with "
@@ -1019,7 +1115,7 @@ def eval_action_recognition(
     )
 
 
-@app.command("demos-kb")
+@app.command("demos-kb", cls=Command)
 @_exits
 def demos_kb(
     demos: Annotated[Path, typer.Argument(help="A demos.parquet (gen-demos).")],
@@ -1028,7 +1124,7 @@ def demos_kb(
     ),
     domain: Annotated[
         Path | None,
-        typer.Option(help="Domain TOML [default: examples/creative_cooking.toml]."),
+        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
     ] = None,
     quiet: Quiet = False,
 ) -> None:
@@ -1040,6 +1136,8 @@ def demos_kb(
     from tleaf_cli.tasks.cooking.demo_episodes import write_demos_knowledge_base
     from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
 
+    _targets([demos, domain], [out])
+
     rules = write_demos_knowledge_base(demos, out, load_domain(domain or DEFAULT_DOMAIN))
     orderings = sum(r.kind == "ordering" for r in rules)
     ui.summary(
@@ -1048,7 +1146,7 @@ def demos_kb(
     )
 
 
-@train_task_app.command("cooking")
+@train_task_app.command("cooking", cls=Command)
 @_exits
 def train_task_cooking(
     demos: Annotated[Path, typer.Argument(help="Expert demonstrations (gen-demos).")],
@@ -1057,7 +1155,7 @@ def train_task_cooking(
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
     logic_loss: Annotated[
-        str, typer.Option(help="none (plain GAIL), tleaf, exact, or checker (no gradient).")
+        LogicLoss, typer.Option(help="none (plain GAIL), tleaf, exact, or checker (no gradient).")
     ] = "none",
     lam: Annotated[float, typer.Option("--lambda", help="Weight λ of the logic loss.")] = 1.0,
     steps: Annotated[int, typer.Option(min=1, help="Environment steps to train.")] = 60_000,
@@ -1072,7 +1170,7 @@ def train_task_cooking(
     lr: Lr = 1e-3,
     domain: Annotated[
         Path | None,
-        typer.Option(help="Domain TOML [default: examples/creative_cooking.toml]."),
+        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
     ] = None,
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
@@ -1088,6 +1186,7 @@ def train_task_cooking(
     from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN
     from tleaf_cli.tasks.cooking.gail import GailSettings, train_gail
 
+    _targets([demos, embedder, domain], folders=[out])
     settings = GailSettings(
         logic_loss=logic_loss,
         lam=lam,
@@ -1112,7 +1211,7 @@ def train_task_cooking(
     )
 
 
-@eval_app.command("cooking")
+@eval_app.command("cooking", cls=Command)
 @_exits
 def eval_cooking(
     runs: Annotated[list[Path], typer.Argument(help="train-task cooking run directories.")],
@@ -1125,6 +1224,7 @@ def eval_cooking(
     """
     from tleaf_cli.tasks.cooking.gail_report import evaluate_cooking_runs
 
+    _targets(runs, [out / f"report.{ext}" for ext in ("json", "md", "png")], [out])
     report = evaluate_cooking_runs(runs, out)
     reached = ", ".join(
         f"{name} {v['steps_to_90'] if v['steps_to_90'] is not None else 'not reached'}"
@@ -1133,18 +1233,22 @@ def eval_cooking(
     ui.summary(f"{out}/report.md: {len(runs)} runs; steps to 90% of expert: {reached}", quiet)
 
 
-@app.command("inspect")
+@app.command("inspect", cls=Command)
 @_exits
 def inspect(
     path: Annotated[Path, typer.Argument(help="Any tleaf artifact (.parquet).")],
     formula_id: Annotated[
         str | None, typer.Option("--id", help="Show one DFA of a dfas.parquet.")
     ] = None,
-    dot: Annotated[bool, typer.Option("--dot", help="With --id: print Graphviz DOT.")] = False,
+    dot: Annotated[
+        bool, typer.Option("--dot", help="With --id: print Graphviz DOT (also with --draw).")
+    ] = False,
     draw: Annotated[
         Path | None, typer.Option(help="With --id: draw to .png/.svg/.pdf (Graphviz) or .dot.")
     ] = None,
-    rows: Annotated[int, typer.Option(min=0, help="How many first rows to show.")] = 10,
+    rows: Annotated[
+        int | None, typer.Option(min=0, help="How many first rows to show. \\[default: 10]")
+    ] = None,
     stats: Annotated[
         bool, typer.Option("--stats", help="Distributions: DFA sizes; trace labels and lengths.")
     ] = False,
@@ -1152,14 +1256,18 @@ def inspect(
     """Show an artifact: kind, schema, provenance, row count, first rows; or one DFA with --id."""
     from tleaf_cli import views
 
+    _targets([path], [draw])
     if formula_id is None:
         if dot or draw:
             raise InputError("--dot and --draw need --id (which DFA to draw)")
         if stats:
+            _refuse(["--rows"] if rows is not None else [], "not with --stats")
             views.show_stats(path)
         else:
-            views.show_artifact(path, rows)
+            views.show_artifact(path, 10 if rows is None else rows)
     else:
+        _refuse(["--rows"] if rows is not None else [], "not with --id (one DFA is shown)")
+        _refuse(["--stats"] if stats else [], "not with --id")
         views.show_dfa(path, formula_id, dot, draw)
 
 

@@ -80,19 +80,21 @@ def show_stats(path: Path) -> None:
 
 
 def show_dfa(path: Path, formula_id: str, dot: bool = False, draw: Path | None = None) -> None:
-    """One DFA: states (initial/accepting) and guarded edges; or its DOT text / a drawing."""
+    """One DFA: states (initial/accepting) and guarded edges; or its DOT text, a drawing, or
+    both (drawn first, so a failing Graphviz prints nothing)."""
     table = read_dfas(path)
     row = table.row(formula_id)
     if row["error"] is not None:
         ui.text(f"{formula_id}: {row['formula']}")
         ui.text(f"did not compile: {row['error']}")
         return
-    if dot:
-        ui.text(row_to_dot(row).rstrip("\n"))
-        return
     if draw is not None:
         render_dot(row_to_dot(row), draw)
+    if dot:
+        ui.text(row_to_dot(row).rstrip("\n"))
+    if draw is not None:
         ui.summary(f"drew {formula_id} to {draw}")
+    if dot or draw is not None:
         return
     ui.text(f"{formula_id}: {row['formula']}")
     ui.text(f"atoms: {' '.join(row['atoms']) or '(none)'}   alphabet: {row['alphabet']}")

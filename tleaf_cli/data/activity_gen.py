@@ -27,6 +27,7 @@ import numpy as np
 
 from tleaf_cli.data.activities import KIND, SCHEMA_VERSION, activities_table
 from tleaf_cli.data.artifacts import check_writable, write_artifact
+from tleaf_cli.data.formula_files import check_names
 from tleaf_cli.data.knowledge import (
     KnowledgeBase,
     affordance_rule,
@@ -276,7 +277,9 @@ def generate_activities(
     features = action_means[flat[:, 0]] + ingredient_means[flat[:, 1]] + settings.noise * noise
 
     lengths = [len(v) for v in steps]
-    video_ids = np.repeat([f"synthetic-{k:05d}" for k in range(len(splits))], lengths)
+    names = [f"synthetic-{k:05d}" for k in range(len(splits))]
+    check_names(names, "video id")
+    video_ids = np.repeat(names, lengths)
     table = activities_table(
         video_ids=video_ids.tolist(),
         steps=np.concatenate([np.arange(n) for n in lengths]),

@@ -70,6 +70,68 @@ def check_writable(target: str | os.PathLike) -> None:
         raise InputError(f"{target}: folder {target.parent} is not writable")
 
 
+def check_folder_writable(target: str | os.PathLike) -> None:
+    """InputError now, before any work, if folder `target` cannot be made or written in.
+
+    Nothing is created: the nearest folder that exists must be writable, and no part of the
+    path may be an existing file."""
+    target = Path(target)
+    existing = target
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        what = "is" if existing == target else f"needs folder {existing}, which is"
+        raise InputError(f"{target}: {what} an existing file, not a folder")
+    if not os.access(existing, os.W_OK):
+        raise InputError(f"{target}: folder {existing} is not writable")
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """True when the two paths name one file or folder, however written: `./x` and `x`, a
+    symbolic link and its target, two hard links."""
+    a, b = Path(a), Path(b)
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet)
+        return False
+
+
+def check_targets(
+    inputs: Iterable[str | os.PathLike | None],
+    files: Iterable[str | os.PathLike | None] = (),
+    folders: Iterable[str | os.PathLike | None] = (),
+) -> None:
+    """InputError now, before any work, unless every output can be written and none of them is
+    an input or another output (writing it would destroy the input, or the first output).
+
+    `files` are output files, `folders` output folders (a model or report directory, with the
+    files the stage writes in it listed in `files` where an input could be one of them);
+    None entries (options not given) are skipped. Call it before reading anything, so that a
+    stage that refuses its call writes nothing.
+    """
+    sources = [Path(i) for i in inputs if i is not None]
+    files = [Path(f) for f in files if f is not None]
+    folders = [Path(f) for f in folders if f is not None]
+    outputs = [*files, *folders]
+    for k, out in enumerate(outputs):
+        for source in sources:
+            if same_file(out, source):
+                given = "" if str(out) == str(source) else f" (given as {source})"
+                raise InputError(
+                    f"{out}: is also an input{given}; writing it would destroy the input, "
+                    "give another output path"
+                )
+        for other in outputs[:k]:
+            if same_file(out, other):
+                raise InputError(f"{out}: given for two outputs (also as {other})")
+    for folder in folders:
+        check_folder_writable(folder)
+    for file in files:
+        check_writable(file)
+
+
 def atomic_path(target: str | os.PathLike):
     """A temporary path in the target's directory; rename it over the target when done."""
     target = Path(target)

@@ -21,7 +21,7 @@ from joblib import Memory, Parallel, delayed
 from ltlf2dfa.ltlf import LTLfFormula
 
 from tleaf_cli import __version__
-from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_artifact
+from tleaf_cli.data.artifacts import check_targets, describe_inputs, write_artifact
 from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, read_formulas
 from tleaf_cli.defaults import COMPILE_TIMEOUT
@@ -128,8 +128,12 @@ def compile_file(
         mona_binary()  # fail before anything is written when MONA is missing
     except MonaError as e:
         raise TleafError(str(e)) from None
-    check_writable(out)
+    check_targets([source], files=[out], folders=[graphs_dir])
     sources = read_formulas(source)
+    if graphs_dir is not None:
+        from tleaf_cli.data.graphs import graph_file_stems  # networkx: only when asked for
+
+        graph_file_stems([src.formula_id for src in sources])  # names that meet: refused now
     report = compile_sources(sources, settings, on_progress)
     if not sources:
         report.failures.append((str(source), "no formulas (empty file, or only comments)"))

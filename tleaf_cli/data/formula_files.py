@@ -9,6 +9,7 @@ set, so the stage reports it in its row and carries on with the others.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -37,6 +38,27 @@ class FormulaSource:
         if column is None:
             return f"{self.location}: {message}"
         return f"{self.location}, column {self.offset + column}: {message}"
+
+
+NAME_CHARS = "letters, digits, _ . -"
+
+
+def is_valid_name(name: str) -> bool:
+    """True when `name` can be a formula's `name:` in a `.ltl` file (`[A-Za-z0-9_.-]+`)."""
+    return bool(_VALID_NAME.fullmatch(name))
+
+
+def check_names(names: Iterable[str], what: str) -> None:
+    """InputError unless every generated name or id is valid and none repeats: checked where
+    they are written, since a `.ltl` line with a bad name reads back as another formula, and
+    ids that repeat merge rows that should stay apart."""
+    seen: set[str] = set()
+    for name in names:
+        if not is_valid_name(name):
+            raise InputError(f"{what} '{name}' is not a valid name (allowed: {NAME_CHARS})")
+        if name in seen:
+            raise InputError(f"{what} '{name}' is written twice")
+        seen.add(name)
 
 
 def read_formulas(path: str | Path) -> list[FormulaSource]:
@@ -71,7 +93,7 @@ def parse_ltl_text(text: str, name: str = "<text>") -> list[FormulaSource]:
             if not body:
                 problem = "empty formula after the name"
             if not _VALID_NAME.fullmatch(label):
-                problem = f"invalid formula name '{label}' (allowed: letters, digits, _ . -)"
+                problem = f"invalid formula name '{label}' (allowed: {NAME_CHARS})"
             elif label in first_seen:
                 problem = f"name '{label}' already used on line {first_seen[label]}"
             else:

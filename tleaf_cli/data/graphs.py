@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 import shutil
 import subprocess
+from collections import Counter
 from pathlib import Path
 
 import networkx as nx
@@ -56,11 +58,11 @@ def write_graph_files(rows: list[dict], directory: str | Path) -> int:
     """`<id>.graphml` and `<id>.dot` for every compiled row; returns how many DFAs were written."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
+    stems = graph_file_stems([row["formula_id"] for row in rows])  # failed rows too: stable
     written = 0
-    for row in rows:
+    for row, stem in zip(rows, stems, strict=True):
         if row["error"] is not None:
             continue
-        stem = _UNSAFE.sub("_", row["formula_id"])
         tmp = atomic_path(directory / f"{stem}.graphml")
         try:
             nx.write_graphml(row_to_networkx(row), tmp)
@@ -70,6 +72,30 @@ def write_graph_files(rows: list[dict], directory: str | Path) -> int:
         write_text_atomic(directory / f"{stem}.dot", row_to_dot(row))
         written += 1
     return written
+
+
+def graph_file_stems(ids: list[str]) -> list[str]:
+    """A file name stem per formula id, no two the same even on a case-insensitive file system.
+
+    An id keeps its own name, unsafe characters replaced by `_`; ids whose names would meet
+    (`a/b` and `a_b`, `Rule` and `rule`) each get `-` and 8 hex digits of a hash of the id, so
+    no graph file silently replaces another and each id always gets the same name.
+    """
+    plain = [_UNSAFE.sub("_", fid) for fid in ids]
+    uses = Counter(stem.casefold() for stem in plain)
+    stems = [
+        stem if uses[stem.casefold()] == 1 else f"{stem}-{_short_hash(fid)}"
+        for fid, stem in zip(ids, plain, strict=True)
+    ]
+    taken = Counter(stem.casefold() for stem in stems)
+    clash = next((stem for stem in stems if taken[stem.casefold()] > 1), None)
+    if clash is not None:  # the same id twice, or a hashed name that is also a plain id
+        raise InputError(f"two formulas would both be written to {clash}.graphml; rename one")
+    return stems
+
+
+def _short_hash(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()[:8]
 
 
 def render_dot(dot: str, out: str | Path) -> None:

@@ -29,7 +29,7 @@ from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
 from tleaf_cli.data.dfa_table import KIND as DFA_KIND
 from tleaf_cli.data.dfa_table import SCHEMA_VERSION as DFA_SCHEMA
 from tleaf_cli.data.dfa_table import rows_to_table
-from tleaf_cli.data.formula_files import FormulaSource
+from tleaf_cli.data.formula_files import FormulaSource, check_names
 from tleaf_cli.data.knowledge import (
     RULE_SET_SPLITS,
     KnowledgeBase,
@@ -105,7 +105,10 @@ def video_rule_sets(
         per_video = [(vid, group) for vid, rules in per_video for group in by_ingredient(rules)]
     distinct: dict[str, list[Rule]] = {}
     for _, rules in per_video:
-        distinct.setdefault(rule_set_id(rules), rules)
+        known = distinct.setdefault(rule_set_id(rules), rules)
+        if {r.name for r in known} != {r.name for r in rules}:  # a hash collision: never merge
+            raise TleafError(f"two rule sets share the id {rule_set_id(rules)}")
+    check_names(distinct, "rule set id")
     return per_video, distinct
 
 

@@ -24,7 +24,7 @@ from tleaf_cli.data.activities import atom
 from tleaf_cli.data.artifacts import (
     write_text_atomic,
 )
-from tleaf_cli.data.formula_files import read_formulas
+from tleaf_cli.data.formula_files import check_names, read_formulas
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 
@@ -160,6 +160,7 @@ def write_knowledge_base(
     kb: KnowledgeBase, path: str | os.PathLike, header: Sequence[str] = ()
 ) -> None:
     """Write `kb` as a `.ltl` file (atomically), `header` lines as comments on top."""
+    check_names((r.name for r in kb.rules), "rule name")
     lines = [f"# {h}" for h in header]
     lines += [f"{r.name}: {r.formula}" for r in kb.rules]
     write_text_atomic(path, "\n".join(lines) + "\n")

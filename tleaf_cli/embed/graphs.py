@@ -46,6 +46,7 @@ from torch_geometric.data import Batch, Data
 
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.formulas import check_depth
 from tleaf_cli.logic.guards import guard_for
 
 # Propositional graph node types.
@@ -249,7 +250,9 @@ def trace_graph_batch(lengths: Sequence[int]) -> tuple[Batch, torch.Tensor]:
 
 def syntax_graph(formula: LTLfFormula, vocabulary: dict[str, int]) -> Data:
     """The parse tree as a graph: `node_type` [N] (SYNTAX_OPS index, or SYNTAX_ATOM), `atom` [N]
-    (vocabulary index, -1 for operators), arcs child -> parent; node 0 is the root."""
+    (vocabulary index, -1 for operators), arcs child -> parent; node 0 is the root.
+    FormulaSyntaxError for a formula nested too deeply to walk (the walk recurses)."""
+    check_depth(formula)
     types: list[int] = []
     atoms: list[int] = []
     arcs: list[tuple[int, int]] = []

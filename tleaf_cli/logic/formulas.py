@@ -9,13 +9,28 @@ from __future__ import annotations
 
 from functools import cache
 
-from lark.exceptions import LarkError, UnexpectedCharacters, UnexpectedEOF, UnexpectedToken
-from ltlf2dfa.ltlf import LTLfFormula
+from lark.exceptions import (
+    LarkError,
+    UnexpectedCharacters,
+    UnexpectedEOF,
+    UnexpectedToken,
+    VisitError,
+)
+from ltlf2dfa.ltlf import LTLfFormula, LTLfImplies, LTLfRelease, LTLfUntil
 from ltlf2dfa.parser.ltlf import LTLfParser
 
 from tleaf_cli.errors import InputError
 
 OPERATORS_HELP = "operators are ! & | -> <-> X WX F G U R (also ~ && || => <=>)"
+# The deepest nesting of operators a formula may have. Parsing, printing, the MONA encoding, the
+# direct evaluator and the syntax graph all recurse once or more per level, and Python's stack
+# holds about 1000 frames: 100 leaves every one of them room, and far exceeds any real rule (the
+# paper's formulas have at most 20 nodes).
+MAX_DEPTH = 100
+TOO_DEEP = f"formula is nested too deeply (at most {MAX_DEPTH} levels of operators or parentheses)"
+# n-ary operators that ltlf2dfa encodes as nested binary ones: `a -> b -> c` nests one level per
+# operand after the first, in the MONA encoding (and `a U b U c` likewise).
+_CHAINED = (LTLfImplies, LTLfUntil, LTLfRelease)
 
 
 class FormulaSyntaxError(InputError, ValueError):
@@ -38,17 +53,63 @@ def _parser() -> LTLfParser:
 
 
 def parse(text: str) -> LTLfFormula:
-    """Parse one LTLf formula, raising FormulaSyntaxError with a column and a reason."""
+    """Parse one LTLf formula, raising FormulaSyntaxError with a column and a reason (also for
+    a formula nested deeper than MAX_DEPTH, which every later walk over it could not handle)."""
     if not text.strip():
         raise FormulaSyntaxError("empty formula")
+    if _parenthesis_depth(text) > MAX_DEPTH:
+        raise FormulaSyntaxError(TOO_DEEP)
     try:
-        return _parser()(text)
+        formula = _parser()(text)
+    except RecursionError:
+        raise FormulaSyntaxError(TOO_DEEP) from None
     except UnexpectedCharacters as e:
         raise _explain_character(text, e) from None
     except (UnexpectedToken, UnexpectedEOF) as e:
         raise _explain_token(text, e) from None
+    except VisitError as e:  # lark wraps what its tree transformer raises
+        if isinstance(e.orig_exc, RecursionError):
+            raise FormulaSyntaxError(TOO_DEEP) from None
+        raise FormulaSyntaxError(f"not a formula ({e.__class__.__name__})") from None
     except (LarkError, ValueError, AssertionError) as e:
         raise FormulaSyntaxError(f"not a formula ({e.__class__.__name__})") from None
+    check_depth(formula)
+    return formula
+
+
+def depth(formula: LTLfFormula) -> int:
+    """Levels of operators in `formula` (an atom: 1), counted without recursion, so any formula
+    can be measured; a chained `a -> b -> c` (also U, R) counts a level per extra operand."""
+    deepest = 0
+    stack = [(formula, 1)]
+    while stack:
+        f, level = stack.pop()
+        deepest = max(deepest, level)
+        children = getattr(f, "formulas", None) or ([f.f] if hasattr(f, "f") else [])
+        extra = len(children) - 2 if isinstance(f, _CHAINED) and len(children) > 2 else 0
+        stack.extend((child, level + 1 + extra) for child in children)
+    return deepest
+
+
+def _parenthesis_depth(text: str) -> int:
+    """The deepest nesting of parentheses in `text` (lark's parser recurses on each)."""
+    level = deepest = 0
+    for char in text:
+        if char == "(":
+            level += 1
+            deepest = max(deepest, level)
+        elif char == ")":
+            level -= 1
+    return deepest
+
+
+def check_depth(formula: LTLfFormula) -> None:
+    """FormulaSyntaxError when `formula` is nested deeper than MAX_DEPTH: every walk over a
+    formula (printing, MONA encoding, evaluation, graphs) recurses, and would overflow the stack
+    with a RecursionError deep in a third-party library."""
+    levels = depth(formula)
+    if levels > MAX_DEPTH:
+        raise FormulaSyntaxError(f"{TOO_DEEP}, not {levels}")
 
 
 def atoms(formula: LTLfFormula) -> tuple[str, ...]:

@@ -24,14 +24,34 @@ from subprocess import PIPE
 
 import numpy as np
 from ltlf2dfa.base import MonaProgram
-from ltlf2dfa.ltlf import LTLfFormula
+from ltlf2dfa.ltlf import (
+    LTLfAlways,
+    LTLfAnd,
+    LTLfEquivalence,
+    LTLfEventually,
+    LTLfFormula,
+    LTLfImplies,
+    LTLfNext,
+    LTLfNot,
+    LTLfOr,
+    LTLfRelease,
+    LTLfUntil,
+    LTLfWeakNext,
+)
 
 from tleaf_cli.errors import TleafError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.formulas import check_depth
 
 INSTALL_HINT = "install it with: apt-get install -y mona  (Debian/Ubuntu package 'mona')"
 DEFAULT_MEMORY_MB = 4096
+# The most nodes the MONA encoding of one formula may have. ltlf2dfa's encoding writes the
+# operand of G (and R, and of F or U under a negation) twice, so it doubles with each nested
+# level: 20 nested G make a 185 MB program (measured) and 25 exhaust the memory of the
+# process writing it, before MONA could start. 200,000 nodes is a program of some 20 MB,
+# already far beyond what MONA compiles within its timeout.
+MAX_ENCODING_NODES = 200_000
 
 
 class MonaError(TleafError, RuntimeError):
@@ -72,8 +92,62 @@ def mona_version() -> str:
 
 
 def mona_program(formula: LTLfFormula) -> str:
-    """ltlf2dfa's MONA encoding of an LTLf formula (header, declarations, formula)."""
+    """ltlf2dfa's MONA encoding of an LTLf formula (header, declarations, formula).
+
+    FormulaSyntaxError when the formula is nested too deeply for the encoding's recursion,
+    MonaError when the encoding would be too large to write (it doubles per nested G).
+    """
+    check_depth(formula)
+    nodes = encoding_nodes(formula)
+    if nodes > MAX_ENCODING_NODES:
+        raise MonaError(
+            f"formula too large for MONA: its encoding has about {nodes:,} nodes "
+            f"(at most {MAX_ENCODING_NODES:,}; each nested G, R, or <-> doubles it)"
+        )
     return MonaProgram(formula).mona_program()
+
+
+def encoding_nodes(formula: LTLfFormula, negated: bool = False, nnf: bool = False) -> int:
+    """The nodes of ltlf2dfa's MONA encoding of `formula`, counted without writing it.
+
+    The encoding writes the second operand of R (so of G) twice; -> and <-> are first put in
+    negation normal form (`nnf`), where a negated F or U becomes G or R and <-> writes each
+    operand in both polarities. Recursive, for a formula `check_depth` has passed.
+    """
+    f, pol = formula, negated and nnf
+    if isinstance(f, LTLfNot):
+        return encoding_nodes(f.f, not negated if nnf else False, nnf) + 1
+    if isinstance(f, LTLfAnd | LTLfOr):
+        return 1 + sum(encoding_nodes(g, pol, nnf) for g in f.formulas)
+    if isinstance(f, LTLfImplies):
+        return _implies_nodes(list(f.formulas), pol)
+    if isinstance(f, LTLfEquivalence):
+        return 3 + sum(encoding_nodes(g, p, True) for g in f.formulas for p in (False, True))
+    if isinstance(f, LTLfNext | LTLfWeakNext):
+        return 1 + encoding_nodes(f.f, pol, nnf)
+    if isinstance(f, LTLfEventually | LTLfAlways):
+        twice = isinstance(f, LTLfAlways) != pol  # G, or F negated (then a G)
+        return 1 + (2 if twice else 1) * encoding_nodes(f.f, pol, nnf)
+    if isinstance(f, LTLfUntil | LTLfRelease):
+        twice = isinstance(f, LTLfRelease) != pol
+        return _chain_nodes(list(f.formulas), pol, nnf, 2 if twice else 1)
+    return 1  # atoms, true, false, last
+
+
+def _implies_nodes(operands: list[LTLfFormula], negated: bool) -> int:
+    """`a -> b -> c` is `(a -> b) -> c`, in NNF `!(a -> b) | c`: the left side flips polarity."""
+    if len(operands) == 1:
+        return encoding_nodes(operands[0], negated, True)
+    left = _implies_nodes(operands[:-1], not negated)
+    return 2 + left + encoding_nodes(operands[-1], negated, True)
+
+
+def _chain_nodes(operands: list[LTLfFormula], negated: bool, nnf: bool, factor: int) -> int:
+    """`a U b U c` is `a U (b U c)` (likewise R); the right side is written `factor` times."""
+    if len(operands) == 1:
+        return encoding_nodes(operands[0], negated, nnf)
+    right = _chain_nodes(operands[1:], negated, nnf, factor)
+    return 1 + encoding_nodes(operands[0], negated, nnf) + factor * right
 
 
 def run_mona(program: str, timeout: float, memory_mb: int = DEFAULT_MEMORY_MB) -> str:

@@ -32,14 +32,18 @@ from ltlf2dfa.ltlf import (
 )
 
 from tleaf_cli.errors import InputError
+from tleaf_cli.logic.formulas import check_depth
 
 Trace = Sequence[Collection[str]]
 
 
 def satisfies(trace: Trace, formula: LTLfFormula) -> bool:
-    """True when the non-empty `trace` satisfies `formula` at its first position."""
+    """True when the non-empty `trace` satisfies `formula` at its first position.
+
+    FormulaSyntaxError for a formula nested too deeply to evaluate (the walk recurses)."""
     if len(trace) == 0:
         raise InputError("traces are non-empty")
+    check_depth(formula)
     return _eval(formula, trace)[0]
 
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tleaf_cli.data.artifacts import check_writable, write_text_atomic
+from tleaf_cli.data.formula_files import check_names
 from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.cooking.domain import (
     DEFAULT_DOMAIN,
@@ -91,6 +92,8 @@ def write_cooking_kb(
 
 def format_knowledge_base(rules: Iterable[Rule], header: str = "") -> str:
     """The rules as a `.ltl` file (DESIGN.md): `<kind>.<name>: <formula>` per line."""
+    rules = list(rules)
+    check_names((r.name for r in rules), "rule name")
     lines = [f"# {line}" for line in header.splitlines()]
     lines += [f"{r.name}: {r.formula}" for r in rules]
     return "\n".join(lines) + "\n"

@@ -1,0 +1,124 @@
+"""Every `--help` of every command says what its options take: hand-written defaults and
+bracketed text survive rich markup, flags show no `<bool>`, and options with a fixed set of
+values list them (typed with `Literal`, so typer also refuses any other value)."""
+
+from __future__ import annotations
+
+import re
+from typing import get_args
+
+import pytest
+import typer
+from typer.testing import CliRunner
+
+from tleaf_cli import cli
+from tleaf_cli.data.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
+from tleaf_cli.data.knowledge import RULE_SET_SPLITS
+from tleaf_cli.defaults import TIERS
+from tleaf_cli.embed.automaton import READOUTS
+from tleaf_cli.embed.encoders import ATOM_FEATURE_KINDS
+from tleaf_cli.embed.train_meta import EMBEDDERS
+from tleaf_cli.embed.training import SCHEDULES
+from tleaf_cli.losses.logic_loss import LOGIC_LOSSES
+from tleaf_cli.tasks.action_recognition.decoding import DECODINGS
+from tleaf_cli.tasks.action_recognition.models import MODELS
+from tleaf_cli.tasks.action_recognition.train import FORMULA_SOURCES as TASK_FORMULA_SOURCES
+from tleaf_cli.tasks.model_checking import PAIR_FEATURES
+
+runner = CliRunner()
+# Options that take one of a fixed set of values, by flag: every one must list its values.
+CHOICE_OPTIONS = {
+    "--tier",
+    "--device",
+    "--atom-features",
+    "--embedder",
+    "--readout",
+    "--schedule",
+    "--formula-from",
+    "--rule-sets",
+    "--pair-features",
+    "--model",
+    "--logic-loss",
+    "--decode",
+}
+HAND_DEFAULT = re.compile(r"\\?\[default: ([^\]]*)\]")
+
+
+def _commands() -> list[tuple[list[str], object]]:
+    """(argument path, click command) of every command and sub-command, groups included."""
+    found, stack = [], [([], typer.main.get_command(cli.app))]
+    while stack:
+        path, command = stack.pop()
+        found.append((path, command))
+        for name, sub in getattr(command, "commands", {}).items():
+            stack.append(([*path, name], sub))
+    return sorted(found, key=lambda item: item[0])
+
+
+COMMANDS = _commands()
+
+
+def _flat(text: str) -> str:
+    """Help text without box drawing and line wrapping: words separated by single spaces."""
+    return " ".join(re.sub(r"[│╭╮╰╯─]", " ", text).split())
+
+
+@pytest.mark.parametrize(
+    ("path", "command"), COMMANDS, ids=[" ".join(p) or "tleaf" for p, _ in COMMANDS]
+)
+def test_help_shows_defaults_brackets_choices_and_no_bool(path, command) -> None:
+    result = runner.invoke(cli.app, [*path, "--help"], env={"COLUMNS": "400"})
+    assert result.exit_code == 0, result.output
+    shown = _flat(result.output)
+    assert "<bool>" not in shown
+    for param in command.params:
+        help_text = _flat(param.help or "").replace("\\[", "[")
+        for default in HAND_DEFAULT.findall(param.help or ""):
+            assert _flat(f"[default: {default}]") in shown, (param.name, shown)
+        if "[" in help_text:  # other bracketed text, e.g. tleaf[text]
+            assert help_text in shown, (param.name, help_text)
+        described = param.type_descriptor  # typer's own parameters: no click `type`
+        choices = tuple(described.choices or ()) if described.is_choice else None
+        names = set(param.opts)
+        if names & CHOICE_OPTIONS and "Path" not in str(described.annotation):  # eval --embedder
+            assert choices, f"{sorted(names)} of {path} is not typed with its choices"
+        if choices:
+            assert f"<{'|'.join(choices)}>" in shown, (param.name, shown)
+
+
+def test_every_choice_option_is_typed_with_its_choices() -> None:
+    typed = {
+        name
+        for _, command in COMMANDS
+        for param in command.params
+        if getattr(param, "type_descriptor", None) and param.type_descriptor.is_choice
+        for name in param.opts
+    }
+    assert typed >= CHOICE_OPTIONS, CHOICE_OPTIONS - typed
+
+
+def test_choice_types_match_the_library() -> None:
+    """The CLI's Literal types name exactly the values the library accepts."""
+    pairs = [
+        (cli.Tier, tuple(TIERS)),
+        (cli.AtomFeatures, ATOM_FEATURE_KINDS),
+        (cli.Embedder, EMBEDDERS),
+        (cli.Readout, READOUTS),
+        (cli.Schedule, SCHEDULES),
+        (cli.KbFormulaFrom, KB_FORMULA_SOURCES),
+        (cli.RuleSets, RULE_SET_SPLITS),
+        (cli.PairFeatures, PAIR_FEATURES),
+        (cli.TaskModel, MODELS),
+        (cli.LogicLoss, LOGIC_LOSSES),
+        (cli.TaskFormulaFrom, TASK_FORMULA_SOURCES),
+        (cli.Decoding, DECODINGS),
+    ]
+    for literal, values in pairs:
+        assert set(get_args(literal)) == set(values), (literal, values)
+    assert set(get_args(cli.DeviceName)) == {"cpu", "cuda"}
+
+
+def test_a_value_outside_the_choices_is_refused_by_the_parser(tmp_path) -> None:
+    result = runner.invoke(cli.app, ["gen-formulas", "--tier", "extreme", "-o", tmp_path / "f"])
+    assert result.exit_code == 2 and "extreme" in result.output
+    assert not (tmp_path / "f").exists()
