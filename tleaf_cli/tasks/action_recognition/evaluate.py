@@ -223,14 +223,19 @@ def markdown(runs: Sequence[dict], summary: Sequence[dict], by_decoding: Sequenc
     return "\n".join(lines) + "\n"
 
 
-def boxplots(pairs: Sequence[dict], path: Path) -> None:
-    """Δ action and Δ ingredient accuracy per model and loss (Fig. 4B's layout), as PNG."""
+def boxplots(pairs: Sequence[dict], path: Path, by_decoding: Sequence[dict] = ()) -> None:
+    """Δ action and Δ ingredient accuracy per model and loss (Fig. 4B's layout), as PNG; with
+    `by_decoding` (`decodings`), a third row: the share of test videos that break a rule, with
+    argmax and with constrained decoding, per loss."""
     plt = pyplot()
 
-    models = sorted({p["model"] for p in pairs}) or ["(no pairs)"]
+    models = sorted({p["model"] for p in pairs} | {d["model"] for d in by_decoding})
+    models = models or ["(no pairs)"]
+    rows = 3 if by_decoding else 2
     fig, axes = plt.subplots(
-        2, len(models), figsize=(3.2 * len(models) + 1, 6), squeeze=False, sharey="row"
-    )
+        rows, len(models), figsize=(max(3.2 * len(models) + 1, 5.5), 3 * rows), squeeze=False,
+        sharey="row",
+    )  # fmt: skip
     for col, model in enumerate(models):
         for row, measure in enumerate(("action_accuracy", "ingredient_accuracy")):
             ax = axes[row][col]
@@ -249,6 +254,19 @@ def boxplots(pairs: Sequence[dict], path: Path) -> None:
             ax.set_title(f"{model.upper()}: {measure.split('_')[0]}")
             if col == 0:
                 ax.set_ylabel("relative change vs reference (%)")
+        if by_decoding:
+            ax = axes[2][col]
+            mine = [d for d in by_decoding if d["model"] == model]
+            at = np.arange(len(mine))
+            for shift, kind in ((-0.2, "argmax"), (0.2, "constrained")):
+                values = [100 * d[f"{kind}_violation_fraction"] for d in mine]
+                ax.bar(at + shift, values, width=0.4, label=kind)
+            ax.set_xticks(at, [d["logic_loss"] for d in mine])
+            ax.set_ylim(0, 100)
+            ax.set_title(f"{model.upper()}: videos breaking a rule")
+            if col == 0:
+                ax.set_ylabel("% of test videos")
+                ax.legend(title="decoding", fontsize="small")
     fig.suptitle("Logic losses vs reference, same seeds (synthetic data)")
     fig.tight_layout()
     save_png(fig, path)
@@ -273,5 +291,5 @@ def evaluate_runs(
     report = {"runs": runs, "pairs": pairs, "summary": summary, "decodings": by_decoding}
     write_text_atomic(out_dir / "report.json", json.dumps(report, indent=2))
     write_text_atomic(out_dir / "report.md", markdown(runs, summary, by_decoding))
-    boxplots(pairs, out_dir / "report.png")
+    boxplots(pairs, out_dir / "report.png", by_decoding)
     return report
