@@ -10,6 +10,7 @@ The public Python API (DESIGN.md, "Python API"), for ``import tleaf_cli as tl``:
   ``"exact"`` (−log P(rules hold)), ``"tleaf"`` (the paper's ‖q(A_φ) − q(w̃)‖²) or ``"checker"``
 * ``tl.constrained_decode(log_probs, rules, lengths=None)``  per sequence, the most probable
   sequence the rules accept (Viterbi over steps × DFA states)
+* ``tl.Shield(rules)``                   a runtime monitor: which actions keep the rules satisfiable
 * ``tl.load_embedder(model_dir)``        a trained q (a train-meta folder)
 * ``tl.TleafError``                      every error the library raises on purpose
 
@@ -32,12 +33,14 @@ _PUBLIC = {
     "RuleSet": "tleaf_cli.data.rule_set",
     "logic_loss": "tleaf_cli.losses.logic_loss",
     "constrained_decode": "tleaf_cli.decode",
+    "Shield": "tleaf_cli.shield",
     "load_embedder": "tleaf_cli.embed.soft",
     "TleafError": "tleaf_cli.errors",
 }
 __all__ = [
     "DFA",
     "RuleSet",
+    "Shield",
     "TleafError",
     "check",
     "compile_formula",
@@ -55,6 +58,7 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` lo
     from tleaf_cli.logic.compile import compile_formula
     from tleaf_cli.logic.dfa import DFA
     from tleaf_cli.losses.logic_loss import logic_loss
+    from tleaf_cli.shield import Shield
 
 
 def __getattr__(name: str) -> Any:
