@@ -89,6 +89,7 @@ PairFeatures = Literal["concat", "rich"]
 TaskModel = Literal["lstm", "tcn"]
 LogicLoss = Literal["none", "tleaf", "checker", "exact"]
 TaskFormulaFrom = Literal["predictions", "labels"]
+Decoding = Literal["argmax", "constrained"]  # test-time decoding of train-task action-recognition
 
 Device = Annotated[DeviceName, typer.Option(help="Where to compute.")]
 MaxMinutes = Annotated[
@@ -123,9 +124,6 @@ FLAGS = {
 def flag(setting: str) -> str:
     """The flag that sets the library's `setting` (``logic_loss`` → ``--logic-loss``)."""
     return FLAGS.get(setting, "--" + setting.replace("_", "-"))
-
-
-Decoding = Literal["argmax", "constrained"]  # test-time decoding of train-task action-recognition
 
 
 def _exits(func):
