@@ -85,7 +85,8 @@ $(OUT)/runs/$(1)-$(2)-seed$(3)/metrics.json: $(OUT)/activities.parquet $(OUT)/kb
 	$(TLEAF) train-task action-recognition $(OUT)/activities.parquet --kb $(OUT)/kb.ltl \
 	    $(if $(filter tleaf,$(2)),--embedder $(OUT)/meta --formula-from $(FORMULA_FROM)) \
 	    --model $(1) --logic-loss $(2) --lambda $(LAMBDA_$(2)) --seed $(3) $(TASK) \
-	    --decode $(DECODE) --decode-top-k $(DECODE_TOP_K) -o $$(@D) -q
+	    --decode $(DECODE) $(if $(filter constrained,$(DECODE)),--decode-top-k $(DECODE_TOP_K)) \
+	    -o $$(@D) -q
 endef
 $(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach s,$(SEEDS),\
 	$(eval $(call RUN,$(m),$(l),$(s))))))

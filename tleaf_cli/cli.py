@@ -975,6 +975,7 @@ app.add_typer(train_task_app, name="train-task")
 @train_task_app.command("action-recognition", cls=Command)
 @_exits
 def train_task_action_recognition(
+    ctx: typer.Context,
     activities: Annotated[Path, typer.Argument(help="An activities.parquet (gen-activities).")],
     kb: Annotated[Path, typer.Option(help="The knowledge base (.ltl) the rule sets come from.")],
     embedder: Annotated[
@@ -1034,6 +1035,8 @@ def train_task_action_recognition(
     from tleaf_cli.tasks.action_recognition.train import TaskSettings, train_action_recognition
 
     _targets([activities, kb, embedder], folders=[out])
+    if decode != "constrained":
+        _refuse(_given(ctx, "decode_top_k"), "only with --decode constrained")
 
     settings = TaskSettings(
         model=model,
