@@ -273,3 +273,13 @@ def test_compile_dfa_writes_one_graph_file_per_id(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     names = {p.name.casefold() for p in (tmp_path / "g").glob("*.graphml")}
     assert len(names) == len(ids)
+
+
+def test_a_refused_call_creates_no_folder(tmp_path: Path) -> None:
+    """Exit 2 writes nothing, not even the output's folder."""
+    out = tmp_path / "new" / "deeper" / "f.ltl"
+    result = tleaf("gen-formulas", "--tier", "low", "--atoms", "4", "-o", out)
+    assert result.exit_code == 2
+    assert not (tmp_path / "new").exists()
+    result = tleaf("gen-formulas", "--tier", "low", "-n", "3", "-o", out)
+    assert result.exit_code == 0 and out.exists()  # the folder is made when the file is written

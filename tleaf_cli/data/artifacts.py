@@ -58,16 +58,12 @@ def relative_to(folder: str | os.PathLike, target: str | os.PathLike) -> str:
 
 
 def check_writable(target: str | os.PathLike) -> None:
-    """InputError now, before any work, if `target` cannot be written (its folder is made)."""
+    """InputError now, before any work, if file `target` cannot be written. Nothing is created
+    (a refused call writes nothing); the folder is made when the file is written."""
     target = Path(target)
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise InputError(f"{target}: cannot create its folder ({e.strerror})") from None
     if target.is_dir():
         raise InputError(f"{target}: is a folder; give a file name")
-    if not os.access(target.parent, os.W_OK):
-        raise InputError(f"{target}: folder {target.parent} is not writable")
+    check_folder_writable(target.parent)
 
 
 def check_folder_writable(target: str | os.PathLike) -> None:
