@@ -63,14 +63,14 @@ $(OUT)/kb.ltl: $(OUT)/activities.parquet ;
 # q's training data: each video's rule set (labelled pairs), and every KB rule on its own so that
 # q_e knows every atom a prediction can bring in (affordance rules name pairs no video shows)
 $(OUT)/kb/dfas.parquet: $(OUT)/kb.ltl $(OUT)/activities.parquet
-	$(TLEAF) kb-extract $^ -o $(@D) --jobs $(JOBS) -q
+	$(TLEAF) kb-extract $^ -o $(@D) --jobs $(JOBS) $(if $(CLUSTER),--cluster $(CLUSTER)) -q
 $(OUT)/rules.parquet: $(OUT)/kb.ltl
-	$(TLEAF) compile-dfa $< --one-hot --jobs $(JOBS) -q -o $@
+	$(TLEAF) compile-dfa $< --one-hot --jobs $(JOBS) $(if $(CLUSTER),--cluster $(CLUSTER)) -q -o $@
 # traces shaped like the videos: each atom of a rule set once (+ a few "none" steps); exit
 # status 1 = some rule set is short of K pairs (the empty set `true` has no violating trace, a
 # two-atom set has two orders); the traces of the others are written and used
 $(OUT)/traces.parquet: $(OUT)/kb/dfas.parquet
-	$(TLEAF) gen-traces $< --once-each --per-formula $(K) --split 0.8,0.1,0.1 --jobs $(JOBS) -q \
+	$(TLEAF) gen-traces $< --once-each --per-formula $(K) --split 0.8,0.1,0.1 --jobs $(JOBS) $(if $(CLUSTER),--cluster $(CLUSTER)) -q \
 	    -o $@ || [ $$? -eq 1 ]
 $(OUT)/edge/metrics.json: $(OUT)/rules.parquet
 	$(TLEAF) train-edge $< -o $(@D) $(EDGE) -q

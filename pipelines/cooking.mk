@@ -56,9 +56,9 @@ $(OUT)/demos.parquet:
 $(OUT)/kb.ltl: $(OUT)/demos.parquet
 	$(TLEAF) demos-kb $< -o $@ -q
 $(OUT)/rules.parquet: $(OUT)/kb.ltl
-	$(TLEAF) compile-dfa $< --one-hot --jobs $(JOBS) -q -o $@
+	$(TLEAF) compile-dfa $< --one-hot --jobs $(JOBS) $(if $(CLUSTER),--cluster $(CLUSTER)) -q -o $@
 $(OUT)/traces.parquet: $(OUT)/rules.parquet
-	$(TLEAF) gen-traces $< --one-hot --per-formula $(K) --split 0.8,0.1,0.1 --jobs $(JOBS) -q \
+	$(TLEAF) gen-traces $< --one-hot --per-formula $(K) --split 0.8,0.1,0.1 --jobs $(JOBS) $(if $(CLUSTER),--cluster $(CLUSTER)) -q \
 	    -o $@ || [ $$? -eq 1 ]
 $(OUT)/edge/metrics.json: $(OUT)/rules.parquet
 	$(TLEAF) train-edge $< -o $(@D) $(EDGE) -q

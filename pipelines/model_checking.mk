@@ -67,11 +67,11 @@ $(FIGURE): $(OUT)/$(T1)/seed$(S1)/meta-syntax/metrics.json $(OUT)/$(T1)/seed$(S1
 # data: one synthetic set per tier (DATA_SEED)
 $(OUT)/%/formulas.ltl:
 	@mkdir -p $(@D)
-	$(TLEAF) gen-formulas --tier $* -n $(N) --pairs $(K) --seed $(DATA_SEED) --jobs $(JOBS) -q -o $@
+	$(TLEAF) gen-formulas --tier $* -n $(N) --pairs $(K) --seed $(DATA_SEED) --jobs $(JOBS) $(if $(CLUSTER),--cluster $(CLUSTER)) -q -o $@
 $(OUT)/%/dfas.parquet: $(OUT)/%/formulas.ltl
-	$(TLEAF) compile-dfa $< --jobs $(JOBS) -q -o $@
+	$(TLEAF) compile-dfa $< --jobs $(JOBS) $(if $(CLUSTER),--cluster $(CLUSTER)) -q -o $@
 $(OUT)/%/traces.parquet: $(OUT)/%/dfas.parquet
-	$(TLEAF) gen-traces $< --per-formula $(K) --split 0.8,0.1,0.1 --seed $(DATA_SEED) --jobs $(JOBS) -q -o $@
+	$(TLEAF) gen-traces $< --per-formula $(K) --split 0.8,0.1,0.1 --seed $(DATA_SEED) --jobs $(JOBS) $(if $(CLUSTER),--cluster $(CLUSTER)) -q -o $@
 
 # models and evaluations: one q_e per tier, then per seed q_m (or the baseline) and its evaluation
 $(OUT)/%/edge/metrics.json: $(OUT)/%/dfas.parquet

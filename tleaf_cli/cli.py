@@ -55,6 +55,15 @@ app = typer.Typer(
 
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
 Jobs = Annotated[int, typer.Option("--jobs", "-j", min=1, help="Parallel worker processes.")]
+Cluster = Annotated[
+    str | None,
+    typer.Option(
+        envvar="TLEAF_CLUSTER",
+        metavar="ADDRESS",
+        help="Run the parallel work on this dask.distributed scheduler (tcp://host:8786; "
+        "needs tleaf\\[cluster]) instead of local processes; --jobs is then unused.",
+    ),
+]
 Seed = Annotated[int, typer.Option(help="Random seed; the same seed writes the same file.")]
 MinLen = Annotated[int, typer.Option(min=1, help="Shortest trace length.")]
 MaxLen = Annotated[int, typer.Option(min=1, help="Longest trace length.")]
@@ -100,7 +109,9 @@ Resume = Annotated[
 ]
 
 
-def _compile_settings(one_hot: bool, timeout: float, cache_dir, no_cache: bool, jobs: int):
+def _compile_settings(
+    one_hot: bool, timeout: float, cache_dir, no_cache: bool, jobs: int, cluster: str | None = None
+):
     from tleaf_cli.data.compile_dfas import CompileSettings, default_cache_dir
 
     return CompileSettings(
@@ -108,6 +119,7 @@ def _compile_settings(one_hot: bool, timeout: float, cache_dir, no_cache: bool, 
         timeout=timeout,
         cache_dir=None if no_cache else (cache_dir or default_cache_dir()),
         jobs=jobs,
+        cluster=cluster or None,
     )
 
 
@@ -156,6 +168,13 @@ def _targets(inputs, files=(), folders=()) -> None:
     from tleaf_cli.data.artifacts import check_targets
 
     check_targets(inputs, files, folders)
+
+
+def _reachable(cluster: str | None) -> None:
+    """Refuse the call (exit 2, nothing written) when --cluster names no scheduler that answers."""
+    from tleaf_cli.data.parallel import check_cluster
+
+    check_cluster(cluster)
 
 
 def _given(ctx: typer.Context, *names: str) -> list[str]:
@@ -229,6 +248,7 @@ def compile_dfa(
         ),
     ] = False,
     jobs: Jobs = 1,
+    cluster: Cluster = None,
     timeout: Annotated[
         float, typer.Option(min=0.1, help="Seconds MONA may spend on one formula.")
     ] = COMPILE_TIMEOUT,
@@ -251,7 +271,8 @@ def compile_dfa(
     """
     from tleaf_cli.data.compile_dfas import compile_file
 
-    settings = _compile_settings(one_hot, timeout, cache_dir, no_cache, jobs)
+    settings = _compile_settings(one_hot, timeout, cache_dir, no_cache, jobs, cluster)
+    _reachable(cluster)
     with ui.progress("compiling", quiet) as update:
         report = compile_file(formulas, out, settings, graphs, update)
     _finish(
@@ -300,6 +321,7 @@ def gen_formulas(
         str | None, typer.Option(help="Formula id prefix \\[default: the tier, or f].")
     ] = None,
     jobs: Jobs = 1,
+    cluster: Cluster = None,
     timeout: Annotated[
         float, typer.Option(min=0.001, help="MONA seconds per candidate; slower ones are rejected.")
     ] = CANDIDATE_TIMEOUT,
@@ -316,6 +338,7 @@ def gen_formulas(
     from tleaf_cli.data.formula_gen import FormulaSettings, generate_formulas, write_formula_file
 
     _targets([], [out])
+    _reachable(cluster)
     if tier is not None:
         _refuse(_given(ctx, "atoms", "size"), "set by --tier; give --tier or these, not both")
         if tier not in TIERS:
@@ -331,7 +354,7 @@ def gen_formulas(
         pairs=pairs,
         one_hot=one_hot,
         prefix=prefix or (f"{tier}-" if tier else "f"),
-        compile=_compile_settings(one_hot, timeout, cache_dir, no_cache, jobs),
+        compile=_compile_settings(one_hot, timeout, cache_dir, no_cache, jobs, cluster),
     )
     with ui.progress("generating", quiet) as update:
         report = generate_formulas(settings, update)
@@ -400,6 +423,7 @@ def gen_traces(
     ] = None,
     seed: Seed = 0,
     jobs: Jobs = 1,
+    cluster: Cluster = None,
     quiet: Quiet = False,
 ) -> None:
     """Sample SYNTHETIC satisfying and violating traces for every DFA, paired by length.
@@ -411,6 +435,7 @@ def gen_traces(
     from tleaf_cli.data.traces import TraceSettings, generate_traces
 
     _targets([dfas], [out])
+    _reachable(cluster)
     if once_each:
         ignored = _given(ctx, "min_len", "max_len", "hard_fraction")
         _refuse(ignored, "ignored with --once-each (a video's length is set by its atoms)")
@@ -427,6 +452,7 @@ def gen_traces(
         seed=seed,
         split=_fractions(split),
         jobs=jobs,
+        cluster=cluster or None,
     )
     with ui.progress("sampling", quiet) as update:
         report = generate_traces(dfas, out, settings, update)
@@ -539,6 +565,7 @@ def kb_extract(
         int, typer.Option(min=1, help="Train videos that must show an ordering to mine it.")
     ] = 3,
     jobs: Jobs = 1,
+    cluster: Cluster = None,
     timeout: Annotated[
         float, typer.Option(min=0.1, help="Seconds MONA may spend on one rule set.")
     ] = COMPILE_TIMEOUT,
@@ -558,9 +585,10 @@ def kb_extract(
     kb = inputs[0] if len(inputs) == 2 else None
     written = ["samples.parquet", "dfas.parquet"] + (["kb.ltl"] if mine else [])
     _targets(inputs, [out / name for name in written], [out])
+    _reachable(cluster)
     if kb is None and not mine:
         raise InputError("give a knowledge base file, or --mine to mine one from the train split")
-    settings = _compile_settings(True, timeout, cache_dir, no_cache, jobs)
+    settings = _compile_settings(True, timeout, cache_dir, no_cache, jobs, cluster)
     with ui.progress("compiling rule sets", quiet) as update:
         report = extract_knowledge(
             kb, inputs[-1], out, settings, mine, min_support, formula_from, rule_sets, update

@@ -17,13 +17,14 @@ from functools import cache
 from importlib import metadata
 from pathlib import Path
 
-from joblib import Memory, Parallel, delayed
+from joblib import Memory
 from ltlf2dfa.ltlf import LTLfFormula
 
 from tleaf_cli import __version__
 from tleaf_cli.data.artifacts import check_targets, describe_inputs, write_artifact
 from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, read_formulas
+from tleaf_cli.data.parallel import parallel_map
 from tleaf_cli.defaults import COMPILE_TIMEOUT
 from tleaf_cli.errors import TleafError
 from tleaf_cli.logic import alphabet as alphabet_mod
@@ -51,6 +52,7 @@ class CompileSettings:
     timeout: float = COMPILE_TIMEOUT
     cache_dir: Path | None = field(default_factory=default_cache_dir)
     jobs: int = 1
+    cluster: str | None = None  # a dask scheduler address: run there instead (data/parallel.py)
 
 
 @dataclass
@@ -85,13 +87,11 @@ def compile_sources(
             tasks.setdefault(" ".join(src.text.split()), []).append(i)
 
     texts = list(tasks)
-    cache_dir = str(settings.cache_dir) if settings.cache_dir else None
+    # Absolute, so workers started elsewhere (a cluster's) find the same folder.
+    cache_dir = str(Path(settings.cache_dir).absolute()) if settings.cache_dir else None
     args = [(text, settings.alphabet, settings.timeout, cache_dir, versions) for text in texts]
-    if settings.jobs == 1 or len(texts) < 2:
-        results = (_compile_task(*a) for a in args)
-    else:
-        parallel = Parallel(n_jobs=settings.jobs, return_as="generator")
-        results = parallel(delayed(_compile_task)(*a) for a in args)
+    jobs = 1 if len(texts) < 2 else settings.jobs
+    results = parallel_map(_compile_task, args, jobs, settings.cluster)
     hits = 0
     for k, outcome in enumerate(results):
         hits += outcome.cache_hit

@@ -125,6 +125,7 @@ def generate_formulas(
         timeout=settings.compile.timeout,
         cache_dir=settings.compile.cache_dir,
         jobs=settings.compile.jobs,
+        cluster=settings.compile.cluster,
     )
     report = FormulaReport(kept=[])
     languages: set[bytes] = set()

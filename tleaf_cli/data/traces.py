@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pyarrow as pa
-from joblib import Parallel, delayed
 
 from tleaf_cli.data.artifacts import (
     check_writable,
@@ -26,6 +25,7 @@ from tleaf_cli.data.artifacts import (
     write_artifact,
 )
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
+from tleaf_cli.data.parallel import parallel_map
 from tleaf_cli.defaults import MAX_LEN, MIN_LEN
 from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.checker import PackedDFAs
@@ -57,6 +57,7 @@ class TraceSettings:
     seed: int = 0
     split: tuple[float, float, float] | None = None
     jobs: int = 1
+    cluster: str | None = None  # a dask scheduler address: run there instead (data/parallel.py)
 
     def check(self) -> None:
         if not 1 <= self.min_len <= self.max_len:
@@ -238,11 +239,8 @@ def generate_traces(
     check_writable(out)
     table = read_dfas(dfas_path)
     compiled = [(i, r) for i, r in enumerate(table.rows) if r["error"] is None]
-    if settings.jobs == 1:
-        results = (_formula_job(r, i, settings) for i, r in compiled)
-    else:
-        parallel = Parallel(n_jobs=settings.jobs, return_as="generator", batch_size=8)
-        results = parallel(delayed(_formula_job)(r, i, settings) for i, r in compiled)
+    args = ((r, i, settings) for i, r in compiled)
+    results = parallel_map(_formula_job, args, settings.jobs, settings.cluster, batch_size=8)
     rows: list[dict] = []
     short: list[tuple[str, str]] = []
     for done, ((_, row), (trace_rows, shortfall)) in enumerate(
@@ -262,7 +260,7 @@ def generate_traces(
         for r in rows:
             r["split"] = split_of[r["formula_id"]]
         columns.append(("split", pa.string()))
-    params = {k: v for k, v in settings.__dict__.items() if k != "jobs"}
+    params = {k: v for k, v in settings.__dict__.items() if k not in ("jobs", "cluster")}
     params["data"] = "synthetic: traces sampled from the DFAs by tleaf gen-traces"
     write_artifact(
         pa.Table.from_pylist(rows, schema=pa.schema(columns)),

@@ -1,0 +1,189 @@
+"""`--cluster`: the parallel stages on a dask.distributed cluster (a local scheduler and workers,
+separate processes on 127.0.0.1) write the same rows as `--jobs 1`, and survive a lost worker."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+from typer.testing import CliRunner
+
+from tleaf_cli.cli import app
+from tleaf_cli.data import parallel
+
+try:
+    import distributed
+except ImportError:  # the optional extra tleaf[cluster] is not installed
+    distributed = None
+
+needs_distributed = pytest.mark.skipif(distributed is None, reason="needs tleaf[cluster]")
+
+runner = CliRunner()
+TLEAF = Path(sys.executable).parent / "tleaf"
+
+
+def tleaf(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _start_worker(address: str, name: str, log: Path) -> subprocess.Popen:
+    # --no-nanny: the worker is this process, so killing it loses the worker (no restart).
+    cmd = [sys.executable, "-m", "distributed.cli.dask_worker", address, "--name", name]
+    cmd += ["--nthreads", "1", "--no-nanny", "--no-dashboard", "--host", "127.0.0.1"]
+    return subprocess.Popen(cmd, stdout=log.open("wb"), stderr=subprocess.STDOUT)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.terminate()
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory):
+    """(address, client, logs folder, started processes): a scheduler and two workers."""
+    logs = tmp_path_factory.mktemp("cluster")
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    procs: list[subprocess.Popen] = []
+    client = None
+    try:
+        port = address.rsplit(":", 1)[1]
+        cmd = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1"]
+        cmd += ["--port", port, "--no-dashboard"]
+        log = (logs / "scheduler.log").open("wb")
+        procs.append(subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT))
+        for k in range(2):
+            procs.append(_start_worker(address, f"w{k}", logs / f"w{k}.log"))
+        client = distributed.Client(address, timeout=30, set_as_default=False)
+        client.wait_for_workers(2, timeout=30)
+        yield address, client, logs, procs
+    finally:
+        if client is not None:
+            client.close()
+        for proc in reversed(procs):
+            _stop(proc)
+
+
+@pytest.fixture(scope="module")
+def formulas(tmp_path_factory) -> dict[int, Path]:
+    """200 generated formulas, and the first 30 of them, as .ltl files."""
+    folder = tmp_path_factory.mktemp("formulas")
+    big = folder / "f200.ltl"
+    result = tleaf("gen-formulas", "--tier", "low", "-n", 200, "-q", "--no-cache", "-o", big)
+    assert result.exit_code == 0, result.output
+    lines = [ln for ln in big.read_text().splitlines() if ln and not ln.startswith("#")]
+    small = folder / "f30.ltl"
+    small.write_text("\n".join(lines[:30]) + "\n")
+    return {200: big, 30: small}
+
+
+def _rows(path: Path) -> list[dict]:
+    return pq.read_table(path).to_pylist()
+
+
+@needs_distributed
+def test_cluster_writes_the_same_rows_as_one_job(cluster, formulas, tmp_path: Path) -> None:
+    address = cluster[0]
+    local, remote = tmp_path / "local", tmp_path / "remote"
+    local.mkdir()
+    remote.mkdir()
+    for folder, how in ((local, ["--jobs", 1]), (remote, ["--cluster", address])):
+        result = tleaf("compile-dfa", formulas[30], *how, "-q", "-o", folder / "dfas.parquet")
+        assert result.exit_code == 0, result.output
+        result = tleaf(
+            "gen-traces", folder / "dfas.parquet", "--per-formula", 4, "--split", "0.8,0.1,0.1",
+            *how, "-q", "-o", folder / "traces.parquet",
+        )  # fmt: skip
+        assert result.exit_code == 0, result.output
+    for name in ("dfas.parquet", "traces.parquet"):
+        assert _rows(remote / name) == _rows(local / name), name
+    assert len(_rows(remote / "dfas.parquet")) == 30
+    # The compile cache works on the workers: a second cluster run finds every formula there.
+    result = tleaf("compile-dfa", formulas[30], "--cluster", address, "-o", tmp_path / "again.pq")
+    assert result.exit_code == 0, result.output
+    assert "30 from cache" in result.output
+    assert _rows(tmp_path / "again.pq") == _rows(local / "dfas.parquet")
+
+
+@needs_distributed
+def test_unreachable_scheduler_from_env_var(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.setenv("TLEAF_CLUSTER", f"tcp://127.0.0.1:{_free_port()}")  # nothing listens
+    monkeypatch.setattr(parallel, "CONNECT_TIMEOUT", 2.0)
+    (tmp_path / "f.ltl").write_text("x1: F(a)\nx2: G(b)\n")
+    result = tleaf("compile-dfa", tmp_path / "f.ltl", "-q", "-o", tmp_path / "d.parquet")
+    assert result.exit_code == 2
+    assert "--cluster: cannot reach a dask scheduler at tcp://127.0.0.1:" in result.output
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "d.parquet").exists()
+
+
+def test_cluster_without_distributed(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed: ImportError
+    (tmp_path / "d.parquet").write_bytes(b"")
+    for args in (
+        ["compile-dfa", tmp_path / "f.ltl", "--cluster", "tcp://127.0.0.1:8786"],
+        ["gen-formulas", "-n", 3, "--cluster", "tcp://127.0.0.1:8786"],
+    ):
+        (tmp_path / "f.ltl").write_text("x1: F(a)\nx2: G(b)\n")
+        result = tleaf(*args, "-q", "-o", tmp_path / "out")
+        assert result.exit_code == 2, result.output
+        assert "--cluster: needs the optional package distributed" in result.output
+        assert "Traceback" not in result.output
+        assert not (tmp_path / "out").exists()
+
+
+@needs_distributed
+def test_lost_worker_loses_no_rows(cluster, formulas, tmp_path: Path) -> None:
+    address, client, logs, procs = cluster
+    reference = tmp_path / "reference.parquet"
+    assert tleaf("compile-dfa", formulas[200], "-q", "-o", reference).exit_code == 0
+    doomed = _start_worker(address, "doomed", logs / "doomed.log")
+    procs.append(doomed)
+    client.wait_for_workers(3, timeout=30)
+    doomed_addr = next(
+        a for a, w in client.scheduler_info()["workers"].items() if w["name"] == "doomed"
+    )
+    out = tmp_path / "out" / "dfas.parquet"
+    out.parent.mkdir()
+    run = subprocess.Popen(
+        [TLEAF, "compile-dfa", formulas[200], "--no-cache", "--cluster", address, "-q", "-o", out],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+    )
+    try:
+        deadline = time.monotonic() + 60
+        while not client.processing([doomed_addr]).get(doomed_addr):
+            assert run.poll() is None, "the run ended before the doomed worker got work"
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+        os.kill(doomed.pid, signal.SIGKILL)
+        doomed.wait()
+        assert run.poll() is None, "the run ended before the worker was killed"
+        assert not out.exists()  # nothing written before every row is in
+        output, _ = run.communicate(timeout=120)
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+    assert run.returncode == 0, output.decode()
+    assert [p.name for p in out.parent.iterdir()] == ["dfas.parquet"]  # no partial/temp file
+    rows = _rows(out)
+    assert len(rows) == 200
+    assert rows == _rows(reference)
