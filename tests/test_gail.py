@@ -233,6 +233,27 @@ def test_a_short_gail_run_learns_the_easy_episode(tmp_path: Path) -> None:
     assert "head.weight" in saved
 
 
+def test_the_ppo_update_keeps_sb3s_target_kl_and_value_clipping(tmp_path: Path) -> None:
+    """SB3's PPO settings the update once dropped: target_kl stops an update's epochs early,
+    clip_range_vf clips the value; approx_kl and clip_fraction are logged per rollout."""
+    demos = write_demos(tmp_path / "demos.parquet", EASY)
+    base = {"total_steps": 1024, "n_envs": 2, "batch_size": 64, "eval_every": 512, "seed": 0}
+    plain = train_gail(demos, tmp_path / "plain", GailSettings(**base, eval_episodes=2))
+    stopped = train_gail(
+        demos, tmp_path / "kl", GailSettings(**base, eval_episodes=2, target_kl=1e-9)
+    )
+    clipped = train_gail(
+        demos, tmp_path / "vf", GailSettings(**base, eval_episodes=2, clip_range_vf=1e-6)
+    )
+    for run in (plain, stopped, clipped):
+        for r in run["rollouts"]:
+            assert r["approx_kl"] >= 0.0 and 0.0 <= r["clip_fraction"] <= 1.0
+    assert not any(r["stopped_early"] for r in plain["rollouts"])
+    assert all(r["stopped_early"] for r in stopped["rollouts"][1:])  # past the first minibatch
+    values = [r["value_loss"] for r in plain["rollouts"]]
+    assert [r["value_loss"] for r in clipped["rollouts"]] != values  # the clip changed the loss
+
+
 def fake_run(
     path: Path, variant: str, seed: int, returns: list[float], violations: list | None = None
 ) -> Path:

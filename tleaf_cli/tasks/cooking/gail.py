@@ -76,6 +76,8 @@ class GailSettings:
     n_steps: int = 128  # per environment per rollout
     batch_size: int = 128
     n_epochs: int = 4
+    target_kl: float | None = None  # SB3's: stop an update's epochs past 1.5 · target_kl
+    clip_range_vf: float | None = None  # SB3's: clip the value's change (None: unclipped)
     lr: float = 1e-3
     gamma: float = 0.99
     ent_coef: float = 0.01
@@ -171,8 +173,11 @@ def uniform_probabilities(num_actions: int) -> Callable[[np.ndarray], np.ndarray
 class LogicPPO(PPO):
     """PPO whose update adds λ · ℓ_logic (on whole rollout episodes) to every minibatch's loss.
 
-    The update is SB3's PPO.train (clipped surrogate, unclipped value loss, entropy bonus,
-    gradient clipping, optional target_kl) written out so the logic term can join the loss.
+    The update is SB3's PPO.train written out so the logic term can join the loss: clipped
+    surrogate, value loss (clipped by `clip_range_vf` when set), entropy bonus, gradient
+    clipping, and SB3's early stop of an update's epochs once the approximate KL divergence
+    passes 1.5 · `target_kl` (when set). Per rollout it logs (`logic_log` and SB3's logger)
+    the losses, approx_kl, clip_fraction and explained variance, as SB3 does.
     """
 
     def setup_logic(self, logic: LogicTerm | None, lam: float, episodes: int, seed: int) -> None:
@@ -189,6 +194,11 @@ class LogicPPO(PPO):
         self.policy.set_training_mode(True)
         self._update_learning_rate(self.policy.optimizer)
         clip_range = self.clip_range(self._current_progress_remaining)
+        clip_range_vf = (
+            None
+            if self.clip_range_vf is None
+            else self.clip_range_vf(self._current_progress_remaining)
+        )
         buffer = self.rollout_buffer
         episodes = (
             rollout_episodes(
@@ -202,7 +212,10 @@ class LogicPPO(PPO):
         )
         violation_rate = self.logic.violation_rate(episodes) if self.logic is not None else None
         with_gradient = self.logic is not None and self.logic.kind in GRADIENT_LOSSES and episodes
-        stats: dict[str, list[float]] = {"policy": [], "value": [], "entropy": [], "logic": []}
+        stats: dict[str, list[float]] = {
+            "policy": [], "value": [], "entropy": [], "logic": [], "approx_kl": [], "clip": []
+        }  # fmt: skip
+        continue_training = True
         for _ in range(self.n_epochs):
             for data in buffer.get(self.batch_size):
                 actions = data.actions.long().flatten()
@@ -215,7 +228,13 @@ class LogicPPO(PPO):
                     advantages * ratio,
                     advantages * torch.clamp(ratio, 1 - clip_range, 1 + clip_range),
                 ).mean()
-                value_loss = F.mse_loss(data.returns, values.flatten())
+                stats["clip"].append(float(((ratio - 1).abs() > clip_range).float().mean()))
+                values = values.flatten()
+                if clip_range_vf is not None:  # SB3: the value moves at most clip_range_vf
+                    values = data.old_values + torch.clamp(
+                        values - data.old_values, -clip_range_vf, clip_range_vf
+                    )
+                value_loss = F.mse_loss(data.returns, values)
                 entropy_loss = -entropy.mean()
                 loss = policy_loss + self.ent_coef * entropy_loss + self.vf_coef * value_loss
                 if with_gradient:
@@ -225,6 +244,13 @@ class LogicPPO(PPO):
                     logic = self.logic.loss(self.policy, [episodes[i] for i in picked])
                     loss = loss + self.lam * logic
                     stats["logic"].append(float(logic.detach()))
+                with torch.no_grad():  # SB3's approximation of KL(old || new)
+                    log_ratio = log_prob - data.old_log_prob
+                    approx_kl = float(torch.mean(torch.exp(log_ratio) - 1 - log_ratio))
+                stats["approx_kl"].append(approx_kl)
+                if self.target_kl is not None and approx_kl > 1.5 * self.target_kl:
+                    continue_training = False  # SB3: stop this update before the step
+                    break
                 self.policy.optimizer.zero_grad()
                 loss.backward()
                 torch.nn.utils.clip_grad_norm_(self.policy.parameters(), self.max_grad_norm)
@@ -233,19 +259,27 @@ class LogicPPO(PPO):
                 stats["value"].append(float(value_loss.detach()))
                 stats["entropy"].append(float(-entropy_loss.detach()))
             self._n_updates += 1
-        self.logic_log.append(
-            {
-                "steps": int(self.num_timesteps),
-                "policy_loss": float(np.mean(stats["policy"])),
-                "value_loss": float(np.mean(stats["value"])),
-                "entropy": float(np.mean(stats["entropy"])),
-                "logic_loss": float(np.mean(stats["logic"])) if stats["logic"] else None,
-                "violation_rate": violation_rate,
-                "explained_variance": float(
-                    explained_variance(buffer.values.flatten(), buffer.returns.flatten())
-                ),
-            }
-        )
+            if not continue_training:
+                break
+        record = {
+            "steps": int(self.num_timesteps),
+            "policy_loss": float(np.mean(stats["policy"])) if stats["policy"] else None,
+            "value_loss": float(np.mean(stats["value"])) if stats["value"] else None,
+            "entropy": float(np.mean(stats["entropy"])) if stats["entropy"] else None,
+            "logic_loss": float(np.mean(stats["logic"])) if stats["logic"] else None,
+            "violation_rate": violation_rate,
+            "approx_kl": float(np.mean(stats["approx_kl"])),
+            "clip_fraction": float(np.mean(stats["clip"])),
+            "stopped_early": not continue_training,
+            "explained_variance": float(
+                explained_variance(buffer.values.flatten(), buffer.returns.flatten())
+            ),
+        }
+        self.logic_log.append(record)
+        for key, value in record.items():
+            if key != "steps" and value is not None:
+                self.logger.record(f"train/{key}", value)
+        self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
 
 
 # --------------------------------------------------------------------------- GAIL loop
@@ -368,6 +402,8 @@ def train_gail(
         n_steps=settings.n_steps,
         batch_size=settings.batch_size,
         n_epochs=settings.n_epochs,
+        target_kl=settings.target_kl,
+        clip_range_vf=settings.clip_range_vf,
         gamma=settings.gamma,
         ent_coef=settings.ent_coef,
         policy_kwargs={"net_arch": [settings.hidden, settings.hidden]},
