@@ -19,7 +19,7 @@ import numpy as np
 import torch
 
 import tleaf_cli.tasks.cooking  # noqa: F401  (registers the environment)
-from tleaf_cli.tasks.cooking.shield import CookingShield
+from tleaf_cli.tasks.cooking.shield import cooking_shield
 
 env = gym.make("tleaf/CreativeCooking-v0").unwrapped
 rng = np.random.default_rng(0)
@@ -30,7 +30,7 @@ for ep in range(int(sys.argv[1]) if len(sys.argv) > 1 else 20):
     env.reset(seed=ep)
     names = env.action_names
     assert len(set(names)) == len(names), "action names repeat"
-    shield = CookingShield(env.domain, env.ingredients, names)
+    shield = cooking_shield(env.domain, env.ingredients, names)
     shield.reset()
     for _ in range(30):
         feasible = torch.as_tensor(env.action_masks())

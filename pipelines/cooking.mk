@@ -27,6 +27,7 @@ else
 OUT ?= out/cooking
 SEEDS ?= 0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19
 LOSSES ?= none tleaf
+# also a variant: shield (the policy acts among the actions the rules allow), e.g. LOSSES="none shield"
 CHECKER_SEEDS ?= 0 1
 EXACT_SEEDS ?= 0 1 2 3 4
 DEMOS := --episodes 4 --seed 0
@@ -71,7 +72,7 @@ define RUN
 $(OUT)/runs/$(1)-seed$(2)/metrics.json: $(OUT)/demos.parquet \
     $(if $(filter tleaf,$(1)),$(OUT)/meta/metrics.json)
 	$(TLEAF) train-task cooking $(OUT)/demos.parquet $(if $(filter tleaf,$(1)),--embedder $(OUT)/meta) \
-	    --logic-loss $(1) --seed $(2) $(TASK) -o $$(@D) -q
+	    $(if $(filter shield,$(1)),--shield,--logic-loss $(1)) --seed $(2) $(TASK) -o $$(@D) -q
 endef
 # a run's variant and seed, from its path .../runs/<variant>-seed<seed>/metrics.json
 run_parts = $(subst -seed, ,$(notdir $(patsubst %/metrics.json,%,$(1))))

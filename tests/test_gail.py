@@ -363,3 +363,32 @@ def test_tleaf_logic_term_sends_gradient_into_the_policy(small_pipeline: Path, d
         assert batched == pytest.approx(reference, rel=1e-4, abs=1e-6)
     # the rule sets and q are not pickled into policy.zip (they made it 142 MB)
     assert (small_pipeline / "runs/tleaf-seed0/policy.zip").stat().st_size < 5_000_000
+
+
+def test_shielded_gail_masks_with_the_rules_and_starts_above_the_unshielded(tmp_path) -> None:
+    """--shield: MaskablePPO whose masks are the rules' shield (ShieldedActions); its untrained
+    policy, restricted to allowed actions, already wastes fewer steps on infeasible actions."""
+    from tleaf_cli.errors import SettingError
+    from tleaf_cli.tasks.cooking.shield import ShieldedActions, cooking_shield
+
+    env = ShieldedActions(gym.make(ENV_ID))
+    env.reset(seed=3)
+    game = env.unwrapped
+    shield = cooking_shield(game.domain, game.ingredients, game.action_names)
+    rng = np.random.default_rng(0)
+    for _ in range(10):  # the wrapper's mask follows the actions taken, as a fresh shield does
+        assert np.array_equal(env.action_masks(), shield.allowed().numpy())
+        action = int(rng.choice(np.flatnonzero(env.action_masks())))
+        shield.step(action)
+        if any(env.step(action)[2:4]):
+            break
+    demos = write_demos(tmp_path / "demos.parquet", EASY)
+    base = {"total_steps": 512, "n_envs": 2, "batch_size": 64, "eval_every": 512, "seed": 0}
+    plain = train_gail(demos, tmp_path / "plain", GailSettings(**base, eval_episodes=4))
+    shielded = train_gail(
+        demos, tmp_path / "shield", GailSettings(**base, eval_episodes=4, shield=True)
+    )
+    assert shielded["curve"][0]["mean_return"] > plain["curve"][0]["mean_return"]
+    assert json.loads((tmp_path / "shield/config.json").read_text())["settings"]["shield"]
+    with pytest.raises(SettingError, match="shield"):
+        GailSettings(shield=True, logic_loss="exact").check()

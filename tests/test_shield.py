@@ -74,7 +74,7 @@ def test_the_cooking_shield_allows_every_feasible_action_on_random_rollouts() ->
     import numpy as np
 
     import tleaf_cli.tasks.cooking  # noqa: F401  (registers the environment)
-    from tleaf_cli.tasks.cooking.shield import CookingShield
+    from tleaf_cli.tasks.cooking.shield import cooking_shield
 
     env = gym.make("tleaf/CreativeCooking-v0").unwrapped
     rng = np.random.default_rng(0)
@@ -83,7 +83,7 @@ def test_the_cooking_shield_allows_every_feasible_action_on_random_rollouts() ->
         env.reset(seed=episode)
         names = env.action_names
         assert len(set(names)) == len(names)  # one atom per action id
-        shield = CookingShield(env.domain, env.ingredients, names)
+        shield = cooking_shield(env.domain, env.ingredients, names)
         shield.reset()
         for _ in range(20):
             feasible = torch.as_tensor(env.action_masks())

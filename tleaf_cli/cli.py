@@ -1187,6 +1187,14 @@ def train_task_cooking(
         LogicLoss, typer.Option(help="none (plain GAIL), tleaf, exact, or checker (no gradient).")
     ] = "none",
     lam: Annotated[float, typer.Option("--lambda", help="Weight λ of the logic loss.")] = 1.0,
+    shield: Annotated[
+        bool,
+        typer.Option(
+            "--shield",
+            help="Act only among the actions the knowledge base's rules still allow "
+            "(MaskablePPO; the rules, not the environment's feasibility); without a logic loss.",
+        ),
+    ] = False,
     steps: Annotated[int, typer.Option(min=1, help="Environment steps to train.")] = 60_000,
     envs: Annotated[int, typer.Option(min=1, help="Environments per rollout.")] = 4,
     rollout: Annotated[int, typer.Option(min=8, help="Steps per environment per rollout.")] = 128,
@@ -1219,6 +1227,7 @@ def train_task_cooking(
     settings = GailSettings(
         logic_loss=logic_loss,
         lam=lam,
+        shield=shield,
         total_steps=steps,
         n_envs=envs,
         n_steps=rollout,

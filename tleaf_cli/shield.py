@@ -14,6 +14,9 @@ length; an episode cut short may still end unsatisfied (a rule like `F serve` un
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
+import numpy as np
 import torch
 
 from tleaf_cli.data.rule_set import RuleSet
@@ -21,44 +24,69 @@ from tleaf_cli.errors import InputError, RulesError
 
 
 class Shield:
-    """A runtime monitor of `rules` for a policy over `rules.vocabulary`.
+    """A runtime monitor of `rules` for a policy over the rules' vocabulary.
 
     Args:
-        rules: the rule set (`tl.RuleSet`) over the policy's actions.
+        rules: a rule set (`tl.RuleSet`) over the policy's actions, or several over the same
+            vocabulary: an action is then allowed when every one allows it. That is the shield
+            of their conjunction whenever each stays satisfiable on its own, as for safety rules
+            (never taking an action always meets them), without building the product automaton;
+            all of them advance together, in one tensor operation per step.
 
-    Raises RulesError when no sequence satisfies the rules (nothing could ever be allowed).
+    Raises RulesError when a rule set has no satisfying sequence (nothing could be allowed).
     """
 
-    def __init__(self, rules: RuleSet) -> None:
-        if not rules.satisfiable:
-            raise RulesError(f"rule set {rules.name}: no sequence satisfies it; nothing to allow")
-        self.rules = rules
-        dfa = rules.dfa
-        self._live = dfa.live()  # bool [S]: acceptance still reachable
-        live = torch.as_tensor(self._live)
-        table = torch.as_tensor(dfa.table, dtype=torch.long)  # [S, L]
-        letter_of = torch.as_tensor(rules.letters(range(len(rules.vocabulary))))  # [V]
-        self._next = table[:, letter_of]  # [S, V]: the state after each action
-        self._allowed = live[self._next]  # [S, V]
-        self.state = dfa.initial
+    def __init__(self, rules: RuleSet | Sequence[RuleSet]) -> None:
+        self.rule_sets = [rules] if isinstance(rules, RuleSet) else list(rules)
+        if not self.rule_sets:
+            raise InputError("a shield needs at least one rule set")
+        size = len(self.rule_sets[0].vocabulary)
+        for r in self.rule_sets:
+            if not r.satisfiable:
+                raise RulesError(f"rule set {r.name}: no sequence satisfies it; nothing to allow")
+            if len(r.vocabulary) != size:
+                raise InputError(f"rule set {r.name}: not over the same vocabulary as the others")
+        states = max(r.dfa.num_states for r in self.rule_sets)
+        n = len(self.rule_sets)
+        self._next = torch.zeros((n, states, size), dtype=torch.long)  # state after each action
+        self._live = torch.zeros((n, states), dtype=torch.bool)  # acceptance still reachable
+        self._accepting = torch.zeros((n, states), dtype=torch.bool)
+        for k, r in enumerate(self.rule_sets):
+            s = r.dfa.num_states
+            table = torch.as_tensor(r.dfa.table, dtype=torch.long)  # [S, L]
+            letter_of = torch.as_tensor(r.letters(np.arange(size)))  # [V]
+            self._next[k, :s] = table[:, letter_of]
+            self._live[k, :s] = torch.as_tensor(r.dfa.live())
+            self._accepting[k, :s] = torch.as_tensor(r.dfa.accepting)
+        self._rows = torch.arange(n)
+        self._allowed = torch.gather(  # [R, S, V]: the action leads to a live state
+            self._live[:, None, :].expand(-1, states, -1), 2, self._next
+        )
+        self._initial = torch.tensor([r.dfa.initial for r in self.rule_sets])
+        self.state = self._initial.clone()  # [R]
+
+    @property
+    def rules(self) -> RuleSet:
+        """The (first) rule set."""
+        return self.rule_sets[0]
 
     def reset(self) -> None:
-        """Back to the start of an episode (the DFA's initial state)."""
-        self.state = self.rules.dfa.initial
+        """Back to the start of an episode (every DFA's initial state)."""
+        self.state = self._initial.clone()
 
     def allowed(self) -> torch.Tensor:
         """BoolTensor [V]: the actions after which the rules can still be met."""
-        return self._allowed[self.state].clone()
+        return self._allowed[self._rows, self.state].all(dim=0)
 
     def step(self, index: int) -> bool:
         """Advance on the chosen action (a vocabulary index); True while the rules can still
         be met (False once an action outside `allowed()` was taken)."""
-        if not 0 <= int(index) < self._next.shape[1]:
-            raise InputError(f"action {index} is outside the vocabulary of {self._next.shape[1]}")
-        self.state = int(self._next[self.state, int(index)])
-        return bool(self._live[self.state])
+        if not 0 <= int(index) < self._next.shape[2]:
+            raise InputError(f"action {index} is outside the vocabulary of {self._next.shape[2]}")
+        self.state = self._next[self._rows, self.state, int(index)]
+        return bool(self._live[self._rows, self.state].all())
 
     @property
     def accepting(self) -> bool:
         """Whether the actions taken so far satisfy the rules (were the episode to end now)."""
-        return bool(self.rules.dfa.accepting[self.state])
+        return bool(self._accepting[self._rows, self.state].all())

@@ -33,6 +33,7 @@ import gymnasium as gym
 import numpy as np
 import torch
 import torch.nn.functional as F
+from sb3_contrib import MaskablePPO
 from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.env_util import make_vec_env
@@ -63,6 +64,7 @@ from tleaf_cli.tasks.cooking.logic_term import (
     LogicTerm,
     rollout_episodes,
 )
+from tleaf_cli.tasks.cooking.shield import ShieldedActions
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,7 @@ class GailSettings:
     """Everything a run depends on (written to config.json)."""
 
     logic_loss: str = "none"  # none | tleaf | exact | checker
+    shield: bool = False  # act only among the actions the rules' shield allows (MaskablePPO)
     lam: float = 1.0  # λ (the paper's value)
     total_steps: int = 60_000  # environment steps
     n_envs: int = 4
@@ -100,6 +103,8 @@ class GailSettings:
             raise SettingError(
                 "logic_loss", f"must be one of {', '.join(LOGIC_LOSSES)}, not {self.logic_loss!r}"
             )
+        if self.shield and self.logic_loss != "none":
+            raise SettingError("shield", "runs without a logic loss for now (logic_loss none)")
         if self.device not in ("cpu", "cuda") or (
             self.device == "cuda" and not torch.cuda.is_available()
         ):
@@ -130,13 +135,17 @@ def evaluate_returns(
     pool: Sequence[tuple[str, ...]],
     episodes: int,
     seed: int,
+    shielded: bool = False,
 ) -> list[float]:
     """True-reward returns of `episodes` seeded episodes; episode i uses pool[i mod |pool|].
 
     `probabilities(obs)` is the policy's action distribution; the action is drawn from it with a
-    generator seeded by (seed, i), so the same policy gives the same returns.
+    generator seeded by (seed, i), so the same policy gives the same returns. `shielded`: the
+    distribution restricted to the actions the rules' shield allows (a masked policy's).
     """
     env = gym.make(ENV_ID, domain=domain)
+    if shielded:
+        env = ShieldedActions(env)
     returns = []
     for i in range(episodes):
         rng = np.random.default_rng([seed, i])
@@ -144,6 +153,9 @@ def evaluate_returns(
         total, done = 0.0, False
         while not done:
             p = probabilities(obs)
+            if shielded:
+                p = p * env.action_masks()
+                p = p / p.sum()
             obs, reward, terminated, truncated, _ = env.step(int(rng.choice(len(p), p=p)))
             total += float(reward)
             done = terminated or truncated
@@ -282,6 +294,46 @@ class LogicPPO(PPO):
         self.logger.record("train/n_updates", self._n_updates, exclude="tensorboard")
 
 
+def _training_env(
+    domain: Domain,
+    pool: Sequence[tuple[str, ...]],
+    shield: bool,
+    compile_settings: CompileSettings | None,
+) -> gym.Env:
+    """One training environment: episodes drawn from `pool`, masked by the rules with `shield`."""
+    env = IngredientPool(gym.make(ENV_ID, domain=domain), pool)
+    return ShieldedActions(env, compile_settings) if shield else env
+
+
+class ShieldedPPO(MaskablePPO):
+    """GAIL's policy acting only among the actions the rules' shield allows: sb3-contrib's
+    MaskablePPO, its masks from `ShieldedActions` (the LTLf rules, not the environment's
+    feasibility). No logic term; per rollout it logs the same figures as LogicPPO where SB3
+    records them."""
+
+    def setup_logic(self, logic: LogicTerm | None, lam: float, episodes: int, seed: int) -> None:
+        self.logic_log: list[dict] = []
+
+    def _excluded_save_params(self) -> list[str]:
+        return [*super()._excluded_save_params(), "logic_log"]
+
+    def train(self) -> None:
+        super().train()
+        logged = self.logger.name_to_value
+        self.logic_log.append(
+            {
+                "steps": int(self.num_timesteps),
+                **{
+                    key: float(logged[f"train/{key}"])
+                    for key in ("approx_kl", "clip_fraction", "explained_variance")
+                    if f"train/{key}" in logged
+                },
+                "logic_loss": None,
+                "violation_rate": None,
+            }
+        )
+
+
 # --------------------------------------------------------------------------- GAIL loop
 
 
@@ -386,12 +438,12 @@ def train_gail(
     logic = LogicTerm(settings.logic_loss, knowledge) if settings.logic_loss != "none" else None
 
     venv = make_vec_env(
-        lambda: IngredientPool(gym.make(ENV_ID, domain=domain), pool),
+        lambda: _training_env(domain, pool, settings.shield, compile_settings),
         n_envs=settings.n_envs,
         seed=settings.seed,
     )
     disc = Discriminator(venv.observation_space.nvec, venv.action_space.n, settings.disc_hidden)
-    model = LogicPPO(
+    model = (ShieldedPPO if settings.shield else LogicPPO)(
         "MlpPolicy",
         # log D is unbounded below: scale it by the running std of the discounted return, or the
         # value loss's gradient dominates the clipped gradient norm and the policy never moves
@@ -422,7 +474,12 @@ def train_gail(
         expert_actions,
         settings,
         lambda: evaluate_returns(
-            policy_probabilities(model), domain, pool, settings.eval_episodes, eval_seed
+            policy_probabilities(model),
+            domain,
+            pool,
+            settings.eval_episodes,
+            eval_seed,
+            settings.shield,
         ),
         update,
     )

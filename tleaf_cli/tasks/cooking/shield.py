@@ -4,8 +4,8 @@ For an episode's ingredients, every rule of `knowledge.knowledge_base` (affordan
 mixture rules included) becomes a `tl.Shield` over the episode's action names (one atom per
 action id); an action is allowed when every rule's shield allows it. Every rule here is a safety
 property that some sequence always meets (never taking its action), so the conjunction can still
-be met exactly when each rule can: the AND of the per-rule masks is the shield of the whole rule
-set, without building its product automaton (hundreds of rules per episode).
+be met exactly when each rule can: `tl.Shield` over the list of rule sets ANDs their masks, the
+shield of the whole rule set without its product automaton (hundreds of rules per episode).
 
 Built only from the LTLf rules — never from the environment's feasibility; `tests/test_shield.py`
 compares the two on random rollouts (the rules are sound, so every feasible action is allowed;
@@ -16,7 +16,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import torch
+import gymnasium as gym
+import numpy as np
 
 from tleaf_cli.data.compile_dfas import CompileSettings
 from tleaf_cli.data.rule_set import RuleSet, compile_rules
@@ -25,34 +26,45 @@ from tleaf_cli.tasks.cooking.domain import Domain
 from tleaf_cli.tasks.cooking.knowledge import knowledge_base
 
 
-class CookingShield:
-    """`reset()`, `allowed()` [V] and `step(action)` for one episode, over its action names."""
+def cooking_shield(
+    domain: Domain,
+    ingredients: Sequence[str],
+    action_names: Sequence[str],
+    compile_settings: CompileSettings | None = None,
+) -> Shield:
+    """The shield of an episode's rules over its action names: one rule set per KB rule."""
+    rules = knowledge_base(domain, ingredients)
+    compile_rules([r.formula for r in rules], compile_settings)  # one batch
+    return Shield([RuleSet(r.formula, action_names, r.name, compile_settings) for r in rules])
 
-    def __init__(
-        self,
-        domain: Domain,
-        ingredients: Sequence[str],
-        action_names: Sequence[str],
-        compile_settings: CompileSettings | None = None,
-    ) -> None:
-        rules = knowledge_base(domain, ingredients)
-        compile_rules([r.formula for r in rules], compile_settings)  # one batch
-        self.rule_names = [r.name for r in rules]
-        self.shields = [
-            Shield(RuleSet(r.formula, action_names, r.name, compile_settings)) for r in rules
-        ]
 
-    def reset(self) -> None:
-        for shield in self.shields:
-            shield.reset()
+class ShieldedActions(gym.Wrapper):
+    """The environment with `action_masks()` from the rules' shield (not its own feasibility):
+    what sb3-contrib's MaskablePPO reads each step. The shield follows every action taken and
+    starts afresh at each reset; one shield per ingredient set is built and kept."""
 
-    def allowed(self) -> torch.Tensor:
-        """BoolTensor [V]: the actions every rule still allows."""
-        out = self.shields[0].allowed()
-        for shield in self.shields[1:]:
-            out &= shield.allowed()
-        return out
+    def __init__(self, env: gym.Env, compile_settings: CompileSettings | None = None) -> None:
+        super().__init__(env)
+        self.compile_settings = compile_settings
+        self._shields: dict[tuple[str, ...], Shield] = {}
+        self.shield: Shield | None = None
 
-    def step(self, action: int) -> bool:
-        """Advance every rule on the action; True while every rule can still be met."""
-        return all([shield.step(action) for shield in self.shields])
+    def reset(self, **kwargs):
+        obs, info = self.env.reset(**kwargs)
+        game = self.env.unwrapped
+        key = tuple(game.ingredients)
+        if key not in self._shields:
+            self._shields[key] = cooking_shield(
+                game.domain, key, game.action_names, self.compile_settings
+            )
+        self.shield = self._shields[key]
+        self.shield.reset()
+        return obs, info
+
+    def step(self, action):
+        self.shield.step(int(action))
+        return self.env.step(action)
+
+    def action_masks(self) -> np.ndarray:
+        """bool [actions]: the actions the rules still allow."""
+        return self.shield.allowed().numpy()
