@@ -65,11 +65,6 @@ class Shield:
         self._initial = torch.tensor([r.dfa.initial for r in self.rule_sets])
         self.state = self._initial.clone()  # [R]
 
-    @property
-    def rules(self) -> RuleSet:
-        """The (first) rule set."""
-        return self.rule_sets[0]
-
     def reset(self) -> None:
         """Back to the start of an episode (every DFA's initial state)."""
         self.state = self._initial.clone()
