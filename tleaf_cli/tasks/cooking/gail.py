@@ -129,23 +129,30 @@ class IngredientPool(gym.Wrapper):
         return self.env.reset(seed=seed, options={"ingredients": list(chosen)})
 
 
+def evaluation_env(
+    domain: Domain, shield: bool = False, compile_settings: CompileSettings | None = None
+) -> gym.Env:
+    """The environment evaluations run in; with `shield`, masked by the rules (`ShieldedActions`,
+    whose shields, one per ingredient set, are then built once for every evaluation)."""
+    env = gym.make(ENV_ID, domain=domain)
+    return ShieldedActions(env, compile_settings) if shield else env
+
+
 def evaluate_returns(
     probabilities: Callable[[np.ndarray], np.ndarray],
-    domain: Domain,
+    env: gym.Env,
     pool: Sequence[tuple[str, ...]],
     episodes: int,
     seed: int,
-    shielded: bool = False,
 ) -> list[float]:
-    """True-reward returns of `episodes` seeded episodes; episode i uses pool[i mod |pool|].
+    """True-reward returns of `episodes` seeded episodes in `env` (`evaluation_env`); episode i
+    uses pool[i mod |pool|] and is reset with seed + i, so reusing `env` changes nothing.
 
     `probabilities(obs)` is the policy's action distribution; the action is drawn from it with a
-    generator seeded by (seed, i), so the same policy gives the same returns. `shielded`: the
-    distribution restricted to the actions the rules' shield allows (a masked policy's).
+    generator seeded by (seed, i), so the same policy gives the same returns. In a shielded env
+    the distribution is restricted to the actions the rules allow (a masked policy's).
     """
-    env = gym.make(ENV_ID, domain=domain)
-    if shielded:
-        env = ShieldedActions(env)
+    shielded = isinstance(env, ShieldedActions)
     returns = []
     for i in range(episodes):
         rng = np.random.default_rng([seed, i])
@@ -160,7 +167,6 @@ def evaluate_returns(
             total += float(reward)
             done = terminated or truncated
         returns.append(total)
-    env.close()
     return returns
 
 
@@ -468,18 +474,14 @@ def train_gail(
     eval_seed = 10_000 + settings.seed
     expert_obs = torch.as_tensor(np.concatenate([e.observations for e in expert]))
     expert_actions = torch.as_tensor(np.concatenate([e.actions for e in expert]))
+    eval_env = evaluation_env(domain, settings.shield, compile_settings)
     callback = GailCallback(
         disc,
         expert_obs,
         expert_actions,
         settings,
         lambda: evaluate_returns(
-            policy_probabilities(model),
-            domain,
-            pool,
-            settings.eval_episodes,
-            eval_seed,
-            settings.shield,
+            policy_probabilities(model), eval_env, pool, settings.eval_episodes, eval_seed
         ),
         update,
     )
@@ -494,13 +496,14 @@ def train_gail(
         np.mean(
             evaluate_returns(
                 uniform_probabilities(venv.action_space.n),
-                domain,
+                evaluation_env(domain),
                 pool,
                 settings.eval_episodes,
                 eval_seed,
             )
         )
     )
+    eval_env.close()
     _write_run(out_dir, demos, embedder_dir, settings, pool, model, disc, metrics)
     venv.close()
     return metrics

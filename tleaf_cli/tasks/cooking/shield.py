@@ -1,11 +1,12 @@
-"""The cooking knowledge base as a shield for an episode's actions (`tl.Shield` per rule).
+"""The cooking knowledge base as a shield for an episode's actions (one `tl.Shield`, a rule set
+per rule).
 
 For an episode's ingredients, every rule of `knowledge.knowledge_base` (affordances, orderings,
-mixture rules included) becomes a `tl.Shield` over the episode's action names (one atom per
-action id); an action is allowed when every rule's shield allows it. Every rule here is a safety
-property that some sequence always meets (never taking its action), so the conjunction can still
-be met exactly when each rule can: `tl.Shield` over the list of rule sets ANDs their masks, the
-shield of the whole rule set without its product automaton (hundreds of rules per episode).
+mixture rules included) becomes a rule set over the episode's action names (one atom per action
+id), and one `tl.Shield` follows them all: an action is allowed when every rule allows it.
+Every rule here is a safety property that some sequence always meets (never taking its action),
+so the conjunction can still be met exactly when each rule can: the AND of the masks is the
+shield of the whole rule set, without its product automaton (hundreds of rules per episode).
 
 Built only from the LTLf rules — never from the environment's feasibility; `tests/test_shield.py`
 compares the two on random rollouts (the rules are sound, so every feasible action is allowed;
