@@ -180,11 +180,10 @@ class KnowledgeRuleSets:
         for present in atoms_per_sequence:
             rules = self.rules(present)
             groups.append([g for g in (by_ingredient(rules) if per_ingredient else [rules]) if g])
-        fresh = [
-            r.formula for gs in groups for g in gs if rule_set_id(g) not in self.by_id for r in g
-        ]
+        keyed = [[(rule_set_id(g), g) for g in gs] for gs in groups]
+        fresh = [r.formula for ks in keyed for rid, g in ks if rid not in self.by_id for r in g]
         compile_rules(fresh, self.settings)  # one batch for every rule of the new sets
-        return [[self.rule_set(g) for g in gs] for gs in groups]
+        return [[self._named(rid, g) for rid, g in ks] for ks in keyed]
 
     def one_each(self, atoms_per_sequence: Sequence[Collection[str]]) -> list[RuleSet | None]:
         """Each sequence's whole rule set (None where no rule applies)."""
@@ -192,7 +191,9 @@ class KnowledgeRuleSets:
 
     def rule_set(self, rules: Sequence[Rule]) -> RuleSet:
         """The rule set of `rules` (built on first sight, named by `knowledge.rule_set_id`)."""
-        rid = rule_set_id(rules)
+        return self._named(rule_set_id(rules), rules)
+
+    def _named(self, rid: str, rules: Sequence[Rule]) -> RuleSet:
         if rid not in self.by_id:
             ordered = sorted(rules, key=lambda r: r.name)
             rule_set = RuleSet([r.formula for r in ordered], self.vocabulary, rid, self.settings)
