@@ -283,8 +283,9 @@ def pattern_set(n_atoms: int) -> list[tuple[str, str]]:
 
 def compile_with_guards(text: str, alphabet: AlphabetKind = "powerset") -> DFA:
     """One formula as compile-dfa handles it (DFA and its row's guards), caches cold."""
-    guards._powerset_guard.cache_clear()
+    guards.powerset_guard.cache_clear()
     guards._isop.cache_clear()
+    guards._term_widths.cache_clear()
     dfa = compile_formula(text, alphabet)
     dfa_payload(dfa)
     return dfa

@@ -72,7 +72,7 @@ def test_jobs_two_writes_the_same_table_as_jobs_one(tmp_path: Path) -> None:
 
 def test_cache_hit_runs_no_mona(tmp_path: Path, monkeypatch) -> None:
     src = _write(tmp_path / "f.ltl", ["G(a -> F b)", "a U b", "F(c & last)"])
-    settings = compile_dfas.CompileSettings(cache_dir=tmp_path / "cache")
+    settings = compile_dfas.CompileSettings(cache_dir=tmp_path / "cache", engine="mona")
     first = compile_dfas.compile_file(src, tmp_path / "1.parquet", settings)
     assert first.cache_hits == 0 and first.compiled == 3
 
@@ -84,7 +84,9 @@ def test_cache_hit_runs_no_mona(tmp_path: Path, monkeypatch) -> None:
     assert second.cache_hits == 3 and second.compiled == 3
     assert pq.read_table(tmp_path / "1.parquet").equals(pq.read_table(tmp_path / "2.parquet"))
     # Another alphabet is another key: a miss, so MONA is needed (and here refused).
-    other = compile_dfas.CompileSettings(alphabet="one-hot", cache_dir=tmp_path / "cache")
+    other = compile_dfas.CompileSettings(
+        alphabet="one-hot", cache_dir=tmp_path / "cache", engine="mona"
+    )
     with pytest.raises(AssertionError, match="MONA was called"):
         compile_dfas.compile_file(src, tmp_path / "3.parquet", other)
 

@@ -2,7 +2,7 @@
 
 The public Python API (DESIGN.md, "Python API"), for ``import tleaf_cli as tl``:
 
-* ``tl.compile_formula(text, alphabet="powerset" | "one-hot") -> tl.DFA``  minimal, via MONA
+* ``tl.compile_formula(text, alphabet="powerset" | "one-hot") -> tl.DFA``  minimal
 * ``tl.check(dfa, traces) -> np.ndarray[bool]``                           exact, batched
 * ``tl.RuleSet(formulas, vocabulary)``   the conjunction of formulas, one DFA over a one-hot
   vocabulary (a model's output items)
@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import importlib
 from typing import TYPE_CHECKING, Any
+
+from tleaf_cli import deferred_imports  # noqa: F401  (first: it keeps sympy from loading)
 
 __version__ = "0.1.0"
 

@@ -96,6 +96,7 @@ KbFormulaFrom = Literal["labels"]
 RuleSets = Literal["video", "ingredient"]
 PairFeatures = Literal["concat", "rich"]
 TaskModel = Literal["lstm", "tcn"]
+CompileEngine = Literal["auto", "progression", "mona"]  # logic/compile.py ENGINES
 LogicLoss = Literal["none", "tleaf", "checker", "exact"]
 TaskFormulaFrom = Literal["predictions", "labels"]
 Decoding = Literal["argmax", "constrained"]  # test-time decoding of train-task action-recognition
@@ -110,7 +111,13 @@ Resume = Annotated[
 
 
 def _compile_settings(
-    one_hot: bool, timeout: float, cache_dir, no_cache: bool, jobs: int, cluster: str | None = None
+    one_hot: bool,
+    timeout: float,
+    cache_dir,
+    no_cache: bool,
+    jobs: int,
+    cluster: str | None = None,
+    engine: CompileEngine = "auto",
 ):
     from tleaf_cli.data.compile_dfas import CompileSettings, default_cache_dir
 
@@ -119,6 +126,7 @@ def _compile_settings(
         timeout=timeout,
         cache_dir=None if no_cache else (cache_dir or default_cache_dir()),
         jobs=jobs,
+        engine=engine,
         cluster=cluster or None,
     )
 
@@ -252,6 +260,15 @@ def compile_dfa(
     timeout: Annotated[
         float, typer.Option(min=0.1, help="Seconds MONA may spend on one formula.")
     ] = COMPILE_TIMEOUT,
+    engine: Annotated[
+        CompileEngine,
+        typer.Option(
+            help="auto: build the DFA in this process by formula progression, and hand a "
+            "formula to MONA when that passes its limits (2,000 states); progression: never "
+            "MONA (such formulas fail); mona: MONA for every formula. All give the same "
+            "minimal DFA."
+        ),
+    ] = "auto",
     graphs: Annotated[
         Path | None, typer.Option(help="Also write <id>.graphml and <id>.dot per DFA here.")
     ] = None,
@@ -264,14 +281,14 @@ def compile_dfa(
     ] = False,
     quiet: Quiet = False,
 ) -> None:
-    """Compile LTLf formulas to minimal DFAs (MONA), one row per formula.
+    """Compile LTLf formulas to minimal DFAs, one row per formula.
 
     A formula that fails (syntax, timeout) gets a row whose `error` says why; the others are still
     compiled, and the exit status is 1.
     """
     from tleaf_cli.data.compile_dfas import compile_file
 
-    settings = _compile_settings(one_hot, timeout, cache_dir, no_cache, jobs, cluster)
+    settings = _compile_settings(one_hot, timeout, cache_dir, no_cache, jobs, cluster, engine)
     _reachable(cluster)
     with ui.progress("compiling", quiet) as update:
         report = compile_file(formulas, out, settings, graphs, update)

@@ -30,12 +30,15 @@ from tleaf_cli.errors import TleafError
 from tleaf_cli.logic import alphabet as alphabet_mod
 from tleaf_cli.logic import compile as compile_mod
 from tleaf_cli.logic import dfa as dfa_mod
+from tleaf_cli.logic import grammar as grammar_mod
 from tleaf_cli.logic import guards as guards_mod
 from tleaf_cli.logic import mona as mona_mod
+from tleaf_cli.logic import progression as progression_mod
 from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind, LetterError
-from tleaf_cli.logic.compile import compile_parsed
+from tleaf_cli.logic.compile import Engine, compile_parsed
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 from tleaf_cli.logic.mona import MonaError, mona_binary, mona_version
+from tleaf_cli.logic.progression import TooLarge
 
 
 def default_cache_dir() -> Path:
@@ -52,6 +55,7 @@ class CompileSettings:
     timeout: float = COMPILE_TIMEOUT
     cache_dir: Path | None = field(default_factory=default_cache_dir)
     jobs: int = 1
+    engine: Engine = "auto"  # logic/compile.py: in-process progression, MONA past its limits
     cluster: str | None = None  # a dask scheduler address: run there instead (data/parallel.py)
 
 
@@ -89,9 +93,17 @@ def compile_sources(
     texts = list(tasks)
     # Absolute, so workers started elsewhere (a cluster's) find the same folder.
     cache_dir = str(Path(settings.cache_dir).absolute()) if settings.cache_dir else None
-    args = [(text, settings.alphabet, settings.timeout, cache_dir, versions) for text in texts]
+    args = [
+        (text, settings.alphabet, settings.timeout, settings.engine, cache_dir, versions)
+        for text in texts
+    ]
     jobs = 1 if len(texts) < 2 else settings.jobs
-    results = parallel_map(_compile_task, args, jobs, settings.cluster)
+    # Most formulas compile in well under a millisecond, faster than workers start: this process
+    # compiles too from the first moment (share_work), and a cluster takes them in batches.
+    batch = max(1, len(texts) // (4 * max(1, jobs)))
+    results = parallel_map(
+        _compile_task, args, jobs, settings.cluster, share_work=True, batch_size=batch
+    )
     hits = 0
     for k, outcome in enumerate(results):
         hits += outcome.cache_hit
@@ -165,6 +177,7 @@ def _compile_task(
     text: str,
     alphabet: AlphabetKind,
     timeout: float,
+    engine: Engine,
     cache_dir: str | None,
     versions: tuple[str, ...],
 ) -> _Outcome:
@@ -179,12 +192,13 @@ def _compile_task(
     canonical = str(formula)
     try:
         if cache_dir is None:
-            return _Outcome(_compile_payload(canonical, alphabet, timeout, versions, formula))
+            payload = _compile_payload(canonical, alphabet, timeout, versions, formula, engine)
+            return _Outcome(payload)
         cached = _memorized(cache_dir)
         hit = cached.check_call_in_cache(canonical, alphabet, timeout, versions)
-        payload = cached(canonical, alphabet, timeout, versions, formula)
+        payload = cached(canonical, alphabet, timeout, versions, formula, engine)
         return _Outcome(payload, cache_hit=hit)
-    except MonaError as e:
+    except (MonaError, TooLarge) as e:
         return _Outcome(None, str(e))
 
 
@@ -194,23 +208,35 @@ def _compile_payload(
     timeout: float,
     versions: tuple[str, ...],
     formula: LTLfFormula | None = None,
+    engine: Engine = "auto",
 ) -> dict:
     """The cached unit, keyed on (canonical text, alphabet, versions); `formula` is the parse of
-    `canonical`, passed so it is not parsed twice, and left out of the key like `timeout`."""
-    return dfa_payload(compile_parsed(formula or parse(canonical), alphabet, timeout))
+    `canonical`, passed so it is not parsed twice, and left out of the key like `timeout` and
+    `engine` (every engine gives the same minimal DFA: logic/compile.py)."""
+    dfa = compile_parsed(formula or parse(canonical), alphabet, timeout, engine)
+    return dfa_payload(dfa)
 
 
 @cache
 def _memorized(cache_dir: str):
     memory = Memory(location=cache_dir, verbose=0)
-    return memory.cache(_compile_payload, ignore=["timeout", "formula"])
+    return memory.cache(_compile_payload, ignore=["timeout", "formula", "engine"])
 
 
 @cache
 def _versions() -> tuple[str, ...]:
     """Everything that shapes a compiled DFA: tool versions and tleaf's logic code."""
     code = hashlib.sha256()
-    for module in (alphabet_mod, compile_mod, dfa_mod, guards_mod, mona_mod):
+    modules = (
+        alphabet_mod,
+        compile_mod,
+        dfa_mod,
+        grammar_mod,
+        guards_mod,
+        mona_mod,
+        progression_mod,
+    )
+    for module in modules:
         code.update(Path(module.__file__).read_bytes())
     try:
         mona = mona_version()

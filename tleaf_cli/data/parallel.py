@@ -19,6 +19,8 @@ from joblib import Parallel, delayed, parallel_config
 from tleaf_cli.errors import SettingError
 
 CONNECT_TIMEOUT = 10.0  # seconds to reach the scheduler before giving up
+# parallel_map(share_work=True) hands out items in chunks of at most this many.
+SHARE_CHUNK = 32
 
 
 @contextmanager
@@ -59,6 +61,7 @@ def parallel_map(
     arg_tuples: Iterable[tuple],
     jobs: int = 1,
     cluster: str | None = None,
+    share_work: bool = False,
     **parallel_kwargs: Any,
 ) -> Iterator[Any]:
     """`func(*args)` for each of `arg_tuples`, yielded in input order.
@@ -66,6 +69,12 @@ def parallel_map(
     With `cluster` the calls run on that dask scheduler's workers (`jobs` is then not used);
     else with `jobs` > 1 on joblib's local processes; else here, one after the other.
     `parallel_kwargs` go to `joblib.Parallel` (e.g. batch_size).
+
+    `share_work` (local processes only), for many items of a millisecond or less: this process
+    works too, so `jobs` counts it, and it starts on the items at once, while the other
+    `jobs - 1` workers start (half a second, more than a thousand such items take). Items are cut
+    into chunks; this process takes the next chunk no worker has taken yet, the workers take
+    theirs from the same queue, so short work never waits for workers and long work uses them all.
     """
     if cluster:
         with cluster_client(cluster) as client, parallel_config(backend="dask", client=client):
@@ -74,6 +83,41 @@ def parallel_map(
     elif jobs == 1:
         for a in arg_tuples:
             yield func(*a)
+    elif share_work:
+        yield from _shared_map(func, list(arg_tuples), jobs)
     else:
         parallel = Parallel(n_jobs=jobs, return_as="generator", **parallel_kwargs)
         yield from parallel(delayed(func)(*a) for a in arg_tuples)
+
+
+def _shared_map(func: Callable[..., Any], items: list[tuple], jobs: int) -> Iterator[Any]:
+    """`parallel_map(..., share_work=True)`: every chunk is queued for the `jobs - 1` workers of
+    a loky executor (joblib's process pool), and this process, in order, takes back each chunk not yet
+    started (a queued future can still be cancelled) and runs it here; results in input order."""
+    from joblib.externals.loky import ProcessPoolExecutor
+
+    size = max(1, min(SHARE_CHUNK, len(items) // (4 * jobs)))
+    chunks = [items[i : i + size] for i in range(0, len(items), size)]
+    # Its own executor: joblib's reusable one is resized by other calls in the same process.
+    executor = ProcessPoolExecutor(max_workers=jobs - 1)
+    futures = [executor.submit(_run_chunk, func, chunk) for chunk in chunks]
+    here: dict[int, list[Any]] = {}
+    next_out = 0
+    try:
+        for k, future in enumerate(futures):
+            if future.cancel():
+                here[k] = _run_chunk(func, chunks[k])
+            # Yield what is ready, in order, so progress shows as work is done.
+            while next_out < len(futures) and (next_out in here or futures[next_out].done()):
+                yield from here.pop(next_out, None) or futures[next_out].result()
+                next_out += 1
+        for k in range(next_out, len(futures)):
+            yield from here.pop(k, None) or futures[k].result()
+    finally:
+        for future in futures:
+            future.cancel()
+        executor.shutdown(wait=False, kill_workers=True)  # all results are in by now
+
+
+def _run_chunk(func: Callable[..., Any], chunk: list[tuple]) -> list[Any]:
+    return [func(*a) for a in chunk]

@@ -86,7 +86,17 @@ class Alphabet:
         missing = set(self.atoms) - set(other.atoms)
         if missing:
             raise InputError(f"atoms {sorted(missing)} are not in the target alphabet")
-        return np.array([self.index(other.letter(i)) for i in range(other.size)], dtype=np.int64)
+        position = {a: k for k, a in enumerate(other.atoms)}
+        if self.kind == "powerset":  # gather each of self's atoms' bits from other's letters
+            ids = np.arange(other.size, dtype=np.int64)
+            out = np.zeros(other.size, dtype=np.int64)
+            for j, atom in enumerate(self.atoms):
+                out |= (ids >> position[atom] & 1) << j
+            return out
+        out = np.zeros(other.size, dtype=np.int64)  # one-hot: other's atom k+1 -> self's or none
+        for j, atom in enumerate(self.atoms):
+            out[position[atom] + 1] = j + 1
+        return out
 
     def encode(self, traces: Sequence[Sequence[Collection[str]]]) -> tuple[np.ndarray, np.ndarray]:
         """Traces as a padded letter matrix int32 [n_traces, max_len] plus int32 lengths.

@@ -1,30 +1,60 @@
-"""LTLf formula text to a minimal DFA: parse, encode for MONA, run it, read back, minimise."""
+"""LTLf formula text to a minimal DFA: in this process by progression where that is quick, else by
+MONA (parse, encode, run it, read back), minimised either way.
+
+Both routes end in the same canonical minimal DFA (`DFA.minimize` numbers states the same way for
+one language), so which one compiled a formula never shows in the result; the tests compare them
+formula by formula. `engine` picks the route: "auto" (progression, MONA when progression passes
+its limits), "progression" (never MONA: past the limits the formula fails), or "mona".
+"""
 
 from __future__ import annotations
+
+from typing import Literal
 
 from ltlf2dfa.ltlf import LTLfFormula
 
 from tleaf_cli.defaults import COMPILE_TIMEOUT
+from tleaf_cli.errors import SettingError
 from tleaf_cli.logic import mona
 from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import atoms, parse
+from tleaf_cli.logic.progression import TooLarge, progression_dfa
+
+Engine = Literal["auto", "progression", "mona"]
+ENGINES: tuple[Engine, ...] = ("auto", "progression", "mona")
 
 
 def compile_formula(
-    text: str, alphabet: AlphabetKind = "powerset", timeout: float = COMPILE_TIMEOUT
+    text: str,
+    alphabet: AlphabetKind = "powerset",
+    timeout: float = COMPILE_TIMEOUT,
+    engine: Engine = "auto",
 ) -> DFA:
     """The minimal DFA accepting exactly the non-empty traces that satisfy `text`.
 
-    Raises FormulaSyntaxError, LetterError (too many atoms for a powerset alphabet) or MonaError.
+    Raises FormulaSyntaxError, LetterError (too many atoms for a powerset alphabet), MonaError, or
+    TooLarge (engine "progression" only).
     """
-    return compile_parsed(parse(text), alphabet, timeout)
+    return compile_parsed(parse(text), alphabet, timeout, engine)
 
 
 def compile_parsed(
-    formula: LTLfFormula, alphabet: AlphabetKind = "powerset", timeout: float = COMPILE_TIMEOUT
+    formula: LTLfFormula,
+    alphabet: AlphabetKind = "powerset",
+    timeout: float = COMPILE_TIMEOUT,
+    engine: Engine = "auto",
 ) -> DFA:
-    """`compile_formula` for a formula already parsed."""
+    """`compile_formula` for a formula already parsed. `timeout` bounds MONA only; progression is
+    bounded by its state and work limits (progression.MAX_STATES, MAX_WORK) instead."""
+    if engine not in ENGINES:
+        raise SettingError("engine", f"must be one of {', '.join(ENGINES)}, not {engine!r}")
     letters = Alphabet(atoms(formula), alphabet)
+    if engine != "mona":
+        try:
+            return progression_dfa(formula, letters)
+        except TooLarge:
+            if engine == "progression":
+                raise
     output = mona.run_mona(mona.mona_program(formula), timeout)
     return mona.automaton_to_dfa(mona.parse_output(output), letters)

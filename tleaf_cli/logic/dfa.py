@@ -17,7 +17,10 @@ import numpy as np
 
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
-from tleaf_cli.logic.guards import Guard, cnf_holds, guard_for
+from tleaf_cli.logic.guards import Guard, cnf_holds, row_guards
+
+# Tables of at most this many entries (states x letters) are minimised in plain Python.
+SMALL_TABLE = 4096
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,8 +98,9 @@ class DFA:
     def complement(self) -> DFA:
         return DFA(self.alphabet, self.table, self.initial, ~self.accepting).minimize()
 
-    def product(self, other: DFA, mode: str = "and") -> DFA:
-        """Synchronous product over the union of both alphabets' atoms; `mode` and/or/xor."""
+    def product(self, other: DFA, mode: str = "and", canonical: bool = True) -> DFA:
+        """Synchronous product over the union of both alphabets' atoms; `mode` and/or/xor.
+        Minimal; `canonical=False` skips the breadth-first numbering (see `minimize`)."""
         combine = {"and": np.logical_and, "or": np.logical_or, "xor": np.logical_xor}[mode]
         if self.alphabet.kind != other.alphabet.kind:
             raise InputError("cannot combine DFAs over a powerset and a one-hot alphabet")
@@ -120,7 +124,7 @@ class DFA:
         pairs = np.array(order, dtype=np.int64)
         table = ids[np.vstack(rows)]
         accepting = combine(self.accepting[pairs // nb], other.accepting[pairs % nb])
-        return DFA(union, table, 0, accepting).minimize()
+        return DFA(union, table, 0, accepting).minimize(canonical)
 
     def intersect(self, other: DFA) -> DFA:
         return self.product(other, "and")
@@ -130,12 +134,21 @@ class DFA:
         return not self.product(other, "xor").accepting.any()
 
     # ----------------------------------------------------------- minimisation
-    def minimize(self) -> DFA:
+    def minimize(self, canonical: bool = True) -> DFA:
         """The minimal DFA of the same language, states numbered in breadth-first order.
 
         Moore's partition refinement on the reachable part; two DFAs of one language over one
         alphabet come out identical (same table), so equality of tables decides equivalence.
+        Small tables (most rules) are refined in plain Python, large ones with array operations:
+        the same result, at a fraction of numpy's per-call cost on a handful of states.
+        `canonical=False` leaves the states in an arbitrary order (initial state 0 or not): for
+        a DFA that is minimised again or renumbered later, e.g. a step of a chain of products.
         """
+        if self.table.size <= SMALL_TABLE:
+            rows, initial, accepting = _minimize_small(
+                self.table.tolist(), self.initial, self.accepting.tolist()
+            )
+            return DFA(self.alphabet, np.array(rows, dtype=np.int32), initial, accepting)
         reach = self._reachable()
         remap = np.full(self.num_states, -1, dtype=np.int64)
         remap[reach] = np.arange(len(reach))
@@ -153,21 +166,45 @@ class DFA:
         rep = np.zeros(count, dtype=np.int64)
         rep[cls] = np.arange(len(cls))
         quotient = cls[table[rep]]
-        return _renumber_bfs(self.alphabet, quotient, int(cls[remap[self.initial]]), accepting[rep])
+        start = int(cls[remap[self.initial]])
+        if not canonical:
+            return DFA(self.alphabet, quotient, start, accepting[rep])
+        return _renumber_bfs(self.alphabet, quotient, start, accepting[rep])
 
-    def minimize_nonempty(self) -> DFA:
-        """Minimal DFA for the non-empty traces of this language.
+    def minimize_nonempty(self, minimal: bool = False) -> DFA:
+        """Minimal DFA for the non-empty traces of this language (`minimal`: self already is a
+        minimal DFA, which saves minimising it again).
 
-        The initial state gets a fresh copy (so its acceptance only decides the empty word), then
-        both choices are minimised and the smaller kept; on a tie, the empty word is rejected.
+        The initial state gets a fresh copy (so its acceptance only decides the empty word), and of
+        the two choices of that acceptance the one with fewer states is kept; on a tie, the empty
+        word is rejected. In a minimal DFA that choice needs no refinement: the states reachable
+        in one step or more stay pairwise distinct, and the fresh start merges with one of them
+        exactly when it has the same acceptance and the same row.
         """
-        n = self.num_states
-        table = np.vstack([self.table, self.table[self.initial][None, :]])
-        variants = []
+        dfa = self if minimal else self.minimize()
+        table, start = dfa.table, dfa.initial
+        after = np.zeros(dfa.num_states, dtype=bool)  # reachable in one step or more
+        frontier = np.unique(table[start])
+        after[frontier] = True
+        while len(frontier):
+            nxt = np.unique(table[frontier])
+            frontier = nxt[~after[nxt]]
+            after[frontier] = True
+        kept = np.flatnonzero(after)
+        same_row = kept[(table[kept] == table[start]).all(axis=1)]
+        best = None
         for accept_empty in (False, True):
-            acc = np.append(self.accepting, accept_empty)
-            variants.append(DFA(self.alphabet, table, n, acc).minimize())
-        return min(variants, key=lambda d: d.num_states)
+            twin = same_row[dfa.accepting[same_row] == accept_empty]
+            size = len(kept) + (len(twin) == 0)
+            if best is None or size < best[0]:
+                best = (size, accept_empty, twin)
+        _, accept_empty, twin = best
+        if len(twin):  # the fresh start is an existing state
+            return _renumber_reachable(dfa.alphabet, table, int(twin[0]), dfa.accepting)
+        n = dfa.num_states
+        table = np.vstack([table, table[start][None, :]])
+        accepting = np.append(dfa.accepting, accept_empty)
+        return _renumber_reachable(dfa.alphabet, table, n, accepting)
 
     def live(self) -> np.ndarray:
         """bool [S]: the states from which some accepting state can be reached (in ≥ 0 steps)."""
@@ -204,7 +241,11 @@ class DFA:
 
     def guarded_edges(self) -> list[tuple[int, int, Guard]]:
         """(src, dst, guard) in (src, dst) order."""
-        return [(s, d, guard_for(mask, self.alphabet)) for s, d, mask in self.edges()]
+        return [
+            (src, dst, guard)
+            for src in range(self.num_states)
+            for dst, guard in row_guards(self.table[src], self.alphabet)
+        ]
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, DFA):
@@ -219,13 +260,70 @@ class DFA:
     __hash__ = None  # type: ignore[assignment]
 
 
+def _minimize_small(
+    table: list[list[int]], initial: int, accepting: list[bool]
+) -> tuple[list[list[int]], int, list[bool]]:
+    """`DFA.minimize` on lists: reachable states, Moore refinement, breadth-first numbering with
+    successors in letter order (the canonical form `_renumber_bfs` gives)."""
+    order = [initial]
+    seen = {initial}
+    for s in order:
+        for t in table[s]:
+            if t not in seen:
+                seen.add(t)
+                order.append(t)
+    cls = {s: int(accepting[s]) for s in order}
+    count = len(set(cls.values()))
+    while True:
+        ids: dict[tuple, int] = {}
+        new = {s: ids.setdefault((cls[s], *[cls[t] for t in table[s]]), len(ids)) for s in order}
+        cls = new
+        if len(ids) == count:
+            break
+        count = len(ids)
+    # Breadth-first from the initial class, successors in letter order; one row per class.
+    rep: dict[int, int] = {}
+    for s in order:
+        rep.setdefault(cls[s], s)
+    number = {cls[initial]: 0}
+    queue = [cls[initial]]
+    for c in queue:
+        for t in table[rep[c]]:
+            if cls[t] not in number:
+                number[cls[t]] = len(queue)
+                queue.append(cls[t])
+    rows = [[number[cls[t]] for t in table[rep[c]]] for c in queue]
+    return rows, 0, [accepting[rep[c]] for c in queue]
+
+
 def _row_classes(rows: np.ndarray) -> np.ndarray:
-    """Class index per row, equal rows equal classes: rows compared as raw bytes (memcmp),
-    much faster than np.unique(axis=0)'s column-by-column sort on wide tables."""
+    """Class index per row, equal rows equal classes.
+
+    Wide rows (large alphabets) are hashed to one 64-bit number each and grouped by it, then every
+    row is compared with its group's first: when a hash collision put different rows together
+    (never seen; possible), the exact route runs instead. The exact route compares rows as raw
+    bytes (memcmp), much faster than np.unique(axis=0)'s column-by-column sort on wide tables.
+    """
     rows = np.ascontiguousarray(rows)
+    if rows.shape[1] > HASHED_ROW_WIDTH:
+        keys = rows.astype(np.uint64) @ _row_weights(rows.shape[1])  # wraps modulo 2**64
+        _, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        if np.array_equal(rows, rows[first[inverse]]):
+            return inverse.astype(np.int64)
     keys = rows.view(np.dtype((np.void, rows.dtype.itemsize * rows.shape[1]))).ravel()
     _, inverse = np.unique(keys, return_inverse=True)
     return inverse.reshape(-1).astype(np.int64)
+
+
+# Rows wider than this are grouped by a hash first (_row_classes).
+HASHED_ROW_WIDTH = 64
+
+
+def _row_weights(width: int) -> np.ndarray:
+    """Fixed odd 64-bit multipliers, one per column, for row hashes."""
+    rng = np.random.default_rng(width)
+    return rng.integers(0, 2**63, size=width, dtype=np.uint64) * np.uint64(2) + np.uint64(1)
 
 
 def _successors_in_letter_order(table: np.ndarray) -> list[list[int]]:
@@ -244,6 +342,40 @@ def _successors_in_letter_order(table: np.ndarray) -> list[list[int]]:
     ):
         succ[r].append(dst)
     return succ
+
+
+def _renumber_reachable(
+    alphabet: Alphabet, table: np.ndarray, initial: int, accepting: np.ndarray
+) -> DFA:
+    """`_renumber_bfs` of the states reachable from `initial` only."""
+    if table.size <= SMALL_TABLE:
+        rows, start, acc = _renumber_small(table.tolist(), initial, accepting.tolist())
+        return DFA(alphabet, np.array(rows, dtype=np.int32), start, acc)
+    seen = np.zeros(len(table), dtype=bool)
+    seen[initial] = True
+    frontier = np.array([initial])
+    while len(frontier):
+        nxt = np.unique(table[frontier])
+        frontier = nxt[~seen[nxt]]
+        seen[frontier] = True
+    reach = np.flatnonzero(seen)
+    remap = np.full(len(table), -1, dtype=np.int64)
+    remap[reach] = np.arange(len(reach))
+    return _renumber_bfs(alphabet, remap[table[reach]], int(remap[initial]), accepting[reach])
+
+
+def _renumber_small(
+    table: list[list[int]], initial: int, accepting: list[bool]
+) -> tuple[list[list[int]], int, list[bool]]:
+    """`_renumber_reachable` on lists: breadth-first, successors in letter order."""
+    number = {initial: 0}
+    order = [initial]
+    for s in order:
+        for t in table[s]:
+            if t not in number:
+                number[t] = len(order)
+                order.append(t)
+    return [[number[t] for t in table[s]] for s in order], 0, [accepting[s] for s in order]
 
 
 def _renumber_bfs(

@@ -1,8 +1,9 @@
 """LTLf formulas: parsing with ltlf2dfa's grammar, and errors a person can act on.
 
 The grammar and the formula classes are ltlf2dfa's (`ltlf2dfa/parser/ltlf.lark`); tleaf keeps its
-meaning, quirks included (see docs/formulas.md). What this module adds is one parser per process
-and syntax errors that name the column and say what was expected, instead of lark's dump.
+meaning, quirks included (see docs/formulas.md). What this module adds is one parser per process,
+a faster reader for the plain cases (`grammar.py`, which defers to lark on anything else), and
+syntax errors that name the column and say what was expected, instead of lark's dump.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from ltlf2dfa.ltlf import LTLfFormula, LTLfImplies, LTLfRelease, LTLfUntil
 from ltlf2dfa.parser.ltlf import LTLfParser
 
 from tleaf_cli.errors import InputError
+from tleaf_cli.logic.grammar import read_formula
 
 OPERATORS_HELP = "operators are ! & | -> <-> X WX F G U R (also ~ && || => <=>)"
 # The deepest nesting of operators a formula may have. Parsing, printing, the MONA encoding, the
@@ -59,6 +61,10 @@ def parse(text: str) -> LTLfFormula:
         raise FormulaSyntaxError("empty formula")
     if _parenthesis_depth(text) > MAX_DEPTH:
         raise FormulaSyntaxError(TOO_DEEP)
+    formula = read_formula(text)  # the common case, without lark (grammar.py)
+    if formula is not None:
+        check_depth(formula)
+        return formula
     try:
         formula = _parser()(text)
     except RecursionError:

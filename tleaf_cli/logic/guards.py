@@ -27,7 +27,7 @@ from functools import lru_cache
 import numpy as np
 
 from tleaf_cli.errors import InputError
-from tleaf_cli.logic.alphabet import Alphabet
+from tleaf_cli.logic.alphabet import MAX_POWERSET_ATOMS, Alphabet
 
 Clause = tuple[int, ...]
 
@@ -45,30 +45,51 @@ def guard_for(letters: np.ndarray, alphabet: Alphabet) -> Guard:
     letters = np.asarray(letters, dtype=bool)
     if letters.shape != (alphabet.size,):
         raise InputError(f"expected {alphabet.size} letters, got shape {letters.shape}")
-    if letters.all():
-        return Guard("true", ())
-    if not letters.any():
-        return Guard("false", ((),))
     if alphabet.kind == "one-hot":
+        if letters.all():
+            return Guard("true", ())
+        if not letters.any():
+            return Guard("false", ((),))
         return _one_hot_guard(letters, alphabet.atoms)
     on = int.from_bytes(np.packbits(letters, bitorder="little").tobytes(), "little")
-    return _powerset_guard(on, alphabet.atoms)
+    return powerset_guard(on, alphabet.atoms)
+
+
+def row_guards(row: np.ndarray, alphabet: Alphabet) -> list[tuple[int, Guard]]:
+    """(successor, guard) for each distinct entry of one DFA table row, successors ascending:
+    the guards of one state's edges, with the letter sets cut out in one array operation."""
+    successors = np.unique(row)
+    hits = row[None, :] == successors[:, None]
+    atoms = alphabet.atoms
+    if alphabet.kind == "one-hot":
+        return [(int(d), guard_for(hit, alphabet)) for d, hit in zip(successors, hits, strict=True)]
+    packed = np.packbits(hits, axis=1, bitorder="little")
+    width, raw = packed.shape[1], packed.tobytes()
+    return [
+        (d, powerset_guard(int.from_bytes(raw[k * width : (k + 1) * width], "little"), atoms))
+        for k, d in enumerate(successors.tolist())
+    ]
 
 
 @lru_cache(maxsize=1 << 16)
-def _powerset_guard(on: int, atoms: tuple[str, ...]) -> Guard:
-    """The guard of the letter set `on` (bit i = letter i); cached, as product DFAs repeat
-    the same letter sets on many edges (12,362 distinct among 29,596 edges, measured)."""
+def powerset_guard(on: int, atoms: tuple[str, ...]) -> Guard:
+    """The guard of the letter set `on` (bit i = letter i) over a powerset alphabet; cached, as
+    product DFAs repeat the same letter sets on many edges (12,362 distinct among 29,596 edges,
+    measured)."""
     n = len(atoms)
-    off_set = ((1 << (1 << n)) - 1) ^ on
-    dnf, _ = _isop(on, on, n)
-    off, _ = _isop(off_set, off_set, n)
+    full = (1 << (1 << n)) - 1
+    if on == full:
+        return Guard("true", ())
+    if on == 0:
+        return Guard("false", ((),))
+    dnf, _ = _cover(on, on, n, 1)
+    cnf, _ = _cover(full ^ on, full ^ on, n, -1)  # the complement's cover, literals negated
     # ISOP lists each cube's literals in atom order and its cubes in an order fixed by the
-    # function alone, so the result is canonical without sorting.
-    cnf = tuple(tuple(-lit for lit in cube) for cube in off)
-    as_dnf = _render(dnf, atoms, inner=" & ", outer=" | ")
-    as_cnf = _render(cnf, atoms, inner=" | ", outer=" & ")
-    return Guard(as_cnf if len(as_cnf) < len(as_dnf) else as_dnf, cnf)
+    # function alone, so the result is canonical without sorting. Only the shorter text is
+    # written out; lengths are counted first.
+    if _rendered_length(cnf, atoms, 3) < _rendered_length(dnf, atoms, 3):
+        return Guard(_render(cnf, atoms, inner=" | ", outer=" & "), cnf)
+    return Guard(_render(dnf, atoms, inner=" & ", outer=" | "), cnf)
 
 
 def cnf_holds(cnf: tuple[Clause, ...] | list[list[int]], alphabet: Alphabet) -> np.ndarray:
@@ -94,25 +115,79 @@ def _one_hot_guard(letters: np.ndarray, atoms: tuple[str, ...]) -> Guard:
     return Guard(" & ".join(f"!{atoms[k]}" for k in off), tuple((-(k + 1),) for k in off))
 
 
-@lru_cache(maxsize=1 << 16)
-def _isop(lower: int, upper: int, nvars: int) -> tuple[tuple[Clause, ...], int]:
-    """Minato-Morreale on truth tables held as int bitsets (bit i = letter i): the cubes covering
-    `lower` inside `upper`, and the function they cover. Memoised: DFAs repeat subfunctions."""
-    full = (1 << (1 << nvars)) - 1
+_FULL = [(1 << (1 << n)) - 1 for n in range(MAX_POWERSET_ATOMS + 1)]  # all letters of n atoms
+_TRUE_COVER: tuple[Clause, ...] = ((),)
+
+
+def _cover(lower: int, upper: int, nvars: int, sign: int) -> tuple[tuple[Clause, ...], int]:
+    """Minato-Morreale ISOP on truth tables held as int bitsets (bit i = letter i): the cubes
+    covering `lower` inside `upper`, and the function they cover. Literals are multiplied by
+    `sign` (-1 turns a cover of the complement into CNF clauses)."""
     if lower == 0:
         return (), 0
-    if upper == full:
-        return ((),), full
+    if upper == _FULL[nvars]:
+        return _TRUE_COVER, upper
+    return _isop(lower, upper, nvars, sign)
+
+
+@lru_cache(maxsize=1 << 18)
+def _isop(lower: int, upper: int, nvars: int, sign: int) -> tuple[tuple[Clause, ...], int]:
+    """`_cover` past its two trivial cases (lower is not empty, upper not everything), memoised:
+    DFAs repeat subfunctions. The trivial cases are decided inline, before a call: a third of
+    the calls, each a cache entry keyed on a large int otherwise."""
     top = nvars - 1
     half = 1 << top
-    mask = (1 << half) - 1
+    mask = _FULL[top]
     l0, l1, u0, u1 = lower & mask, lower >> half, upper & mask, upper >> half
-    c0, f0 = _isop(l0 & (mask ^ u1), u0, top)
-    c1, f1 = _isop(l1 & (mask ^ u0), u1, top)
-    cs, fs = _isop((l0 & (mask ^ f0)) | (l1 & (mask ^ f1)), u0 & u1, top)
-    lit = top + 1
-    cubes = tuple((*c, -lit) for c in c0) + tuple((*c, lit) for c in c1) + cs
-    return cubes, (f0 | fs) | ((f1 | fs) << half)
+    part = l0 & ~u1
+    if part == 0:
+        c0, f0 = (), 0
+    else:
+        c0, f0 = (_TRUE_COVER, mask) if u0 == mask else _isop(part, u0, top, sign)
+    part = l1 & ~u0
+    if part == 0:
+        c1, f1 = (), 0
+    else:
+        c1, f1 = (_TRUE_COVER, mask) if u1 == mask else _isop(part, u1, top, sign)
+    part, both = (l0 & ~f0) | (l1 & ~f1), u0 & u1
+    if part == 0:
+        cs, fs = (), 0
+    else:
+        cs, fs = (_TRUE_COVER, mask) if both == mask else _isop(part, both, top, sign)
+    if c0 or c1:
+        negative, positive = (-nvars * sign,), (nvars * sign,)
+        cs = tuple([c + negative for c in c0] + [c + positive for c in c1]) + cs
+    return cs, (f0 | fs) | ((f1 | fs) << half)
+
+
+def _rendered_length(terms, atoms: tuple[str, ...], joiner: int) -> int:
+    """len(_render(terms, ...)) for joiners of length `joiner`, without building the text."""
+    widths = _term_widths(atoms)
+    total = joiner * (len(terms) - 1)
+    parens = len(terms) > 1
+    for term in terms:
+        width = widths.get(term)
+        if width is None:
+            literals = _literal_widths(atoms)
+            width = sum(literals[lit] for lit in term) + joiner * max(len(term) - 1, 0)
+            width = widths[term] = width + (2 if len(term) > 1 else 0)
+        total += width if parens or len(term) < 2 else width - 2
+    return total
+
+
+@lru_cache(maxsize=64)
+def _term_widths(atoms: tuple[str, ...]) -> dict[tuple[int, ...], int]:
+    """Per alphabet, a cache of rendered term widths (parentheses included when it has two
+    literals or more); products repeat terms on many edges."""
+    return {}
+
+
+@lru_cache(maxsize=64)
+def _literal_widths(atoms: tuple[str, ...]) -> dict[int, int]:
+    """Characters each literal takes: `a` for k+1, `!a` for -(k+1)."""
+    widths = {k + 1: len(a) for k, a in enumerate(atoms)}
+    widths.update({-lit: width + 1 for lit, width in list(widths.items())})
+    return widths
 
 
 def _render(terms, atoms: tuple[str, ...], inner: str, outer: str) -> str:
