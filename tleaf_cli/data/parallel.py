@@ -92,8 +92,9 @@ def parallel_map(
 
 def _shared_map(func: Callable[..., Any], items: list[tuple], jobs: int) -> Iterator[Any]:
     """`parallel_map(..., share_work=True)`: every chunk is queued for the `jobs - 1` workers of
-    a loky executor (joblib's process pool), and this process, in order, takes back each chunk not yet
-    started (a queued future can still be cancelled) and runs it here; results in input order."""
+    a loky executor (joblib's process pool), and this process, in order, takes back each chunk
+    not yet started (a queued future can still be cancelled) and runs it here; results in input
+    order."""
     from joblib.externals.loky import ProcessPoolExecutor
 
     size = max(1, min(SHARE_CHUNK, len(items) // (4 * jobs)))

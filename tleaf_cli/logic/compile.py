@@ -19,10 +19,14 @@ from tleaf_cli.logic import mona
 from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import atoms, parse
-from tleaf_cli.logic.progression import TooLarge, progression_dfa
+from tleaf_cli.logic.progression import Limits, TooLarge, progression_dfa
 
 Engine = Literal["auto", "progression", "mona"]
 ENGINES: tuple[Engine, ...] = ("auto", "progression", "mona")
+# Under "auto", one direct progression gets this long before MONA takes the formula over: about
+# twice what MONA needs for a small formula (5 ms), so that progression is used where it is the
+# quicker route; a rare formula whose DNF states blow up would otherwise take seconds.
+AUTO_SECONDS = 0.01
 
 
 def compile_formula(
@@ -46,13 +50,15 @@ def compile_parsed(
     engine: Engine = "auto",
 ) -> DFA:
     """`compile_formula` for a formula already parsed. `timeout` bounds MONA only; progression is
-    bounded by its state and work limits (progression.MAX_STATES, MAX_WORK) instead."""
+    bounded by its state and work limits (progression.Limits), and under "auto" by AUTO_SECONDS
+    per direct construction, past which MONA is the quicker route."""
     if engine not in ENGINES:
         raise SettingError("engine", f"must be one of {', '.join(ENGINES)}, not {engine!r}")
     letters = Alphabet(atoms(formula), alphabet)
     if engine != "mona":
+        limits = Limits(max_seconds=AUTO_SECONDS if engine == "auto" else None)
         try:
-            return progression_dfa(formula, letters)
+            return progression_dfa(formula, letters, limits)
         except TooLarge:
             if engine == "progression":
                 raise

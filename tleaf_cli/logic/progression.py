@@ -30,14 +30,18 @@ and the DFAs are combined by `DFA.product`, which minimises after each step and 
 operations over the letters (a conjunction of eleven two-atom patterns is eleven small
 constructions and ten products).
 
-**Limits.** A construction that would exceed `max_states` states, or `max_work` state × letter
-steps, raises `TooLarge`; `compile.py` then hands the formula to MONA, which has its own timeout
-and memory cap.
+**Limits.** A construction that would exceed `max_states` states or `max_work` state × letter
+steps raises `TooLarge`, and so does one direct construction that runs past `max_seconds` when
+that is given: states kept as DNFs can blow up (nested `<->` double them), and where MONA is
+quicker it should do the work. `compile.py` then hands the formula to MONA, which has its own
+timeout and memory cap. Whichever route compiles a formula, the DFA is the same.
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 from ltlf2dfa.ltlf import (
@@ -86,27 +90,38 @@ def _too_large(limit: str) -> str:
     return f"progression passed its limit of {limit}; MONA compiles it (engine 'auto' or 'mona')"
 
 
-def progression_dfa(
-    formula: LTLfFormula,
-    alphabet: Alphabet,
-    max_states: int = MAX_STATES,
-    max_work: int = MAX_WORK,
-) -> DFA:
+@dataclass
+class Limits:
+    """How far one formula's construction may go (see the module docstring)."""
+
+    max_states: int = MAX_STATES
+    max_work: int = MAX_WORK
+    max_seconds: float | None = None  # per direct construction; None: no time limit
+    work_done: int = 0
+
+    def count(self, steps: int) -> None:
+        self.work_done += steps
+        if self.work_done > self.max_work:
+            raise TooLarge(_too_large(f"{self.max_work:,} state x letter steps"))
+
+    def deadline(self) -> float | None:
+        return None if self.max_seconds is None else time.perf_counter() + self.max_seconds
+
+
+def progression_dfa(formula: LTLfFormula, alphabet: Alphabet, limits: Limits | None = None) -> DFA:
     """The minimal DFA of `formula`'s non-empty traces over `alphabet` (which must hold all of
-    the formula's atoms), built in this process; TooLarge past the limits."""
+    the formula's atoms), built in this process; TooLarge past the `limits`."""
     check_depth(formula)
+    limits = limits or Limits()
     nodes = _Nodes(alphabet.atoms)
     root = nodes.nnf(formula, False)
-    budget = [max_work, max_work]  # left, total
-    dfa, minimal = _compile_node(nodes, root, alphabet.kind, max_states, budget)
+    dfa, minimal = _compile_node(nodes, root, alphabet.kind, limits)
     if dfa.alphabet != alphabet:  # atoms the NNF folded away (`a & false`) still make letters
         dfa = DFA(alphabet, dfa.table[:, dfa.alphabet.lift(alphabet)], dfa.initial, dfa.accepting)
     return dfa.minimize_nonempty(minimal=minimal)
 
 
-def _compile_node(
-    nodes: _Nodes, root: int, kind, max_states: int, budget: list[int]
-) -> tuple[DFA, bool]:
+def _compile_node(nodes: _Nodes, root: int, kind, limits: Limits) -> tuple[DFA, bool]:
     """Progression from `root` over its own atoms, splitting a top-level &/| over many atoms;
     the DFA's empty-word acceptance is arbitrary. Also whether it is minimal (products are)."""
     atom_ids = nodes.atoms_of(root)
@@ -115,15 +130,15 @@ def _compile_node(
     if len(atom_ids) > DIRECT_ATOMS and node[0] in (AND, OR):
         mode = "and" if node[0] == AND else "or"
         parts = sorted(node[1], key=lambda c: len(nodes.atoms_of(c)))
-        dfa, _ = _compile_node(nodes, parts[0], kind, max_states, budget)
+        dfa, _ = _compile_node(nodes, parts[0], kind, limits)
         for child in parts[1:]:
-            part, _ = _compile_node(nodes, child, kind, max_states, budget)
+            part, _ = _compile_node(nodes, child, kind, limits)
             dfa = dfa.product(part, mode, canonical=False)  # numbered once, at the end
-            if dfa.num_states > max_states:
-                raise TooLarge(_too_large(f"{max_states:,} states"))
+            if dfa.num_states > limits.max_states:
+                raise TooLarge(_too_large(f"{limits.max_states:,} states"))
         return dfa, True
     letters = _letter_bitmasks(atom_ids, kind)
-    return _Progression(nodes, letters, max_states, budget).dfa(root, alphabet), False
+    return _Progression(nodes, letters, limits).dfa(root, alphabet), False
 
 
 def _letter_bitmasks(atom_ids: tuple[int, ...], kind) -> list[int]:
@@ -277,12 +292,10 @@ def _children(node: tuple) -> tuple[int, ...]:
 class _Progression:
     """The reachable states of one root's progression over a list of letters."""
 
-    def __init__(self, nodes: _Nodes, letters: list[int], max_states: int, budget: list[int]):
+    def __init__(self, nodes: _Nodes, letters: list[int], limits: Limits):
         self.nodes = nodes
         self.letters = letters
-        self.max_states = max_states
-        self.budget = budget
-        self.budget_total = budget[1]
+        self.limits = limits
         self._obligation_ids: dict[tuple[int, bool], int] = {}
         self._obligations: list[tuple[int, bool]] = []
         self._delta: dict[tuple[int, int], frozenset[int]] = {}
@@ -388,20 +401,21 @@ class _Progression:
         states = [start]
         rows: list[list[int]] = []
         step: Callable[[frozenset[int], int], frozenset[int]] = self.step
+        limits, deadline = self.limits, self.limits.deadline()
         head = 0
         while head < len(states):
             state = states[head]
             head += 1
-            self.budget[0] -= len(self.letters)
-            if self.budget[0] < 0:
-                raise TooLarge(_too_large(f"{self.budget_total:,} state x letter steps"))
+            limits.count(len(self.letters))
+            if deadline is not None and time.perf_counter() > deadline:
+                raise TooLarge(_too_large(f"{limits.max_seconds * 1000:g} ms"))
             row = []
             for letter in self.letters:
                 nxt = step(state, letter)
                 j = index.get(nxt)
                 if j is None:
-                    if len(states) >= self.max_states:
-                        raise TooLarge(_too_large(f"{self.max_states:,} states"))
+                    if len(states) >= limits.max_states:
+                        raise TooLarge(_too_large(f"{limits.max_states:,} states"))
                     j = index[nxt] = len(states)
                     states.append(nxt)
                 row.append(j)
