@@ -1,9 +1,11 @@
 """The `compile-dfa` stage: formula sources in, `dfas.parquet` rows out.
 
-Identical formula texts are compiled once; each distinct one is parsed and compiled by a joblib
-worker, results taken in input order, so `--jobs N` writes the same file as `--jobs 1`. A
-joblib.Memory cache keyed on the parsed formula, the alphabet and the versions of everything
-that shapes the output means a formula compiled before costs no MONA call.
+Identical formula texts are compiled once; each distinct one is parsed and compiled here or by a
+joblib worker, results taken in input order, so `--jobs N` writes the same file as `--jobs 1`.
+Formulas go to progression first (logic/compile.py), which takes well under a millisecond for most
+and is not cached (a cache lookup costs more); a formula MONA compiles goes through a joblib.Memory
+cache keyed on the parsed formula, the alphabet and the versions of everything that shapes the
+output, so a formula compiled before costs no MONA call.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from tleaf_cli.logic import guards as guards_mod
 from tleaf_cli.logic import mona as mona_mod
 from tleaf_cli.logic import progression as progression_mod
 from tleaf_cli.logic.alphabet import Alphabet, AlphabetKind, LetterError
-from tleaf_cli.logic.compile import Engine, compile_parsed
+from tleaf_cli.logic.compile import Engine, by_mona, by_progression
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 from tleaf_cli.logic.mona import MonaError, mona_binary, mona_version
 from tleaf_cli.logic.progression import TooLarge
@@ -189,14 +191,16 @@ def _compile_task(
         return _Outcome(None, e.message, e.column)
     except LetterError as e:
         return _Outcome(None, str(e))
-    canonical = str(formula)
     try:
+        dfa = by_progression(formula, alphabet, engine)
+        if dfa is not None:  # quicker than a cache lookup: not cached
+            return _Outcome(dfa_payload(dfa))
+        canonical = str(formula)
         if cache_dir is None:
-            payload = _compile_payload(canonical, alphabet, timeout, versions, formula, engine)
-            return _Outcome(payload)
+            return _Outcome(_compile_payload(canonical, alphabet, timeout, versions, formula))
         cached = _memorized(cache_dir)
         hit = cached.check_call_in_cache(canonical, alphabet, timeout, versions)
-        payload = cached(canonical, alphabet, timeout, versions, formula, engine)
+        payload = cached(canonical, alphabet, timeout, versions, formula)
         return _Outcome(payload, cache_hit=hit)
     except (MonaError, TooLarge) as e:
         return _Outcome(None, str(e))
@@ -208,19 +212,17 @@ def _compile_payload(
     timeout: float,
     versions: tuple[str, ...],
     formula: LTLfFormula | None = None,
-    engine: Engine = "auto",
 ) -> dict:
-    """The cached unit, keyed on (canonical text, alphabet, versions); `formula` is the parse of
-    `canonical`, passed so it is not parsed twice, and left out of the key like `timeout` and
-    `engine` (every engine gives the same minimal DFA: logic/compile.py)."""
-    dfa = compile_parsed(formula or parse(canonical), alphabet, timeout, engine)
-    return dfa_payload(dfa)
+    """The cached unit, MONA's DFA keyed on (canonical text, alphabet, versions); `formula` is the
+    parse of `canonical`, passed so it is not parsed twice, and left out of the key like
+    `timeout`."""
+    return dfa_payload(by_mona(formula or parse(canonical), alphabet, timeout))
 
 
 @cache
 def _memorized(cache_dir: str):
     memory = Memory(location=cache_dir, verbose=0)
-    return memory.cache(_compile_payload, ignore=["timeout", "formula", "engine"])
+    return memory.cache(_compile_payload, ignore=["timeout", "formula"])
 
 
 @cache

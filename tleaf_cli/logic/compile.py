@@ -52,15 +52,27 @@ def compile_parsed(
     """`compile_formula` for a formula already parsed. `timeout` bounds MONA only; progression is
     bounded by its state and work limits (progression.Limits), and under "auto" by AUTO_SECONDS
     per direct construction, past which MONA is the quicker route."""
+    dfa = by_progression(formula, alphabet, engine)
+    return dfa if dfa is not None else by_mona(formula, alphabet, timeout)
+
+
+def by_progression(formula: LTLfFormula, alphabet: AlphabetKind, engine: Engine) -> DFA | None:
+    """The engine's progression step: the DFA, or None when MONA should compile the formula
+    (engine "mona", or "auto" past progression's limits); TooLarge under "progression"."""
     if engine not in ENGINES:
         raise SettingError("engine", f"must be one of {', '.join(ENGINES)}, not {engine!r}")
-    letters = Alphabet(atoms(formula), alphabet)
-    if engine != "mona":
-        limits = Limits(max_seconds=AUTO_SECONDS if engine == "auto" else None)
-        try:
-            return progression_dfa(formula, letters, limits)
-        except TooLarge:
-            if engine == "progression":
-                raise
+    if engine == "mona":
+        return None
+    limits = Limits(max_seconds=AUTO_SECONDS if engine == "auto" else None)
+    try:
+        return progression_dfa(formula, Alphabet(atoms(formula), alphabet), limits)
+    except TooLarge:
+        if engine == "progression":
+            raise
+        return None
+
+
+def by_mona(formula: LTLfFormula, alphabet: AlphabetKind, timeout: float = COMPILE_TIMEOUT) -> DFA:
+    """The DFA through MONA: ltlf2dfa's encoding, run and read back by tleaf (mona.py)."""
     output = mona.run_mona(mona.mona_program(formula), timeout)
-    return mona.automaton_to_dfa(mona.parse_output(output), letters)
+    return mona.automaton_to_dfa(mona.parse_output(output), Alphabet(atoms(formula), alphabet))
