@@ -13,6 +13,7 @@ from tleaf_cli.data.artifacts import Provenance, read_artifact
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.guards import row_guards
 
 KIND = "dfa"
 SCHEMA_VERSION = 1
@@ -49,7 +50,9 @@ def dfa_payload(dfa: DFA) -> dict[str, Any]:
         "initial": dfa.initial,
         "accepting": [int(s) for s in dfa.accepting.nonzero()[0]],
         "edges": [
-            {"src": s, "dst": d, "guard": g.text, "cnf": g.cnf} for s, d, g in dfa.guarded_edges()
+            {"src": src, "dst": dst, "guard": guard.text, "cnf": guard.cnf}
+            for src in range(dfa.num_states)
+            for dst, guard in row_guards(dfa.table[src], dfa.alphabet)
         ],
     }
 

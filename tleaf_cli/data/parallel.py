@@ -72,9 +72,9 @@ def parallel_map(
 
     `share_work` (local processes only), for many items of a millisecond or less: this process
     works too, so `jobs` counts it, and it starts on the items at once, while the other
-    `jobs - 1` workers start (half a second, more than a thousand such items take). Items are cut
-    into chunks; this process takes the next chunk no worker has taken yet, the workers take
-    theirs from the same queue, so short work never waits for workers and long work uses them all.
+    `jobs - 1` workers start (half a second, what a thousand such items take). Items are cut into
+    chunks; this process takes them from the front, the workers, once running, from the back, so
+    short work never waits for workers and long work uses them all.
     """
     if cluster:
         with cluster_client(cluster) as client, parallel_config(backend="dask", client=client):
@@ -91,33 +91,47 @@ def parallel_map(
 
 
 def _shared_map(func: Callable[..., Any], items: list[tuple], jobs: int) -> Iterator[Any]:
-    """`parallel_map(..., share_work=True)`: every chunk is queued for the `jobs - 1` workers of
-    a loky executor (joblib's process pool), and this process, in order, takes back each chunk
-    not yet started (a queued future can still be cancelled) and runs it here; results in input
-    order."""
+    """`parallel_map(..., share_work=True)`. This process runs the chunks from the front; once a
+    probe task says the `jobs - 1` workers of a loky executor (joblib's process pool) have
+    started, they are fed chunks from the back, two per worker in flight. Nothing is handed to
+    the workers before they run (a pool queues submitted work before its workers exist, which
+    would make this process wait for their start-up), so short work never waits; results are
+    yielded in input order."""
     from joblib.externals.loky import ProcessPoolExecutor
 
     size = max(1, min(SHARE_CHUNK, len(items) // (4 * jobs)))
     chunks = [items[i : i + size] for i in range(0, len(items), size)]
-    # Its own executor: joblib's reusable one is resized by other calls in the same process.
+    results: list[list[Any] | None] = [None] * len(chunks)
     executor = ProcessPoolExecutor(max_workers=jobs - 1)
-    futures = [executor.submit(_run_chunk, func, chunk) for chunk in chunks]
-    here: dict[int, list[Any]] = {}
-    next_out = 0
+    started = executor.submit(_started)
+    in_flight: dict[int, Any] = {}  # chunk index -> future, all from the back
+    front, back, next_out = 0, len(chunks), 0
     try:
-        for k, future in enumerate(futures):
-            if future.cancel():
-                here[k] = _run_chunk(func, chunks[k])
-            # Yield what is ready, in order, so progress shows as work is done.
-            while next_out < len(futures) and (next_out in here or futures[next_out].done()):
-                yield from here.pop(next_out, None) or futures[next_out].result()
+        while front < back:
+            if started.done():
+                while len(in_flight) < 2 * (jobs - 1) and back - 1 > front:
+                    back -= 1
+                    in_flight[back] = executor.submit(_run_chunk, func, chunks[back])
+            results[front] = _run_chunk(func, chunks[front])
+            front += 1
+            for k in [k for k, future in in_flight.items() if future.done()]:
+                results[k] = in_flight.pop(k).result()
+            while next_out < front:  # in order, so progress shows as work is done
+                yield from results[next_out] or ()
+                results[next_out] = None
                 next_out += 1
-        for k in range(next_out, len(futures)):
-            yield from here.pop(k, None) or futures[k].result()
+        for k, future in in_flight.items():
+            results[k] = future.result()
+        for k in range(next_out, len(chunks)):
+            yield from results[k] or ()
     finally:
-        for future in futures:
+        for future in in_flight.values():
             future.cancel()
         executor.shutdown(wait=False, kill_workers=True)  # all results are in by now
+
+
+def _started() -> bool:
+    return True
 
 
 def _run_chunk(func: Callable[..., Any], chunk: list[tuple]) -> list[Any]:
