@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from tleaf_cli.tasks.cooking.demos import DemoSettings, generate_demos
 from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
+from tleaf_cli.tasks.cooking.demos import DemoSettings, generate_demos
 from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
 from tleaf_cli.tasks.cooking.pools import expert_returns, held_out_pool
 
