@@ -219,10 +219,11 @@ def test_exact_logic_term_sends_gradient_into_the_policy_and_checker_none(domain
 
 
 def test_a_short_gail_run_learns_the_easy_episode(tmp_path: Path) -> None:
-    """Plain GAIL on one fixed one-step episode: the return rises well above its start."""
+    """Plain GAIL (the default settings, gradient penalty included, on shorter rollouts) on one
+    fixed one-step episode: the return rises well above its start."""
     demos = write_demos(tmp_path / "demos.parquet", EASY)
     settings = GailSettings(
-        total_steps=3072, n_envs=2, batch_size=64, eval_every=1024, eval_episodes=4, seed=0
+        total_steps=3072, n_envs=2, n_steps=64, eval_every=1024, eval_episodes=4, seed=0
     )
     metrics = train_gail(demos, tmp_path / "run", settings)
     curve = [p["mean_return"] for p in metrics["curve"]]

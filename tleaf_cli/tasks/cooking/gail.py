@@ -16,7 +16,8 @@ Read top to bottom:
    its value (the rollout's violation rate) is logged, and the updates are those of `none`.
 5. Every `eval_every` environment steps the policy plays `eval_episodes` seeded episodes with
    the TRUE environment reward (actions sampled from π with a seeded generator; the ingredient
-   set of evaluation episode i is pool[i mod |pool|]); the curve goes to metrics.json.
+   set of evaluation episode i is pool[i mod |pool|]), and one episode on each of `held_out`
+   ingredient sets no demo shows (pools.py); the curve goes to metrics.json.
 
 Outputs: config.json, metrics.json, policy.zip (SB3 `PPO.load`-able), discriminator.pt.
 """
@@ -64,6 +65,7 @@ from tleaf_cli.tasks.cooking.logic_term import (
     LogicTerm,
     rollout_episodes,
 )
+from tleaf_cli.tasks.cooking.pools import expert_returns, held_out_pool
 from tleaf_cli.tasks.cooking.shield import ShieldedActions
 
 
@@ -74,25 +76,31 @@ class GailSettings:
     logic_loss: str = "none"  # none | tleaf | exact | checker
     shield: bool = False  # act only among the actions the rules' shield allows (MaskablePPO)
     lam: float = 1.0  # λ (the paper's value)
-    total_steps: int = 60_000  # environment steps
+    total_steps: int = 150_000  # environment steps
     n_envs: int = 4
-    n_steps: int = 128  # per environment per rollout
-    batch_size: int = 128
-    n_epochs: int = 4
+    # PPO: 10 epochs of minibatches of 64 over 4 x 256 steps, no entropy bonus -- 160 gradient
+    # steps per rollout where SB3's 4 x 128 / 128 / 4 epochs gave 16 (docs/cooking.md)
+    n_steps: int = 256  # per environment per rollout
+    batch_size: int = 64
+    n_epochs: int = 10
     target_kl: float | None = None  # SB3's: stop an update's epochs past 1.5 · target_kl
     clip_range_vf: float | None = None  # SB3's: clip the value's change (None: unclipped)
     lr: float = 1e-3
     gamma: float = 0.99
-    ent_coef: float = 0.01
+    ent_coef: float = 0.0
     hidden: int = 64  # policy and value MLPs (two layers)
     disc_hidden: int = 64
     disc_lr: float = 1e-3
     disc_steps: int = 4  # discriminator steps per rollout
     disc_batch: int = 256  # expert and policy pairs per discriminator step
+    disc_gp: float = 1.0  # zero-centred gradient penalty on D's logit (discriminator.py)
     reward: str = "log_d"  # log_d: log D(s, a); logit: log D − log(1 − D) (discriminator.py)
+    bc_steps: int = 0  # behaviour-cloning Adam steps on the demos before GAIL (0: none)
+    bc_lr: float = 1e-3
     logic_episodes: int = 4  # rollout episodes in each minibatch's logic term
     eval_every: int = 4096  # environment steps between evaluations
     eval_episodes: int = 8
+    held_out: int = 8  # ingredient sets never demonstrated, evaluated too (pools.py); 0: none
     seed: int = 0
     device: str = "cpu"
     threads: int = 1  # torch CPU threads
@@ -109,6 +117,10 @@ class GailSettings:
             self.device == "cuda" and not torch.cuda.is_available()
         ):
             raise SettingError("device", f"{self.device!r}: expected cpu (or cuda where available)")
+
+
+# Evaluation episodes on the held-out pool are seeded apart from the demonstrated pool's.
+HELD_OUT_SEEDS = 1_000
 
 
 # --------------------------------------------------------------------------- environments
@@ -352,7 +364,7 @@ class GailCallback(BaseCallback):
         expert_obs: torch.Tensor,
         expert_actions: torch.Tensor,
         settings: GailSettings,
-        evaluate: Callable[[], list[float]],
+        evaluate: Callable[[], dict[str, list[float]]],
         update: Callable[[int, int], None],
     ) -> None:
         super().__init__()
@@ -369,15 +381,17 @@ class GailCallback(BaseCallback):
         self.next_eval = 0
 
     def record(self) -> None:
-        returns = self.evaluate()
-        self.curve.append(
-            {
-                "steps": int(self.num_timesteps),
-                "mean_return": float(np.mean(returns)),
-                "returns": returns,
-                "seconds": round(time.perf_counter() - self.started, 2),
-            }
-        )
+        returns = self.evaluate()  # pool name -> returns
+        point: dict = {
+            "steps": int(self.num_timesteps),
+            "mean_return": float(np.mean(returns["demonstrated"])),
+            "returns": returns["demonstrated"],
+        }
+        if "held_out" in returns:
+            point["held_out_mean_return"] = float(np.mean(returns["held_out"]))
+            point["held_out_returns"] = returns["held_out"]
+        point["seconds"] = round(time.perf_counter() - self.started, 2)
+        self.curve.append(point)
         self.next_eval += self.settings.eval_every
         self.update(min(self.num_timesteps, self.settings.total_steps), self.settings.total_steps)
 
@@ -402,6 +416,7 @@ class GailCallback(BaseCallback):
                 self.optimizer,
                 (self.expert_obs[e], self.expert_actions[e]),
                 (obs[p], actions[p]),
+                s.disc_gp,
             )
         true_returns = [ep["r"] for ep in self.model.ep_info_buffer]
         self.disc_log.append(
@@ -432,6 +447,7 @@ def train_gail(
     domain = load_domain(settings.domain)
     expert = read_demo_episodes(demos, domain)
     pool = list(dict.fromkeys(e.ingredients for e in expert))
+    held_out = held_out_pool(domain, pool, settings.held_out) if settings.held_out else []
     set_random_seed(settings.seed)
     torch.set_num_threads(settings.threads)  # tiny MLPs: more threads only contend
 
@@ -474,15 +490,28 @@ def train_gail(
     eval_seed = 10_000 + settings.seed
     expert_obs = torch.as_tensor(np.concatenate([e.observations for e in expert]))
     expert_actions = torch.as_tensor(np.concatenate([e.actions for e in expert]))
+    if settings.bc_steps > 0:
+        behaviour_cloning(model, expert_obs, expert_actions, settings)
     eval_env = evaluation_env(domain, settings.shield, compile_settings)
+
+    def evaluate(probabilities: Callable, env: gym.Env) -> dict[str, list[float]]:
+        """Returns on the demonstrated pool and, one episode per set, on the held-out pool."""
+        out = {
+            "demonstrated": evaluate_returns(
+                probabilities, env, pool, settings.eval_episodes, eval_seed
+            )
+        }
+        if held_out:
+            seed = eval_seed + HELD_OUT_SEEDS
+            out["held_out"] = evaluate_returns(probabilities, env, held_out, len(held_out), seed)
+        return out
+
     callback = GailCallback(
         disc,
         expert_obs,
         expert_actions,
         settings,
-        lambda: evaluate_returns(
-            policy_probabilities(model), eval_env, pool, settings.eval_episodes, eval_seed
-        ),
+        lambda: evaluate(policy_probabilities(model), eval_env),
         update,
     )
     started = time.perf_counter()
@@ -492,21 +521,43 @@ def train_gail(
     seconds = time.perf_counter() - started
 
     metrics = _metrics(expert, pool, settings, callback, model, seconds)
-    metrics["random_return"] = float(
-        np.mean(
-            evaluate_returns(
-                uniform_probabilities(venv.action_space.n),
-                evaluation_env(domain),
-                pool,
-                settings.eval_episodes,
-                eval_seed,
-            )
-        )
-    )
+    uniform = evaluate(uniform_probabilities(venv.action_space.n), evaluation_env(domain))
+    metrics["random_return"] = float(np.mean(uniform["demonstrated"]))
+    if held_out:
+        metrics["held_out_pool"] = [list(p) for p in held_out]
+        metrics["expert_return_held_out"] = float(np.mean(expert_returns(domain, held_out)))
+        metrics["random_return_held_out"] = float(np.mean(uniform["held_out"]))
     eval_env.close()
     _write_run(out_dir, demos, embedder_dir, settings, pool, model, disc, metrics)
     venv.close()
     return metrics
+
+
+def behaviour_cloning(
+    model: PPO, expert_obs: torch.Tensor, expert_actions: torch.Tensor, settings: GailSettings
+) -> list[float]:
+    """Warm start: `bc_steps` full-batch Adam steps (lr `bc_lr`) of −log π(a | s) on the demos'
+    pairs, before GAIL's first rollout. Only the policy's head and shared layers move (the value
+    net sits apart in SB3's MlpPolicy). Returns the loss per step."""
+    obs = expert_obs.float()
+    actions = expert_actions.long()
+    optimizer = torch.optim.Adam(model.policy.parameters(), lr=settings.bc_lr)
+    model.policy.set_training_mode(True)
+    losses = []
+    for _ in range(settings.bc_steps):
+        _, log_prob, _ = model.policy.evaluate_actions(obs, actions)
+        loss = -log_prob.mean()
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        losses.append(float(loss.detach()))
+    model.policy.set_training_mode(False)
+    return losses
+
+
+def variant_name(settings: GailSettings) -> str:
+    """How eval cooking groups a run: its logic loss, or `shield` for a shielded run."""
+    return "shield" if settings.shield else settings.logic_loss
 
 
 def _metrics(
@@ -523,7 +574,7 @@ def _metrics(
         by_set.setdefault(e.ingredients, []).append(e.episode_return)
     eval_sets = [pool[i % len(pool)] for i in range(settings.eval_episodes)]
     return {
-        "variant": settings.logic_loss,
+        "variant": variant_name(settings),
         "seed": settings.seed,
         "curve": callback.curve,
         "expert_return": float(np.mean([np.mean(by_set[s]) for s in eval_sets])),

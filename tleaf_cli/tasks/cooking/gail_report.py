@@ -1,9 +1,11 @@
 """`tleaf eval cooking`: return vs environment steps per variant, like the paper's Fig. 5B.
 
-Runs (train-task cooking directories) are grouped by variant (their logic loss). Per variant and
-evaluation point: the mean over seeds ± its standard error (std / √n, 0 for one seed). Curves of
-one variant must share their evaluation steps (same settings); runs of different lengths are cut
-to the shortest.
+Runs (train-task cooking directories) are grouped by variant (their logic loss, or `shield`).
+Per variant and evaluation point: the mean over seeds ± its standard error (std / √n, 0 for one
+seed). Curves of one variant must share their evaluation steps (same settings); runs of different
+lengths are cut to the shortest. Everything is summarised per evaluation pool: the demonstrated
+ingredient sets, and the held-out sets no demo shows (pools.py), each against the expert's and
+the uniform policy's return on the same pool; the report opens with one table of both.
 
 Steps to 90 % of the expert: the first evaluation step at which the variant's MEAN curve reaches
 0.9 × the expert's mean return (the demos' return on the evaluation episodes' ingredient sets),
@@ -33,7 +35,7 @@ from tleaf_cli.data.artifacts import write_text_atomic
 from tleaf_cli.errors import InputError
 from tleaf_cli.tasks.figures import pyplot, save_png
 
-ORDER = ("none", "checker", "exact", "tleaf")
+ORDER = ("none", "checker", "exact", "tleaf", "shield")
 FRACTIONS = (0.25, 0.5, 1.0)  # of the budget, for the return at fixed steps
 ROLLOUTS = 10  # first / last rollouts averaged for the violation rate and the entropy
 
@@ -75,19 +77,31 @@ def rollout_average(metrics: dict, key: str, last: bool) -> float | None:
     return float(np.mean(values)) if values else None
 
 
-def summarise(runs: list[dict]) -> dict:
-    """Per variant: the mean ± s.e. curve and the steps to 90 % of the expert."""
+# Per evaluation pool: the curve's key, and the run's expert and uniform-policy returns on it.
+POOLS = {
+    "demonstrated": ("mean_return", "expert_return", "random_return"),
+    "held_out": ("held_out_mean_return", "expert_return_held_out", "random_return_held_out"),
+}
+
+
+def summarise(runs: list[dict], pool: str = "demonstrated") -> dict:
+    """Per variant: the mean ± s.e. curve on `pool` and the steps to 90 % of the expert there
+    (runs that did not evaluate on that pool are left out)."""
+    curve_key, expert_key, random_key = POOLS[pool]
     variants: dict[str, list[dict]] = {}
     for m in runs:
-        variants.setdefault(m["variant"], []).append(m)
+        if expert_key in m:
+            variants.setdefault(m["variant"], []).append(m)
     out = {}
     for name in sorted(variants, key=lambda v: (ORDER.index(v) if v in ORDER else 99, v)):
         group = sorted(variants[name], key=lambda m: m["seed"])
         points = min(len(m["curve"]) for m in group)
         steps = np.array([p["steps"] for p in group[0]["curve"][:points]])
-        returns = np.array([[p["mean_return"] for p in m["curve"][:points]] for m in group])
-        expert = float(np.mean([m["expert_return"] for m in group]))
-        random = float(np.mean([m.get("random_return", np.nan) for m in group]))
+        returns = np.array([[p[curve_key] for p in m["curve"][:points]] for m in group])
+        expert = float(np.mean([m[expert_key] for m in group]))
+        random = float(np.mean([m.get(random_key, np.nan) for m in group]))
+        per_seed_90 = [first_reaching(steps, r, 0.9 * expert) for r in returns]
+        reached = [s for s in per_seed_90 if s is not None]
         mean = returns.mean(axis=0)
         se = returns.std(axis=0, ddof=1) / np.sqrt(len(group)) if len(group) > 1 else 0 * mean
         normalised = (mean - random) / (expert - random) if expert != random else mean * np.nan
@@ -102,7 +116,15 @@ def summarise(runs: list[dict]) -> dict:
             "random_return": random,
             "final_return": float(mean[-1]),
             "steps_to_90": first_reaching(steps, mean, 0.9 * expert),
-            "steps_to_90_per_seed": [first_reaching(steps, r, 0.9 * expert) for r in returns],
+            "steps_to_90_per_seed": per_seed_90,
+            "reached_90": len(reached),
+            "median_steps_to_90": float(np.median(reached)) if reached else None,
+            "stable_after_90": mean_se(
+                [
+                    float(np.mean(r[steps > first] >= 0.9 * expert)) if first is not None else None
+                    for r, first in zip(returns, per_seed_90, strict=True)
+                ]
+            ),
             "steps_to_90_normalised": first_reaching(steps, normalised, 0.9),
             "steps_to_quarter": first_reaching(steps, normalised, 0.25),
             "steps_to_quarter_per_seed": [
@@ -135,8 +157,12 @@ def evaluate_cooking_runs(runs: list[str | Path], out_dir: str | Path) -> dict:
     if not runs:
         raise InputError("no run directories given")
     out_dir = Path(out_dir)
-    variants = summarise([read_run(r) for r in runs])
+    metrics = [read_run(r) for r in runs]
+    variants = summarise(metrics)
     report = {"runs": [str(r) for r in runs], "variants": variants}
+    held_out = summarise(metrics, "held_out")
+    if held_out:
+        report["held_out"] = held_out
     plain, tleaf = variants.get("none", {}), variants.get("tleaf", {})
     for key in ("steps_to_90", "steps_to_quarter", "steps_to_half"):
         if plain.get(key) is not None and tleaf.get(key) is not None and plain[key] > 0:
@@ -155,8 +181,34 @@ def _markdown(report: dict) -> str:
     def ms(v: dict | None) -> str:
         return "—" if v is None else f"{v['mean']:.2f} ± {v['stderr']:.2f}"
 
+    pools = [("demonstrated", report["variants"])]
+    if report.get("held_out"):
+        pools.append(("held-out", report["held_out"]))
     lines = [
         "# GAIL on Creative Cooking (synthetic environment): return vs environment steps",
+        "",
+        "Per variant and evaluation pool (demonstrated: the demos' ingredient sets; held-out: "
+        "sets no demo shows): seeds whose curve reached 90 % of the expert's return on that "
+        "pool, the median of their first steps there, the share of their later evaluations "
+        "still at 90 % or more (mean ± s.e. over those seeds), and the return (mean ± s.e. over "
+        "seeds) at 25 / 50 / 100 % of the budget.",
+        "",
+        "| variant | seeds | pool | reached 90 % of expert | median steps to 90 % | later "
+        "evaluations ≥ 90 % | return at 25 / 50 / 100 % of budget |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for pool_name, variants in pools:
+        for name, v in variants.items():
+            median = v["median_steps_to_90"]
+            at = " / ".join(f"{a['mean']:.2f} ± {a['stderr']:.2f}" for a in v["at_fraction"])
+            lines.append(
+                f"| {name} | {len(v['seeds'])} | {pool_name} | {v['reached_90']} of "
+                f"{len(v['seeds'])} | {'—' if median is None else f'{median:,.0f}'} | "
+                f"{ms(v['stable_after_90'])} | {at} |"
+            )
+    lines += [
+        "",
+        "On the demonstrated pool:",
         "",
         "| variant | seeds | final return (mean ± s.e.) | expert | random | steps to 90 % of "
         "expert (mean curve) | per seed | steps to 90 % normalised |",
