@@ -155,7 +155,7 @@ def _cover(lower: int, upper: int, nvars: int, sign: int) -> tuple[tuple[Clause,
     return _isop(lower, upper, nvars, sign)
 
 
-@lru_cache(maxsize=1 << 18)
+@lru_cache(maxsize=1 << 16)  # entries hold truth tables of up to 2**16 bits: memory bounded
 def _isop(lower: int, upper: int, nvars: int, sign: int) -> tuple[tuple[Clause, ...], int]:
     """`_cover` past its two trivial cases (lower is not empty, upper not everything), memoised:
     DFAs repeat subfunctions. The trivial cases are decided inline, before a call: a third of
