@@ -103,7 +103,11 @@ def summarise(runs: list[dict], pool: str = "demonstrated") -> dict:
         per_seed_90 = [first_reaching(steps, r, 0.9 * expert) for r in returns]
         reached = [s for s in per_seed_90 if s is not None]
         mean = returns.mean(axis=0)
-        se = returns.std(axis=0, ddof=1) / np.sqrt(len(group)) if len(group) > 1 else 0 * mean
+        se = (
+            returns.std(axis=0, ddof=1) / np.sqrt(len(group))
+            if len(group) > 1
+            else np.zeros_like(mean)
+        )
         normalised = (mean - random) / (expert - random) if expert != random else mean * np.nan
         per_seed_normalised = (returns - random) / (expert - random)
         at = [int(np.flatnonzero(steps >= f * steps[-1])[0]) for f in FRACTIONS]
@@ -168,7 +172,8 @@ def evaluate_cooking_runs(runs: list[str | Path], out_dir: str | Path) -> dict:
         if plain.get(key) is not None and tleaf.get(key) is not None and plain[key] > 0:
             report[f"tleaf_over_none_{key}"] = tleaf[key] / plain[key]
     out_dir.mkdir(parents=True, exist_ok=True)
-    _figure(variants, out_dir / "report.png")
+    pools = [("demonstrated", variants)] + ([("held-out", held_out)] if held_out else [])
+    _figure(pools, out_dir / "report.png")
     write_text_atomic(out_dir / "report.json", json.dumps(report, indent=2))
     write_text_atomic(out_dir / "report.md", _markdown(report))
     return report
@@ -199,12 +204,13 @@ def _markdown(report: dict) -> str:
     ]
     for pool_name, variants in pools:
         for name, v in variants.items():
-            median = v["median_steps_to_90"]
+            median, stable = v["median_steps_to_90"], v["stable_after_90"]
+            share = "—" if stable is None else f"{stable['mean']:.0%} ± {stable['stderr']:.0%}"
             at = " / ".join(f"{a['mean']:.2f} ± {a['stderr']:.2f}" for a in v["at_fraction"])
             lines.append(
                 f"| {name} | {len(v['seeds'])} | {pool_name} | {v['reached_90']} of "
                 f"{len(v['seeds'])} | {'—' if median is None else f'{median:,.0f}'} | "
-                f"{ms(v['stable_after_90'])} | {at} |"
+                f"{share} | {at} |"
             )
     lines += [
         "",
@@ -270,29 +276,31 @@ def _markdown(report: dict) -> str:
             lines.append(f"tleaf / none steps to {what}: not measurable ({why})")
     lines += [
         "",
-        "Figure: report.png (mean ± s.e. over seeds; dashed: the expert's return, dotted: the "
-        "uniform policy's).",
+        "Figure: report.png (mean ± s.e. over seeds, one panel per evaluation pool; dashed: the "
+        "expert's return, dotted: the uniform policy's).",
     ]
     return "\n".join(lines) + "\n"
 
 
-def _figure(variants: dict, path: Path) -> None:
+def _figure(pools: list[tuple[str, dict]], path: Path) -> None:
+    """One panel per evaluation pool: mean ± s.e. curves, the expert's and uniform's returns."""
     plt = pyplot()
 
-    fig, ax = plt.subplots(figsize=(6, 4))
-    for name, v in variants.items():
-        steps, mean, se = (np.array(v[k]) for k in ("steps", "mean_return", "stderr"))
-        label = f"GAIL + {name}" if name != "none" else "GAIL"
-        ax.plot(steps, mean, label=f"{label} ({len(v['seeds'])} seeds)")
-        ax.fill_between(steps, mean - se, mean + se, alpha=0.25)
-    expert = np.mean([v["expert_return"] for v in variants.values()])
-    ax.axhline(expert, color="black", linestyle="--", linewidth=1, label="expert")
-    uniform = np.nanmean([v["random_return"] for v in variants.values()])
-    if np.isfinite(uniform):
-        ax.axhline(uniform, color="grey", linestyle=":", linewidth=1, label="uniform policy")
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("return (true reward)")
-    ax.set_title("Creative Cooking (synthetic): GAIL with logic losses")
-    ax.legend(fontsize="small")
+    fig, axes = plt.subplots(1, len(pools), figsize=(6 * len(pools), 4), squeeze=False)
+    for ax, (pool, variants) in zip(axes[0], pools, strict=True):
+        for name, v in variants.items():
+            steps, mean, se = (np.array(v[k]) for k in ("steps", "mean_return", "stderr"))
+            label = f"GAIL + {name}" if name != "none" else "GAIL"
+            ax.plot(steps, mean, label=f"{label} ({len(v['seeds'])} seeds)")
+            ax.fill_between(steps, mean - se, mean + se, alpha=0.25)
+        expert = np.mean([v["expert_return"] for v in variants.values()])
+        ax.axhline(expert, color="black", linestyle="--", linewidth=1, label="expert")
+        uniform = np.nanmean([v["random_return"] for v in variants.values()])
+        if np.isfinite(uniform):
+            ax.axhline(uniform, color="grey", linestyle=":", linewidth=1, label="uniform policy")
+        ax.set_xlabel("environment steps")
+        ax.set_ylabel("return (true reward)")
+        ax.set_title(f"Creative Cooking (synthetic), {pool} ingredient sets")
+        ax.legend(fontsize="small")
     fig.tight_layout()
     save_png(fig, path)
