@@ -222,7 +222,8 @@ def _count_mona(monkeypatch) -> list[int]:
 def test_kb_extract_writes_samples_and_one_dfa_per_rule_set(tiny, tmp_path, monkeypatch) -> None:
     calls = _count_mona(monkeypatch)
     out = tmp_path / "out"
-    result = tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", out, "--no-cache")
+    mona_only = ["--engine", "mona"]  # the cache holds MONA's results; progression is not cached
+    result = tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", out, "--no-cache", *mona_only)
     assert result.exit_code == 0, result.output
     samples = pq.read_table(out / "samples.parquet").to_pylist()
     dfas = read_dfas(out / "dfas.parquet")
@@ -244,10 +245,19 @@ def test_kb_extract_writes_samples_and_one_dfa_per_rule_set(tiny, tmp_path, monk
     # Again with the cache: no MONA call at all, the same tables.
     calls[0] = 0
     again = tmp_path / "again"
-    assert tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", again).exit_code == 0
-    assert tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", again).exit_code == 0
+    assert tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", again, *mona_only).exit_code == 0
+    assert tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", again, *mona_only).exit_code == 0
     assert calls[0] == len(ids)  # the first of the two cached runs filled the cache
     assert pq.read_table(again / "dfas.parquet").equals(pq.read_table(out / "dfas.parquet"))
+
+    # The default engine builds the same minimal DFAs in process, without MONA.
+    calls[0] = 0
+    auto = tmp_path / "auto"
+    assert tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", auto, "--no-cache").exit_code == 0
+    assert calls[0] == 0
+    by_progression = read_dfas(auto / "dfas.parquet")
+    assert by_progression.ids() == ids
+    assert all(by_progression.dfa(i) == dfas.dfa(i) for i in ids)
 
 
 def test_kb_extract_mines_from_the_train_split(tiny, tmp_path) -> None:
@@ -271,7 +281,9 @@ def test_a_rule_set_that_fails_to_compile_exits_1(tiny, tmp_path, monkeypatch) -
 
     monkeypatch.setattr(mona, "run_mona", timeout)
     out = tmp_path / "out"
-    result = tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", out, "--no-cache")
+    result = tleaf(
+        "kb-extract", tiny["kb"], tiny["data"], "-o", out, "--no-cache", "--engine", "mona"
+    )
     assert result.exit_code == 1
     assert "rule set rs-" in result.output and "did not finish" in result.output
     rows = read_dfas(out / "dfas.parquet").rows

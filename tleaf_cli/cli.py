@@ -97,6 +97,15 @@ RuleSets = Literal["video", "ingredient"]
 PairFeatures = Literal["concat", "rich"]
 TaskModel = Literal["lstm", "tcn"]
 CompileEngine = Literal["auto", "progression", "mona"]  # logic/compile.py ENGINES
+Engine = Annotated[
+    CompileEngine,
+    typer.Option(
+        help="auto: build the DFA in this process by formula progression, and hand a "
+        "formula to MONA when that passes its limits (2,000 states); progression: never "
+        "MONA (such formulas fail); mona: MONA for every formula. All give the same "
+        "minimal DFA."
+    ),
+]
 LogicLoss = Literal["none", "tleaf", "checker", "exact"]
 TaskFormulaFrom = Literal["predictions", "labels"]
 Decoding = Literal["argmax", "constrained"]  # test-time decoding of train-task action-recognition
@@ -260,15 +269,7 @@ def compile_dfa(
     timeout: Annotated[
         float, typer.Option(min=0.1, help="Seconds MONA may spend on one formula.")
     ] = COMPILE_TIMEOUT,
-    engine: Annotated[
-        CompileEngine,
-        typer.Option(
-            help="auto: build the DFA in this process by formula progression, and hand a "
-            "formula to MONA when that passes its limits (2,000 states); progression: never "
-            "MONA (such formulas fail); mona: MONA for every formula. All give the same "
-            "minimal DFA."
-        ),
-    ] = "auto",
+    engine: Engine = "auto",
     graphs: Annotated[
         Path | None, typer.Option(help="Also write <id>.graphml and <id>.dot per DFA here.")
     ] = None,
@@ -586,6 +587,7 @@ def kb_extract(
     timeout: Annotated[
         float, typer.Option(min=0.1, help="Seconds MONA may spend on one rule set.")
     ] = COMPILE_TIMEOUT,
+    engine: Engine = "auto",
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
     quiet: Quiet = False,
@@ -605,7 +607,7 @@ def kb_extract(
     _reachable(cluster)
     if kb is None and not mine:
         raise InputError("give a knowledge base file, or --mine to mine one from the train split")
-    settings = _compile_settings(True, timeout, cache_dir, no_cache, jobs, cluster)
+    settings = _compile_settings(True, timeout, cache_dir, no_cache, jobs, cluster, engine)
     with ui.progress("compiling rule sets", quiet) as update:
         report = extract_knowledge(
             kb, inputs[-1], out, settings, mine, min_support, formula_from, rule_sets, update
