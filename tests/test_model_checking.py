@@ -42,9 +42,38 @@ def test_report_is_well_formed(chain, chain_cli, meta_model, tmp_path: Path) -> 
         r["formula_id"] for r in pq.read_table(chain["traces"]).to_pylist() if r["split"] == "test"
     }
     assert report["test_formulas"] == len(test_ids)
-    for clf in ("mlp", "distance"):
+    for clf in ("mlp", "mlp_all_negatives", "distance"):
         assert 0.0 <= report[clf]["accuracy"] <= 1.0
-    assert "| MLP 512-128" in (out / "report.md").read_text()
+    assert "| MLP 512-128 fitted on all negatives" in (out / "report.md").read_text()
+
+
+def test_the_paper_mlp_is_fitted_on_satisfying_and_uniform_traces_only(
+    chain, meta_model, tmp_path, monkeypatch
+) -> None:
+    from tleaf_cli.tasks import model_checking as mc
+
+    fitted = []
+    real = mc._fit_mlp
+
+    def spy(train, val, settings):
+        fitted.append((train, val))
+        return real(train, val, settings)
+
+    monkeypatch.setattr(mc, "_fit_mlp", spy)
+    mc.evaluate_model_checking(
+        meta_model, chain["dfas"], chain["traces"], tmp_path, mc.EvalSettings()
+    )
+    (paper_train, paper_val), (all_train, all_val) = fitted
+    for paper, every in ((paper_train, all_train), (paper_val, all_val)):
+        kinds = {(bool(y), s) for y, s in zip(every.label, every.source, strict=True)}
+        assert (False, "hard") in kinds  # the data has hard negatives ...
+        kept = {(bool(y), s) for y, s in zip(paper.label, paper.source, strict=True)}
+        assert (False, "hard") not in kept and (False, "uniform") in kept  # ... the paper's MLP not
+        assert int(paper.label.sum()) == int(every.label.sum())  # every satisfying trace kept
+        uniform = sum(
+            s == "uniform" and not y for y, s in zip(every.label, every.source, strict=True)
+        )
+        assert len(paper.label) == int(every.label.sum()) + uniform
 
 
 def test_a_formula_in_train_and_test_is_refused(chain, chain_cli, meta_model, tmp_path):
@@ -100,3 +129,28 @@ def test_tsne_figure_shows_a_test_formula_for_each_embedder(chain, chain_cli, me
     assert shown in test_ids and shown not in train_ids
     unknown = chain_cli(*args, "--embedder", meta_model, "--formula", "no-such-id")
     assert unknown.exit_code == 2 and "no-such-id" in unknown.output
+
+
+def test_results_table_reads_both_mlps_and_older_reports(tmp_path) -> None:
+    from tleaf_cli.tasks.model_checking_table import results_table
+
+    def report(seed: int, mlp: float, with_all: bool) -> Path:
+        r = {
+            "embedder": "dfa",
+            "label": "low",
+            "mlp": {"accuracy": mlp, "hard_negative_accuracy": 0.5},
+            "distance": {"accuracy": 0.6},
+        }
+        if with_all:
+            r["mlp_all_negatives"] = {"accuracy": 0.7, "hard_negative_accuracy": 0.75}
+        path = tmp_path / f"r{seed}.json"
+        path.write_text(json.dumps(r))
+        return path
+
+    table = results_table([report(0, 0.8, True), report(1, 0.9, False)], tmp_path / "t.md")
+    cells = [line.strip("| ").split(" | ") for line in table.splitlines()[2:]]
+    rows = {c[1]: c[2] for c in cells}
+    assert rows["MLP 512-128"] == "85.00 ± 5.00 (n=2)"
+    assert rows["MLP fitted on all negatives"] == "70.00 ± 0.00 (n=1)"  # the older report: none
+    assert rows["MLP fitted on all negatives, hard negatives only"] == "75.00 ± 0.00 (n=1)"
+    assert rows["paper (MLP)"] == "83.43 ± 0.73"

@@ -7,6 +7,11 @@ frozen; two classifiers are fitted on the traces' train split and chosen on val:
   [z_φ ; z_w ; |z_φ - z_w| ; z_φ ⊙ z_w];
 * the distance rule d(z_φ, z_w) < τ, τ picked on val — the form the logic loss relies on.
 
+Both are fitted on satisfying and uniform violating traces, the paper's data for Table I. A
+second MLP, fitted with the hard negatives as well (issue 5's protocol, a harder task whose
+decision boundary also has to separate near misses), is reported beside it as
+`mlp_all_negatives`: it recognises hard negatives, and pays for it on uniform ones.
+
 They are scored on the test split, whose formulas were never trained on (checked): `accuracy`
 over the satisfying traces and the uniform violating ones (random rejected words of the same
 length, as in the paper, so comparable with Table I), and `hard_negative_accuracy`, the share of
@@ -111,13 +116,12 @@ def evaluate_model_checking(
             "split by formula"
         )
 
-    # ---- classifiers
-    mlp = _fit_mlp(splits["train"], splits["val"], settings)
-    tau = _fit_threshold(splits["val"])
+    # ---- classifiers: fitted on the paper's negatives, and (one MLP) on all of them
+    train, val = _paper_traces(splits["train"]), _paper_traces(splits["val"])
+    mlp = _fit_mlp(train, val, settings)
+    mlp_all = _fit_mlp(splits["train"], splits["val"], settings)
+    tau = _fit_threshold(val)
     test = splits["test"]
-    with torch.no_grad():
-        mlp_says = mlp(pair_features(test.z_formula, test.z_trace, settings.pair_features))
-    mlp_pred = (mlp_says.squeeze(1) > 0).numpy()
     distance_pred = (_distances(test) < tau).numpy()
     report = {
         "label": settings.label,
@@ -126,7 +130,8 @@ def evaluate_model_checking(
         "settings": asdict(settings),
         "test_formulas": len(set(test.formula_ids)),
         "test_traces": len(test.formula_ids),
-        "mlp": _scores(mlp_pred, test),
+        "mlp": _scores(_predict(mlp, test, settings), test),
+        "mlp_all_negatives": _scores(_predict(mlp_all, test, settings), test),
         "distance": {**_scores(distance_pred, test), "tau": tau},
         "inputs": describe_inputs([dfas_path, traces_path]),
         "model": str(Path(model_dir).resolve()),
@@ -134,6 +139,28 @@ def evaluate_model_checking(
     write_text_atomic(out_dir / "report.json", json.dumps(report, indent=2))
     write_text_atomic(out_dir / "report.md", _markdown(report))
     return report
+
+
+def _paper_traces(split: Split) -> Split:
+    """The satisfying and uniform violating traces of a split (the paper's Table I data)."""
+    keep = [
+        k
+        for k, (y, src) in enumerate(zip(split.label, split.source, strict=True))
+        if y or src == "uniform"
+    ]
+    return Split(
+        [split.formula_ids[k] for k in keep],
+        split.z_formula[keep],
+        split.z_trace[keep],
+        split.label[keep],
+        [split.source[k] for k in keep],
+    )
+
+
+def _predict(mlp: nn.Module, split: Split, s: EvalSettings) -> np.ndarray:
+    with torch.no_grad():
+        says = mlp(pair_features(split.z_formula, split.z_trace, s.pair_features))
+    return (says.squeeze(1) > 0).numpy()
 
 
 def _fit_mlp(train: Split, val: Split, s: EvalSettings) -> nn.Module:
@@ -201,16 +228,22 @@ def _markdown(r: dict) -> str:
     def pct(x):
         return "–" if x is None else f"{100 * x:.2f}"
 
+    a = r["mlp_all_negatives"]
+
     lines = [
         f"# Model checking from embeddings — {r['label'] or 'unlabelled'} "
         f"({r['embedder']} embedder, seed {r['seed']})",
         "",
         f"Test split: {r['test_formulas']} formulas never trained on, {r['test_traces']} traces.",
         "",
+        "Fitted on satisfying and uniform violating traces (the paper's data), unless said.",
+        "",
         "| classifier | accuracy (sat + uniform unsat) | hard negatives | all test traces |",
         "|---|---|---|---|",
         f"| MLP 512-128 on {r['settings']['pair_features']} | {pct(r['mlp']['accuracy'])} | "
         f"{pct(r['mlp']['hard_negative_accuracy'])} | {pct(r['mlp']['all_accuracy'])} |",
+        f"| MLP 512-128 fitted on all negatives (hard too) | {pct(a['accuracy'])} | "
+        f"{pct(a['hard_negative_accuracy'])} | {pct(a['all_accuracy'])} |",
         f"| distance d < {r['distance']['tau']:.3g} | {pct(r['distance']['accuracy'])} | "
         f"{pct(r['distance']['hard_negative_accuracy'])} | {pct(r['distance']['all_accuracy'])} |",
         "",
