@@ -20,16 +20,20 @@ def _weights(batch: Batch, ends: torch.Tensor, max_length: int, bins: int) -> to
     )
 
 
-def _enumerated(dfa, graph, ends: set[int], max_length: int, bins: int) -> torch.Tensor:
+def _enumerated(
+    dfa, graph, ends: set[int], max_length: int, bins: int, ranges: int = 1
+) -> torch.Tensor:
     """The same weights by listing every word: each length's runs ending in `ends`, uniform
-    among them, their nodes counted into parts, each part normalised to sum to 1."""
+    among them, their nodes counted into parts (of the run, and of its length range: lengths
+    1..max_length cut in `ranges` equal ranges), each part normalised to sum to 1."""
     src, dst = graph.edge_index.tolist()
     node_of = {}  # (state, target state) -> edge node
     for s, e in zip(src, dst, strict=True):
         if graph.node_kind[e] == EDGE:
             node_of[s, dst[src.index(e)]] = e
-    out = torch.zeros(bins, graph.num_nodes, dtype=torch.float64)
+    out = torch.zeros(ranges * bins, graph.num_nodes, dtype=torch.float64)
     for length in range(1, max_length + 1):
+        first = (length - 1) * ranges // max_length * bins
         runs = []
         for word in itertools.product(range(dfa.alphabet.size), repeat=length):
             nodes, state = [dfa.initial], dfa.initial
@@ -41,7 +45,7 @@ def _enumerated(dfa, graph, ends: set[int], max_length: int, bins: int) -> torch
                 runs.append(nodes)
         for nodes in runs:
             for i, v in enumerate(nodes):
-                out[i * bins // len(nodes), v] += 1.0 / len(runs)
+                out[first + i * bins // len(nodes), v] += 1.0 / len(runs)
     return (out / out.sum(dim=1, keepdim=True).clamp(min=1e-12)).float()
 
 
@@ -57,6 +61,33 @@ def test_weights_are_where_accepted_and_rejected_words_go(formula: str, bins: in
     for ends, mask in ((accepting, batch.flags[:, 1]), (rejecting, batch.rejecting)):
         got = _weights(batch, mask, max_length=4, bins=bins)[:, offset:]
         assert torch.allclose(got, _enumerated(dfa, graph, ends, 4, bins), atol=1e-5), ends
+
+
+@pytest.mark.parametrize("formula", ["a U b", "G(a -> X b)"])
+def test_length_ranges_keep_runs_of_each_range_apart(formula: str) -> None:
+    dfa = compile_formula(formula)
+    graph, _ = dfa_graph(dfa)
+    batch = Batch.from_data_list([graph])
+    start = batch.ptr[:-1] + batch.initial
+    accepting = {s for s in range(dfa.num_states) if dfa.accepting[s]}
+    got = accepted_run_weights(
+        batch.edge_index, batch.share, batch.flags[:, 1], start, batch.batch, 6, 2, 3, 6
+    )
+    assert got.shape == (6, graph.num_nodes)
+    assert torch.allclose(got, _enumerated(dfa, graph, accepting, 6, 2, ranges=3), atol=1e-5)
+
+
+def test_a_trace_chain_fills_only_its_own_length_range() -> None:
+    encoder = AutomatonEncoder(4, hidden=8, layers=1, out_dim=4, readout="runs", bins=2,
+                               max_length=12, length_ranges=3)  # fmt: skip
+    batch, _ = trace_graph_batch([3, 7, 12, 15])
+    r = encoder.run_weights(batch)  # [2 (accepted, rejected) x 3 ranges x 2 bins, nodes]
+    assert r.shape[0] == 12 and not r[6:].any()  # no rejected runs
+    for k, want_range in enumerate([0, 1, 2, 2]):  # 1-4, 5-8, 9-12 letters; longer: the last
+        nodes = slice(int(batch.ptr[k]), int(batch.ptr[k + 1]))
+        filled = [g for g in range(3) if r[2 * g : 2 * g + 2, nodes].any()]
+        assert filled == [want_range]
+        assert torch.allclose(r[2 * want_range : 2 * want_range + 2, nodes].sum(1), torch.ones(2))
 
 
 def test_a_trace_chain_is_read_once_in_order_and_has_no_rejected_runs() -> None:

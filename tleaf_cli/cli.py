@@ -734,6 +734,14 @@ def train_meta(
             min=1, help="accept/runs readouts: the longest run of a DFA counted (traces: whole)."
         ),
     ] = 12,
+    length_ranges: Annotated[
+        int,
+        typer.Option(
+            min=1,
+            help="accept/runs readouts: cut run lengths 1..--max-length in this many ranges, "
+            "read apart (a trace only in its own length's range); 1: all lengths together.",
+        ),
+    ] = 1,
     residual: Annotated[
         bool,
         typer.Option(
@@ -790,7 +798,9 @@ def train_meta(
 
     _targets([dfas, traces, edge], folders=[out])
     if readout not in ("accept", "runs"):
-        _refuse(_given(ctx, "bins", "max_length"), "only with --readout accept or runs")
+        _refuse(
+            _given(ctx, "bins", "max_length", "length_ranges"), "only with --readout accept or runs"
+        )
 
     settings = MetaSettings(
         embedder=embedder,
@@ -801,6 +811,7 @@ def train_meta(
         readout=readout,
         bins=bins,
         max_length=max_length,
+        length_ranges=length_ranges,
         residual=residual,
         directed=directed,
         norm=norm,

@@ -29,7 +29,8 @@ The "accept" readout (issue 13) weights nodes by where the automaton's accepted 
 where a walk that ignores acceptance goes: `accepted_run_weights`. a_b(v) is the share of part b
 (of B equal parts of a run) of uniformly drawn accepted runs of 1..max_length letters that lies
 on v; "runs" adds j_b(v), the same for rejected runs. A trace chain has one accepted run (its
-word, read in order) and no rejected ones.
+word, read in order) and no rejected ones. With `length_ranges` R, the runs of each of R ranges
+of length get their own parts (and projections): a trace is read in its length's range only.
 """
 
 from __future__ import annotations
@@ -75,8 +76,11 @@ def accepted_run_weights(
     graph_of: torch.Tensor,
     max_length: int | torch.Tensor,
     bins: int = 1,
+    length_ranges: int = 1,
+    span: int | None = None,
 ) -> torch.Tensor:
-    """[bins, num_nodes]: how much of an accepted run lies at each node, by part of the run.
+    """[length_ranges * bins, num_nodes]: how much of an accepted run lies at each node, by part
+    of the run (and, with `length_ranges` > 1, by range of the run's length).
 
     `ends` [num_nodes] marks the states a run must end in: the accepting states (accepted runs),
     or the others (rejected runs); `start` holds each graph's initial node, `graph_of` the graph
@@ -90,6 +94,13 @@ def accepted_run_weights(
     per graph (0 where a graph has no such run). Forward-backward: a_h(v) = P(at v after h
     hops), b_h(v) = P(in `ends` h hops after v); the share of the runs of H = 2T hops at v at
     hop h is a_h(v) b_(H-h)(v) / Z_T, Z_T = b_H(start).
+
+    `length_ranges` R > 1 keeps runs of different lengths apart: lengths 1..`span` (default the
+    largest bound) are cut in R equal ranges, a run of T letters counts into range
+    min(R - 1, (T - 1) R // span) (longer runs into the last), and every (range, part) is
+    normalised on its own. A trace chain then fills only its own length's range, and a DFA every
+    range its accepted runs reach, so a trace is compared with the formula's words of about its
+    own length.
 
     On a trace chain (share 1, its last state accepting) the one accepted run reads every node
     once, so part k is the k-th stretch of the trace; on a DFA it is where accepted words go —
@@ -111,7 +122,8 @@ def accepted_run_weights(
         a.append(torch.zeros(n, device=share.device).index_add_(0, dst, a[-1][src] * prob))
         b.append(torch.zeros(n, device=share.device).index_add_(0, src, b[-1][dst] * prob))
     a_t, b_t = torch.stack(a), torch.stack(b)
-    out = torch.zeros(bins, n, device=share.device)
+    span = span or max(hops // 2, 1)
+    out = torch.zeros(length_ranges * bins, n, device=share.device)
     for length in range(1, hops // 2 + 1):
         h = 2 * length
         z = b_t[h, start]  # [graphs]: accepted mass at this length
@@ -119,9 +131,12 @@ def accepted_run_weights(
         part = (torch.arange(h + 1, device=share.device) * bins) // (h + 1)
         per_part = torch.zeros(bins, n, device=share.device).index_add_(0, part, occupancy)
         ok = (z > 0) & (length <= limit)
-        out += torch.where(ok[graph_of], per_part / torch.where(ok, z, 1.0)[graph_of], 0.0)
+        first = min(length_ranges - 1, (length - 1) * length_ranges // span) * bins
+        out[first : first + bins] += torch.where(
+            ok[graph_of], per_part / torch.where(ok, z, 1.0)[graph_of], 0.0
+        )
     # each part sums to 1 per graph (or 0 where the graph never reaches it)
-    total = torch.zeros(bins, graphs, device=share.device).index_add_(1, graph_of, out)
+    total = torch.zeros(len(out), graphs, device=share.device).index_add_(1, graph_of, out)
     return out / total.clamp(min=1e-12)[:, graph_of]
 
 
@@ -147,6 +162,7 @@ class AutomatonEncoder(nn.Module):
         bins: int = 1,
         max_length: int = 12,
         residual: bool = False,
+        length_ranges: int = 1,
     ) -> None:
         super().__init__()
         if readout not in READOUTS:
@@ -164,12 +180,14 @@ class AutomatonEncoder(nn.Module):
             self.register_buffer("edge_mean", torch.zeros(edge_dim))
             self.register_buffer("edge_std", torch.ones(edge_dim))
         self.norms = nn.ModuleList(nn.LayerNorm(hidden) for _ in range(layers)) if norm else None
-        parts = {"walk": 1, "steps": steps + 1, "accept": bins, "runs": 2 * bins}[readout]
+        runs = bins * length_ranges
+        parts = {"walk": 1, "steps": steps + 1, "accept": runs, "runs": 2 * runs}[readout]
         self.head = nn.Linear(hidden * parts, out_dim)
         self.steps = steps
         self.readout = readout
         self.bins = bins
         self.max_length = max_length
+        self.length_ranges = length_ranges
         self.residual = residual
         self._chains: dict[int, torch.Tensor] = {}  # trace length -> its chain's run weights
 
@@ -200,7 +218,15 @@ class AutomatonEncoder(nn.Module):
         return torch.cat(
             [
                 accepted_run_weights(
-                    batch.edge_index, batch.share, e, start, batch.batch, limit, self.bins
+                    batch.edge_index,
+                    batch.share,
+                    e,
+                    start,
+                    batch.batch,
+                    limit,
+                    self.bins,
+                    self.length_ranges,
+                    self.max_length,
                 )
                 for e in ends
             ]

@@ -53,6 +53,7 @@ class MetaSettings:
     # accept: where accepted runs go (automaton.accepted_run_weights); runs: and rejected runs
     bins: int = 1  # accept/runs readouts: parts of a run, each with its own projection
     max_length: int = 12  # accept/runs readouts: longest run of a DFA counted (traces: whole)
+    length_ranges: int = 1  # accept/runs readouts: runs of this many length ranges kept apart
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
     norm: bool = False  # standardised edge vectors and LayerNorm
@@ -111,6 +112,7 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.bins,
         settings.max_length,
         settings.residual,
+        settings.length_ranges,
     )
     head = None
     if settings.pair_weight > 0:
