@@ -216,3 +216,21 @@ def test_chain_weights_per_length_equal_the_batch_computation() -> None:
         got = encoder.chain_run_weights(lengths)
         assert got.shape == want.shape and torch.equal(got, want)
         assert torch.equal(encoder.chain_run_weights([3, 12]), torch.cat([want[-7:], want[14:39]]))
+
+
+def test_jumping_readout_reads_the_input_layer_too() -> None:
+    """With every GCN layer silenced (zero weights and biases), only `--jumping` still tells two
+    traces with different letters apart: its readout sees the edge nodes' own vectors."""
+    batch, _ = trace_graph_batch([3, 3])
+    edge = (batch.node_kind == EDGE).unsqueeze(1)
+    batch.edge_vec = torch.cat([torch.ones(7, 4), -torch.ones(7, 4)]) * edge
+    for jumping in (False, True):
+        torch.manual_seed(0)
+        encoder = AutomatonEncoder(4, hidden=8, layers=2, out_dim=5, readout="runs",
+                                   bins=2, directed=True, jumping=jumping)  # fmt: skip
+        for conv in [*encoder.convs, *encoder.back]:
+            for p in conv.parameters():
+                torch.nn.init.zeros_(p)
+        z = encoder(batch)
+        assert encoder.head.in_features == 2 * 2 * ((2 + 2 + 4) + 2 * 8 if jumping else 8)
+        assert torch.allclose(z[0], z[1]) != jumping

@@ -748,6 +748,14 @@ def train_meta(
             "--residual/--no-residual", help="Each layer after the first adds to its input."
         ),
     ] = False,
+    jumping: Annotated[
+        bool,
+        typer.Option(
+            "--jumping/--no-jumping",
+            help="Readout over every layer's node vectors side by side, the input's too "
+            "(jumping knowledge), not only the last layer's.",
+        ),
+    ] = False,
     directed: Annotated[
         bool,
         typer.Option(
@@ -813,6 +821,7 @@ def train_meta(
         max_length=max_length,
         length_ranges=length_ranges,
         residual=residual,
+        jumping=jumping,
         directed=directed,
         norm=norm,
         pair_weight=pair_weight,

@@ -10,7 +10,9 @@
     q_m(G)  = sum_b W_b · sum_v a_b(v) h_v^L          readout "accept" (b: parts of a run), and
               + sum_b U_b · sum_v j_b(v) h_v^L        with "runs", the rejected runs' parts too
 
-With `residual`, h^{l+1} = h^l + ReLU(...) after the first layer. With `norm`, s_v is
+With `residual`, h^{l+1} = h^l + ReLU(...) after the first layer. With `jumping`, the readouts
+read [h^0 ; h^1 ; ... ; h^L] (jumping knowledge) instead of h^L: the input layer keeps each edge
+node's own guard vector, unmixed with the branches around it. With `norm`, s_v is
 standardised with the training graphs' statistics and each layer's output passes a LayerNorm
 before the ReLU.
 
@@ -39,7 +41,7 @@ import itertools
 
 import torch
 from torch import nn
-from torch_geometric.nn import GCNConv, global_add_pool
+from torch_geometric.nn import GCNConv, JumpingKnowledge, global_add_pool
 from torch_geometric.utils import degree, to_undirected
 
 from tleaf_cli.embed.graphs import EDGE, trace_graph_batch
@@ -163,6 +165,7 @@ class AutomatonEncoder(nn.Module):
         max_length: int = 12,
         residual: bool = False,
         length_ranges: int = 1,
+        jumping: bool = False,
     ) -> None:
         super().__init__()
         if readout not in READOUTS:
@@ -182,7 +185,11 @@ class AutomatonEncoder(nn.Module):
         self.norms = nn.ModuleList(nn.LayerNorm(hidden) for _ in range(layers)) if norm else None
         runs = bins * length_ranges
         parts = {"walk": 1, "steps": steps + 1, "accept": runs, "runs": 2 * runs}[readout]
-        self.head = nn.Linear(hidden * parts, out_dim)
+        # `jumping`: the readout sees every layer's node vectors side by side, the input too
+        # (PyG's JumpingKnowledge "cat"), not only the last layer's
+        self.jumping = JumpingKnowledge("cat") if jumping else None
+        width = dims[0] + hidden * layers if jumping else hidden
+        self.head = nn.Linear(width * parts, out_dim)
         self.steps = steps
         self.readout = readout
         self.bins = bins
@@ -246,6 +253,7 @@ class AutomatonEncoder(nn.Module):
         x = torch.cat([kinds, batch.flags, edge_vec], dim=1)
         arcs = batch.edge_index
         both = to_undirected(arcs, num_nodes=x.shape[0]) if self.back is None else None
+        seen = [x]
         for layer, conv in enumerate(self.convs):
             if self.back is None:
                 y = conv(x, both)
@@ -255,6 +263,9 @@ class AutomatonEncoder(nn.Module):
                 y = self.norms[layer](y)
             y = torch.relu(y)
             x = x + y if self.residual and layer > 0 else y
+            seen.append(x)
+        if self.jumping is not None:
+            x = self.jumping(seen)
         start = batch.ptr[:-1] + batch.initial
         graphs = int(batch.ptr.numel() - 1)
         if self.readout in RUN_READOUTS:

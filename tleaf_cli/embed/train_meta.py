@@ -54,6 +54,7 @@ class MetaSettings:
     bins: int = 1  # accept/runs readouts: parts of a run, each with its own projection
     max_length: int = 12  # accept/runs readouts: longest run of a DFA counted (traces: whole)
     length_ranges: int = 1  # accept/runs readouts: runs of this many length ranges kept apart
+    jumping: bool = False  # readouts over every layer's node vectors, the input's too
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
     norm: bool = False  # standardised edge vectors and LayerNorm
@@ -113,6 +114,7 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.max_length,
         settings.residual,
         settings.length_ranges,
+        settings.jumping,
     )
     head = None
     if settings.pair_weight > 0:
