@@ -44,6 +44,7 @@ def test_report_is_well_formed(chain, chain_cli, meta_model, tmp_path: Path) -> 
     assert report["test_formulas"] == len(test_ids)
     for clf in ("mlp", "mlp_all_negatives", "distance"):
         assert 0.0 <= report[clf]["accuracy"] <= 1.0
+        assert 0.0 <= report[clf]["balanced_accuracy"] <= 1.0
     assert "| MLP 512-128 fitted on all negatives" in (out / "report.md").read_text()
 
 
@@ -55,15 +56,16 @@ def test_the_paper_mlp_is_fitted_on_satisfying_and_uniform_traces_only(
     fitted = []
     real = mc._fit_mlp
 
-    def spy(train, val, settings):
-        fitted.append((train, val))
-        return real(train, val, settings)
+    def spy(train, val, settings, **kwargs):
+        fitted.append((train, val, kwargs.get("balanced", False)))
+        return real(train, val, settings, **kwargs)
 
     monkeypatch.setattr(mc, "_fit_mlp", spy)
     mc.evaluate_model_checking(
         meta_model, chain["dfas"], chain["traces"], tmp_path, mc.EvalSettings()
     )
-    (paper_train, paper_val), (all_train, all_val) = fitted
+    (paper_train, paper_val, balanced), (all_train, all_val, all_balanced) = fitted
+    assert balanced and not all_balanced  # the paper's MLP weighs both classes the same
     for paper, every in ((paper_train, all_train), (paper_val, all_val)):
         kinds = {(bool(y), s) for y, s in zip(every.label, every.source, strict=True)}
         assert (False, "hard") in kinds  # the data has hard negatives ...
@@ -105,7 +107,8 @@ def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
     result = make_small("model_checking.mk", tmp_path / "mc")
     assert result.returncode == 0, result.stderr[-2000:]
     table = (tmp_path / "mc" / "results.md").read_text()
-    assert "| Syntax tree | MLP 512-128 |" in table and "| DFA (T-LEAF) | MLP 512-128 |" in table
+    for row in ("Syntax tree", "DFA (T-LEAF)"):
+        assert f"| {row} | MLP 512-128, balanced accuracy | " in table
     assert (tmp_path / "mc" / "tsne-low-seed0.png").read_bytes()[:4] == b"\x89PNG"
     for embedder in ("syntax", "dfa"):
         report = json.loads(
@@ -141,8 +144,14 @@ def test_results_table_reads_both_mlps_and_older_reports(tmp_path) -> None:
             "mlp": {"accuracy": mlp, "hard_negative_accuracy": 0.5},
             "distance": {"accuracy": 0.6},
         }
-        if with_all:
-            r["mlp_all_negatives"] = {"accuracy": 0.7, "hard_negative_accuracy": 0.75}
+        if with_all:  # a current report; the other is one written before balanced accuracy
+            r["mlp"]["balanced_accuracy"] = mlp - 0.1
+            r["distance"]["balanced_accuracy"] = 0.55
+            r["mlp_all_negatives"] = {
+                "accuracy": 0.7,
+                "balanced_accuracy": 0.65,
+                "hard_negative_accuracy": 0.75,
+            }
         path = tmp_path / f"r{seed}.json"
         path.write_text(json.dumps(r))
         return path
@@ -150,7 +159,25 @@ def test_results_table_reads_both_mlps_and_older_reports(tmp_path) -> None:
     table = results_table([report(0, 0.8, True), report(1, 0.9, False)], tmp_path / "t.md")
     cells = [line.strip("| ").split(" | ") for line in table.splitlines()[2:]]
     rows = {c[1]: c[2] for c in cells}
-    assert rows["MLP 512-128"] == "85.00 ± 5.00 (n=2)"
-    assert rows["MLP fitted on all negatives"] == "70.00 ± 0.00 (n=1)"  # the older report: none
+    assert rows["MLP 512-128, accuracy (2 : 1 satisfying)"] == "85.00 ± 5.00 (n=2)"
+    assert rows["MLP 512-128, balanced accuracy"] == "70.00 ± 0.00 (n=1)"  # the older: none
+    assert rows["MLP fitted on all negatives, balanced accuracy"] == "65.00 ± 0.00 (n=1)"
     assert rows["MLP fitted on all negatives, hard negatives only"] == "75.00 ± 0.00 (n=1)"
+    assert rows["distance rule, balanced accuracy"] == "55.00 ± 0.00 (n=1)"
     assert rows["paper (MLP)"] == "83.43 ± 0.73"
+
+
+def test_balanced_accuracy_and_class_weights() -> None:
+    import numpy as np
+    import torch
+
+    from tleaf_cli.tasks.model_checking import _balanced_accuracy, _class_weights
+
+    label = np.array([True] * 20 + [False] * 10)
+    assert _balanced_accuracy(np.ones(30, dtype=bool), label) == 0.5  # "always satisfies"
+    assert (np.ones(30, dtype=bool) == label).mean() == 2 / 3  # ... which plain accuracy rewards
+    pred = label.copy()
+    pred[:5] = False  # a quarter of the satisfying ones missed
+    assert _balanced_accuracy(pred, label) == (0.75 + 1.0) / 2
+    w = _class_weights(torch.tensor(label, dtype=torch.float32))
+    assert torch.isclose(w[:20].sum(), w[20:].sum()) and torch.isclose(w.mean(), torch.tensor(1.0))
