@@ -393,3 +393,30 @@ def test_shielded_gail_masks_with_the_rules_and_starts_above_the_unshielded(tmp_
     assert json.loads((tmp_path / "shield/config.json").read_text())["settings"]["shield"]
     with pytest.raises(SettingError, match="shield"):
         GailSettings(shield=True, logic_loss="exact").check()
+
+
+def test_median_ratio_of_steps_to_90_with_a_bootstrap_interval(tmp_path: Path) -> None:
+    from tleaf_cli.tasks.cooking.gail_report import median_ratio
+
+    # tleaf gets there in half of none's steps at every seed: 0.5, and every draw says so
+    r = median_ratio([100, 200, 300, 400], [200, 400, 600, 800])
+    assert r["ratio"] == pytest.approx(0.5)
+    assert r["low"] <= 0.5 <= r["high"] and r["undefined_draws"] == 0
+    # a spread of seeds widens the interval around the point
+    wide = median_ratio([100, 900, 300, 700, 500], [500, 300, 900, 100, 700])
+    assert wide["ratio"] == pytest.approx(1.0) and wide["low"] < 0.7 and wide["high"] > 1.4
+    # seeds that never got there count as never: 3 of 4 never -> tleaf's median is infinite
+    never = median_ratio([100, None, None, None], [200, 200, 200, 200])
+    assert never["ratio"] is None and never["numerator_median"] is None
+    assert never["high"] is None  # unbounded above
+    # ... and at 1 never of 5 the median is still finite: the never-seed shifts it up
+    one = median_ratio([100, 200, 300, 400, None], [300, 300, 300, 300, 300])
+    assert one["ratio"] == pytest.approx(1.0)
+    # the report carries it and says it in words
+    runs = [fake_run(tmp_path / f"n{s}", "none", s, [-90, -50, -50, 9, 10]) for s in range(3)] + [
+        fake_run(tmp_path / f"t{s}", "tleaf", s, [-90, -50, 9, 10, 10]) for s in range(3)
+    ]
+    report = evaluate_cooking_runs(runs, tmp_path / "report")
+    assert report["tleaf_over_none_median_steps_to_90"]["ratio"] == pytest.approx(2 / 3)
+    md = (tmp_path / "report/report.md").read_text()
+    assert "tleaf / none median steps to 90 % of the expert, per seed" in md and ": 0.67;" in md

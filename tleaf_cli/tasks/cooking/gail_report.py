@@ -11,7 +11,8 @@ Steps to 90 % of the expert: the first evaluation step at which the variant's ME
 0.9 × the expert's mean return (the demos' return on the evaluation episodes' ingredient sets),
 and the same per seed. A second, normalised form is reported beside it: the first step at which
 (R − R_random) / (R_expert − R_random) ≥ 0.9, R_random the uniform policy's return on the same
-seeded episodes. "not reached" is written as null.
+seeded episodes. "not reached" is written as null. The tleaf / none ratio of the per-seed
+MEDIAN steps to 90 % comes with a 95 % bootstrap interval over seeds (`median_ratio`).
 
 What can be compared when a variant does not reach 90 %: the return at fixed fractions of the
 budget (mean ± s.e. over seeds at the first evaluation at or after 25 %, 50 % and 100 % of the
@@ -38,6 +39,7 @@ from tleaf_cli.tasks.figures import pyplot, save_png
 ORDER = ("none", "checker", "exact", "tleaf", "shield")
 FRACTIONS = (0.25, 0.5, 1.0)  # of the budget, for the return at fixed steps
 ROLLOUTS = 10  # first / last rollouts averaged for the violation rate and the entropy
+BOOTSTRAP_DRAWS = 10_000  # for the interval of tleaf / none median steps to 90 %
 
 
 def read_run(run: str | Path) -> dict:
@@ -67,6 +69,49 @@ def mean_se(values: list[float | None]) -> dict | None:
         return None
     se = kept.std(ddof=1) / np.sqrt(len(kept)) if len(kept) > 1 else 0.0
     return {"mean": float(kept.mean()), "stderr": float(se), "n": len(kept)}
+
+
+def median_ratio(
+    numerator: list[int | None],
+    denominator: list[int | None],
+    draws: int = BOOTSTRAP_DRAWS,
+    seed: int = 0,
+) -> dict:
+    """median(numerator) / median(denominator) of per-seed steps to a level, with a 95 %
+    percentile-bootstrap interval over seeds (each variant's seeds resampled on their own).
+
+    A seed that never reached the level counts as never (∞), so the median is finite only while
+    more than half of a variant's seeds got there: finite / ∞ = 0, ∞ / finite = ∞, ∞ / ∞ is
+    undefined (such draws are dropped and counted). Returns {"ratio", "low", "high", "draws",
+    "undefined_draws", "numerator_median", "denominator_median"}, a value None where it is
+    undefined or ∞."""
+    a = np.array([np.inf if s is None else s for s in numerator], dtype=float)
+    b = np.array([np.inf if s is None else s for s in denominator], dtype=float)
+
+    def ratio(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.median(x, axis=-1) / np.median(y, axis=-1)
+
+    rng = np.random.default_rng(seed)
+    boot = ratio(
+        a[rng.integers(0, len(a), (draws, len(a)))], b[rng.integers(0, len(b), (draws, len(b)))]
+    )
+    kept = boot[~np.isnan(boot)]
+
+    def finite(v: float) -> float | None:
+        return float(v) if np.isfinite(v) else None
+
+    low = np.quantile(kept, 0.025, method="lower") if len(kept) else np.nan
+    high = np.quantile(kept, 0.975, method="higher") if len(kept) else np.nan
+    return {
+        "ratio": finite(ratio(a, b)),
+        "low": finite(low),
+        "high": finite(high),
+        "draws": draws,
+        "undefined_draws": int(draws - len(kept)),
+        "numerator_median": finite(np.median(a)),
+        "denominator_median": finite(np.median(b)),
+    }
 
 
 def rollout_average(metrics: dict, key: str, last: bool) -> float | None:
@@ -171,6 +216,10 @@ def evaluate_cooking_runs(runs: list[str | Path], out_dir: str | Path) -> dict:
     for key in ("steps_to_90", "steps_to_quarter", "steps_to_half"):
         if plain.get(key) is not None and tleaf.get(key) is not None and plain[key] > 0:
             report[f"tleaf_over_none_{key}"] = tleaf[key] / plain[key]
+    if plain and tleaf:
+        report["tleaf_over_none_median_steps_to_90"] = median_ratio(
+            tleaf["steps_to_90_per_seed"], plain["steps_to_90_per_seed"]
+        )
     out_dir.mkdir(parents=True, exist_ok=True)
     pools = [("demonstrated", variants)] + ([("held-out", held_out)] if held_out else [])
     _figure(pools, out_dir / "report.png")
@@ -274,6 +323,24 @@ def _markdown(report: dict) -> str:
                 else "none reached it at the first evaluation"
             )
             lines.append(f"tleaf / none steps to {what}: not measurable ({why})")
+    if "tleaf_over_none_median_steps_to_90" in report:
+        r = report["tleaf_over_none_median_steps_to_90"]
+
+        def bound(v: float | None) -> str:
+            return "∞" if v is None else f"{v:.2f}"
+
+        if r["ratio"] is not None:
+            point = f"{r['ratio']:.2f}"
+        elif r["denominator_median"] is not None:
+            point = "∞ (tleaf's median seed did not get there)"
+        else:
+            point = "undefined (none's median seed did not get there)"
+        lines.append(
+            f"tleaf / none median steps to 90 % of the expert, per seed (a seed that never got "
+            f"there counts as never): {point}; 95 % bootstrap interval over seeds "
+            f"{bound(r['low'])} – {bound(r['high'])} ({r['draws']:,} draws, "
+            f"{r['undefined_draws']:,} undefined)"
+        )
     lines += [
         "",
         "Figure: report.png (mean ± s.e. over seeds, one panel per evaluation pool; dashed: the "
