@@ -15,6 +15,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 from tests.conftest import make_small
 from tleaf_cli.data.artifacts import write_artifact
+from tleaf_cli.errors import SettingError
 from tleaf_cli.tasks.cooking import ENV_ID
 from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
 from tleaf_cli.tasks.cooking.demos import DEMO_SCHEMA, KIND, SCHEMA
@@ -253,6 +254,26 @@ def test_the_ppo_update_keeps_sb3s_target_kl_and_value_clipping(tmp_path: Path) 
     assert all(r["stopped_early"] for r in stopped["rollouts"][1:])  # past the first minibatch
     values = [r["value_loss"] for r in plain["rollouts"]]
     assert [r["value_loss"] for r in clipped["rollouts"]] != values  # the clip changed the loss
+
+
+def test_a_linear_learning_rate_schedule_falls_to_zero_and_is_logged(tmp_path: Path) -> None:
+    """--lr-schedule linear: each rollout's PPO update uses lr × the share of the run still to
+    go (logged per rollout); constant keeps lr; an unknown schedule is a SettingError."""
+    demos = write_demos(tmp_path / "demos.parquet", EASY)
+    base = {"total_steps": 1024, "n_envs": 2, "n_steps": 64, "eval_every": 512, "seed": 0}
+    constant = train_gail(demos, tmp_path / "c", GailSettings(**base, eval_episodes=2, lr=2e-3))
+    linear = train_gail(
+        demos, tmp_path / "l", GailSettings(**base, eval_episodes=2, lr=2e-3, lr_schedule="linear")
+    )
+    assert {r["learning_rate"] for r in constant["rollouts"]} == {2e-3}
+    rates = [r["learning_rate"] for r in linear["rollouts"]]
+    assert len(rates) == 8 and rates == sorted(rates, reverse=True)
+    # before the k-th update (k = 1..8) of 8, 128 steps each, progress remaining is 1 - k/8
+    assert rates == pytest.approx([2e-3 * (1 - k / 8) for k in range(1, 9)])
+    config = json.loads((tmp_path / "l/config.json").read_text())
+    assert config["settings"]["lr_schedule"] == "linear"
+    with pytest.raises(SettingError, match="lr_schedule"):
+        GailSettings(lr_schedule="cosine").check()
 
 
 def fake_run(

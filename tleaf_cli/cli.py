@@ -92,6 +92,7 @@ AtomFeatures = Literal["onehot", "random", "text"]
 Embedder = Literal["dfa", "syntax"]
 Readout = Literal["walk", "steps", "accept", "runs"]
 Schedule = Literal["constant", "cosine"]
+PpoSchedule = Literal["constant", "linear"]
 KbFormulaFrom = Literal["labels"]
 RuleSets = Literal["video", "ingredient"]
 PairFeatures = Literal["concat", "rich"]
@@ -1252,6 +1253,10 @@ def train_task_cooking(
         ),
     ] = 8,
     lr: Lr = 1e-3,
+    lr_schedule: Annotated[
+        PpoSchedule,
+        typer.Option(help="PPO's learning rate: constant, or linear from --lr down to 0."),
+    ] = "constant",
     domain: Annotated[
         Path | None,
         typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
@@ -1285,6 +1290,7 @@ def train_task_cooking(
         eval_episodes=eval_episodes,
         held_out=held_out,
         lr=lr,
+        lr_schedule=lr_schedule,
         seed=seed,
         device=device,
         domain=domain or DEFAULT_DOMAIN,

@@ -68,6 +68,9 @@ from tleaf_cli.tasks.cooking.logic_term import (
 from tleaf_cli.tasks.cooking.pools import expert_returns, held_out_pool
 from tleaf_cli.tasks.cooking.shield import ShieldedActions
 
+# PPO learning-rate schedules: constant, or linear from `lr` at the first update to 0 at the last
+LR_SCHEDULES = ("constant", "linear")
+
 
 @dataclass(frozen=True)
 class GailSettings:
@@ -86,6 +89,7 @@ class GailSettings:
     target_kl: float | None = None  # SB3's: stop an update's epochs past 1.5 · target_kl
     clip_range_vf: float | None = None  # SB3's: clip the value's change (None: unclipped)
     lr: float = 1e-3
+    lr_schedule: str = "constant"  # constant | linear: PPO's lr falls linearly to 0 over the run
     gamma: float = 0.99
     ent_coef: float = 0.0
     hidden: int = 64  # policy and value MLPs (two layers)
@@ -111,12 +115,27 @@ class GailSettings:
             raise SettingError(
                 "logic_loss", f"must be one of {', '.join(LOGIC_LOSSES)}, not {self.logic_loss!r}"
             )
+        if self.lr_schedule not in LR_SCHEDULES:
+            raise SettingError(
+                "lr_schedule",
+                f"must be one of {', '.join(LR_SCHEDULES)}, not {self.lr_schedule!r}",
+            )
         if self.shield and self.logic_loss != "none":
             raise SettingError("shield", "runs without a logic loss for now (logic_loss none)")
         if self.device not in ("cpu", "cuda") or (
             self.device == "cuda" and not torch.cuda.is_available()
         ):
             raise SettingError("device", f"{self.device!r}: expected cpu (or cuda where available)")
+
+
+def ppo_learning_rate(settings: GailSettings) -> float | Callable[[float], float]:
+    """SB3's `learning_rate`: the constant `lr`, or a schedule of SB3's progress remaining
+    (1 at the first update, 0 at the end) that falls linearly from `lr` to 0 -- the usual PPO
+    trick to let a policy that has found the expert settle instead of drifting off again."""
+    if settings.lr_schedule == "linear":
+        lr = settings.lr
+        return lambda progress_remaining: lr * progress_remaining
+    return settings.lr
 
 
 # Evaluation episodes on the held-out pool are seeded apart from the demonstrated pool's.
@@ -207,7 +226,8 @@ class LogicPPO(PPO):
     surrogate, value loss (clipped by `clip_range_vf` when set), entropy bonus, gradient
     clipping, and SB3's early stop of an update's epochs once the approximate KL divergence
     passes 1.5 · `target_kl` (when set). Per rollout it logs (`logic_log` and SB3's logger)
-    the losses, approx_kl, clip_fraction and explained variance, as SB3 does.
+    the losses, approx_kl, clip_fraction, explained variance and the learning rate used, as SB3
+    does.
     """
 
     def setup_logic(self, logic: LogicTerm | None, lam: float, episodes: int, seed: int) -> None:
@@ -301,6 +321,7 @@ class LogicPPO(PPO):
             "approx_kl": float(np.mean(stats["approx_kl"])),
             "clip_fraction": float(np.mean(stats["clip"])),
             "stopped_early": not continue_training,
+            "learning_rate": float(self.policy.optimizer.param_groups[0]["lr"]),
             "explained_variance": float(
                 explained_variance(buffer.values.flatten(), buffer.returns.flatten())
             ),
@@ -346,6 +367,7 @@ class ShieldedPPO(MaskablePPO):
                     for key in ("approx_kl", "clip_fraction", "explained_variance")
                     if f"train/{key}" in logged
                 },
+                "learning_rate": float(self.policy.optimizer.param_groups[0]["lr"]),
                 "logic_loss": None,
                 "violation_rate": None,
             }
@@ -472,7 +494,7 @@ def train_gail(
         VecNormalize(
             DiscriminatorReward(venv, disc, settings.reward), norm_obs=False, gamma=settings.gamma
         ),
-        learning_rate=settings.lr,
+        learning_rate=ppo_learning_rate(settings),
         n_steps=settings.n_steps,
         batch_size=settings.batch_size,
         n_epochs=settings.n_epochs,
