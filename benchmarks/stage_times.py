@@ -4,8 +4,10 @@
     python benchmarks/stage_times.py times.tsv
 
 Prints a markdown table: one row per stage (the tleaf subcommand, with `--embedder` for
-train-meta and eval), one column pair per tier (the path component after the pipeline's out
-directory: low, moderate, high), wall and CPU (user + system) seconds summed over the calls.
+train-meta and eval, and the variant for train-task runs written to `runs/<variant>-seed<s>`, as
+pipelines/cooking.mk does), the number of calls, and one column pair per tier (the path component
+after the pipeline's out directory: low, moderate, high), wall and CPU (user + system) seconds
+summed over the calls.
 """
 
 from __future__ import annotations
@@ -24,6 +26,9 @@ def stage_of(command: str) -> tuple[str, str]:
     kind = re.search(r"--embedder \S*?(syntax|dfa)\b", command)
     if kind and stage in ("train-meta", "eval model-checking"):
         stage += f" ({kind.group(1)})"
+    variant = re.search(r"/runs/([\w.]+)-seed\d+", command)
+    if variant and stage == "train-task":
+        stage += f" ({variant.group(1)})"
     tier = next((t for t in TIERS if f"/{t}/" in command), "all")
     return stage, tier
 
@@ -31,6 +36,7 @@ def stage_of(command: str) -> tuple[str, str]:
 def main(path: str) -> None:
     wall: dict[tuple[str, str], float] = defaultdict(float)
     cpu: dict[tuple[str, str], float] = defaultdict(float)
+    calls: dict[str, int] = defaultdict(int)
     order: list[str] = []
     with open(path) as f:
         for row in csv.reader(f, delimiter="\t"):
@@ -39,17 +45,18 @@ def main(path: str) -> None:
             stage, tier = stage_of(row[3])
             wall[stage, tier] += float(row[0])
             cpu[stage, tier] += float(row[1]) + float(row[2])
+            calls[stage] += 1
             if stage not in order:
                 order.append(stage)
     tiers = [t for t in (*TIERS, "all") if any(k[1] == t for k in wall)]
-    print("| stage | " + " | ".join(f"{t} wall / CPU s" for t in tiers) + " |")
-    print("|---|" + "---|" * len(tiers))
+    print("| stage | calls | " + " | ".join(f"{t} wall / CPU s" for t in tiers) + " |")
+    print("|---|---|" + "---|" * len(tiers))
     for stage in order:
         cells = [
             f"{wall[stage, t]:.0f} / {cpu[stage, t]:.0f}" if (stage, t) in wall else "–"
             for t in tiers
         ]
-        print(f"| {stage} | " + " | ".join(cells) + " |")
+        print(f"| {stage} | {calls[stage]} | " + " | ".join(cells) + " |")
     total_wall, total_cpu = sum(wall.values()), sum(cpu.values())
     print(
         f"\nsum over calls: {total_wall:.0f} s wall (process time, calls overlap under -j), "
