@@ -13,9 +13,10 @@
 # learning under these settings). Every run is also evaluated on 8 held-out ingredient sets.
 # Every variant's PPO learning rate falls linearly to 0 over the budget (LR_SCHEDULE=linear; a
 # validation pilot on seeds the table never uses: 6 of 6 plain-GAIL runs reach the expert and stay,
-# against 4 of 6 at a constant rate). LR_SCHEDULE=constant gives the 2026-11-25 table's settings.
-# Budget: a none run takes about 2 CPU minutes, shield 2.5, a tleaf or exact run about 8-9 (the
-# logic term is computed for each of 160 minibatches per rollout): about 4.5 CPU hours in all.
+# against 4 of 6 at a constant rate). LR_SCHEDULE=constant gives the first 20-seed table's settings.
+# Budget (measured 2026-11-25): a none run takes about 2.3 CPU minutes, shield 3.3, exact 6.8,
+# tleaf 7.4 (the logic term is computed for each of 160 minibatches per rollout): about 4 CPU
+# hours in all, 2 h 4 min wall with -j2.
 # Each run uses one core: -j2 on 2 free cores.
 TLEAF ?= tleaf
 JOBS ?= 2
