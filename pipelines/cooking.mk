@@ -18,6 +18,8 @@
 # tleaf 7.4 (the logic term is computed for each of 160 minibatches per rollout): about 4 CPU
 # hours in all, 2 h 4 min wall with -j2.
 # Each run uses one core: -j2 on 2 free cores.
+# make tracks files, not settings: give a new OUT when changing LAMBDA, LR_SCHEDULE or TASK's
+# flags, or the runs already in OUT are reused as they are.
 TLEAF ?= tleaf
 JOBS ?= 2
 SMALL ?= 0
