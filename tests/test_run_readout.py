@@ -21,19 +21,21 @@ def _weights(batch: Batch, ends: torch.Tensor, max_length: int, bins: int) -> to
 
 
 def _enumerated(
-    dfa, graph, ends: set[int], max_length: int, bins: int, ranges: int = 1
+    dfa, graph, ends: set[int], max_length: int, bins: int, ranges: int = 1, anchors: int = 0
 ) -> torch.Tensor:
     """The same weights by listing every word: each length's runs ending in `ends`, uniform
     among them, their nodes counted into parts (of the run, and of its length range: lengths
-    1..max_length cut in `ranges` equal ranges), each part normalised to sum to 1."""
+    1..max_length cut in `ranges` equal ranges; with `anchors`, also into the parts of the k-th
+    letter from the start and from the end), each part normalised to sum to 1."""
     src, dst = graph.edge_index.tolist()
     node_of = {}  # (state, target state) -> edge node
     for s, e in zip(src, dst, strict=True):
         if graph.node_kind[e] == EDGE:
             node_of[s, dst[src.index(e)]] = e
-    out = torch.zeros(ranges * bins, graph.num_nodes, dtype=torch.float64)
+    parts = bins + 2 * anchors
+    out = torch.zeros(ranges * parts, graph.num_nodes, dtype=torch.float64)
     for length in range(1, max_length + 1):
-        first = (length - 1) * ranges // max_length * bins
+        first = (length - 1) * ranges // max_length * parts
         runs = []
         for word in itertools.product(range(dfa.alphabet.size), repeat=length):
             nodes, state = [dfa.initial], dfa.initial
@@ -46,6 +48,11 @@ def _enumerated(
         for nodes in runs:
             for i, v in enumerate(nodes):
                 out[first + i * bins // len(nodes), v] += 1.0 / len(runs)
+                # letter j is (state before it, its edge node): nodes 2j and 2j + 1 of the run
+                if i < 2 * length and i // 2 < anchors:  # j-th letter from the start
+                    out[first + bins + i // 2, v] += 1.0 / len(runs)
+                if i > 0 and (2 * length - i) // 2 < anchors:  # and from the end
+                    out[first + bins + anchors + (2 * length - i) // 2, v] += 1.0 / len(runs)
     return (out / out.sum(dim=1, keepdim=True).clamp(min=1e-12)).float()
 
 
@@ -75,6 +82,37 @@ def test_length_ranges_keep_runs_of_each_range_apart(formula: str) -> None:
     )
     assert got.shape == (6, graph.num_nodes)
     assert torch.allclose(got, _enumerated(dfa, graph, accepting, 6, 2, ranges=3), atol=1e-5)
+
+
+@pytest.mark.parametrize("formula", ["X b", "G(a -> X b)", "F(a & WX false)"])
+@pytest.mark.parametrize("ranges", [1, 2])
+def test_anchored_parts_hold_each_letter_from_either_end(formula: str, ranges: int) -> None:
+    dfa = compile_formula(formula)
+    graph, _ = dfa_graph(dfa)
+    batch = Batch.from_data_list([graph])
+    start = batch.ptr[:-1] + batch.initial
+    for ends, mask in (
+        ({s for s in range(dfa.num_states) if dfa.accepting[s]}, batch.flags[:, 1]),
+        ({s for s in range(dfa.num_states) if not dfa.accepting[s]}, batch.rejecting),
+    ):
+        got = accepted_run_weights(
+            batch.edge_index, batch.share, mask, start, batch.batch, 5, 2, ranges, 5, anchors=2
+        )
+        assert got.shape == (ranges * (2 + 2 * 2), graph.num_nodes)
+        want = _enumerated(dfa, graph, ends, 5, 2, ranges=ranges, anchors=2)
+        assert torch.allclose(got, want, atol=1e-5), (formula, ends)
+
+
+def test_anchored_parts_of_a_chain_are_its_first_and_last_letters() -> None:
+    """On a trace chain the k-th anchored part is exactly the k-th letter's edge node with the
+    state before it (from the start), or with the state after it (from the end)."""
+    encoder = AutomatonEncoder(
+        4, hidden=8, layers=1, out_dim=4, readout="accept", bins=1, anchors=2
+    )
+    weights = encoder.run_weights(trace_graph_batch([5])[0])  # nodes: states 0-5, edges 6-10
+    nonzero = [set(torch.nonzero(row).flatten().tolist()) for row in weights]
+    assert nonzero[1:] == [{0, 6}, {1, 7}, {5, 10}, {4, 9}]
+    assert torch.allclose(weights[1:].sum(dim=1), torch.ones(4))
 
 
 def test_a_trace_chain_fills_only_its_own_length_range() -> None:
@@ -234,3 +272,60 @@ def test_jumping_readout_reads_the_input_layer_too() -> None:
         z = encoder(batch)
         assert encoder.head.in_features == 2 * 2 * ((2 + 2 + 4) + 2 * 8 if jumping else 8)
         assert torch.allclose(z[0], z[1]) != jumping
+
+
+def test_radius_classifier_learns_one_radius_between_the_two_sides() -> None:
+    """RadiusClassifier alone: satisfying points within ~0.5 of their anchors, violating ones
+    ~2 away (squared distances ~0.25 and ~4); its loss moves r between them."""
+    from tleaf_cli.embed.encoders import RadiusClassifier
+
+    torch.manual_seed(0)
+    anchor = torch.randn(256, 8)
+    direction = torch.nn.functional.normalize(torch.randn(256, 8), dim=1)
+    pos, neg = anchor + 0.5 * direction, anchor + 2.0 * direction
+    classifier = RadiusClassifier(radius=8.0)  # starts with everything inside
+    optimiser = torch.optim.Adam(classifier.parameters(), lr=0.05)
+    for _ in range(300):
+        optimiser.zero_grad()
+        classifier.loss(anchor, pos, neg).backward()
+        optimiser.step()
+    assert 0.25 < classifier.radius.item() < 4.0
+    assert (classifier(anchor, pos) > 0).all() and (classifier(anchor, neg) < 0).all()
+
+
+def test_radius_loss_is_trained_saved_and_loaded(low_set, tmp_path) -> None:
+    """--radius-weight: train-meta fits the radius with q and saves it; the loaded q has it."""
+    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.train_meta import MetaSettings, train_meta
+
+    settings = MetaSettings(
+        hidden=32, layers=2, out_dim=16, batch_size=32, lr=3e-3, directed=True,
+        readout="runs", bins=3, epochs=2, patience=2, radius_weight=1.0,
+    )  # fmt: skip
+    train_meta(low_set["dfas"], low_set["traces"], low_set["edge"], tmp_path / "r", settings)
+    radius = load_embedder(tmp_path / "r").model.radius.radius.item()
+    assert radius != pytest.approx(settings.margin)  # trained, not left where it started
+    state = torch.load(tmp_path / "r" / "weights.pt", weights_only=True)
+    assert state["radius.radius"].item() == radius
+
+
+@pytest.mark.parametrize("readout", ["walk", "runs"])
+def test_chain_batch_embeds_traces_as_their_collated_graphs_do(readout: str) -> None:
+    """train-meta and `Embedder.embed_traces` batch traces with `chain_batch` (tensor ops, no
+    Data per trace); each trace gets the vector its own chain graph gets when collated."""
+    from tleaf_cli.embed.meta_data import chain_batch
+
+    torch.manual_seed(0)
+    lengths = [3, 1, 5, 2]
+    letters = torch.randn(sum(lengths), 4)
+    encoder = AutomatonEncoder(4, hidden=8, layers=2, out_dim=5, readout=readout, bins=2,
+                               directed=True, anchors=1).eval()  # fmt: skip
+    graphs = []
+    for i, length in enumerate(lengths):
+        g = trace_graph(length)
+        g.edge_vec = torch.zeros(g.num_nodes, 4)
+        g.edge_vec[g.node_kind == EDGE] = letters[sum(lengths[:i]) : sum(lengths[: i + 1])]
+        graphs.append(g)
+    want = encoder(Batch.from_data_list(graphs))
+    got = encoder(chain_batch(encoder, letters, lengths))
+    assert torch.allclose(got, want, atol=1e-5)

@@ -743,6 +743,29 @@ def train_meta(
             "read apart (a trace only in its own length's range); 1: all lengths together.",
         ),
     ] = 1,
+    anchors: Annotated[
+        int,
+        typer.Option(
+            min=0,
+            help="accept/runs readouts: also read the first and the last this-many letters of "
+            "a run apart, one projection per position from either end (0: none).",
+        ),
+    ] = 0,
+    conv: Annotated[
+        str,
+        typer.Option(
+            help="Message-passing layer: gcn (GCNConv, the paper's: degree-normalised mean with "
+            "one weight) or graph (GraphConv: a node's own weight plus the sum of its "
+            "neighbours', so a state sees how many arcs leave it)."
+        ),
+    ] = "gcn",
+    head: Annotated[
+        str,
+        typer.Option(
+            help="From the readout's parts to the vector: linear (the paper's) or mlp (one "
+            "hidden ReLU layer of twice --out-dim)."
+        ),
+    ] = "linear",
     residual: Annotated[
         bool,
         typer.Option(
@@ -781,6 +804,23 @@ def train_meta(
             "satisfying, which the tleaf loss reads; 0: the paper's triplet loss alone.",
         ),
     ] = 0.0,
+    radius_weight: Annotated[
+        float,
+        typer.Option(
+            min=0.0,
+            help="Weight of a loss that fits one radius r for all formulas: satisfying traces "
+            "within r of their formula, violating ones beyond (the distance rule the tleaf loss "
+            "reads); 0: the paper's triplet loss alone.",
+        ),
+    ] = 0.0,
+    sphere: Annotated[
+        bool,
+        typer.Option(
+            "--sphere/--no-sphere",
+            help="Scale every vector to unit length (squared distances in [0, 4]; use a margin "
+            "below 4, e.g. 0.2).",
+        ),
+    ] = False,
     margin: Margin = 1.0,
     lr: Lr = 1e-3,
     schedule: Annotated[
@@ -808,7 +848,8 @@ def train_meta(
     _targets([dfas, traces, edge], folders=[out])
     if readout not in ("accept", "runs"):
         _refuse(
-            _given(ctx, "bins", "max_length", "length_ranges"), "only with --readout accept or runs"
+            _given(ctx, "bins", "max_length", "length_ranges", "anchors"),
+            "only with --readout accept or runs",
         )
 
     settings = MetaSettings(
@@ -821,12 +862,17 @@ def train_meta(
         bins=bins,
         max_length=max_length,
         length_ranges=length_ranges,
+        anchors=anchors,
+        conv=conv,
+        head=head,
         residual=residual,
         jumping=jumping,
         directed=directed,
         norm=norm,
         pair_weight=pair_weight,
         pull=pull,
+        radius_weight=radius_weight,
+        sphere=sphere,
         margin=margin,
         lr=lr,
         schedule=schedule,

@@ -41,7 +41,7 @@ import itertools
 
 import torch
 from torch import nn
-from torch_geometric.nn import GCNConv, JumpingKnowledge, global_add_pool
+from torch_geometric.nn import GCNConv, GraphConv, JumpingKnowledge, global_add_pool
 from torch_geometric.utils import degree, to_undirected
 
 from tleaf_cli.embed.graphs import EDGE, trace_graph_batch
@@ -50,6 +50,8 @@ from tleaf_cli.errors import SettingError
 KINDS = 2  # state, edge node
 FLAGS = 2  # initial, accepting
 READOUTS = ("walk", "steps", "accept", "runs")
+CONVS = ("gcn", "graph")  # GCNConv (degree-normalised), GraphConv (own weight + sum of neighbours)
+HEADS = ("linear", "mlp")
 RUN_READOUTS = ("accept", "runs")  # the readouts of `accepted_run_weights`
 
 
@@ -80,9 +82,10 @@ def accepted_run_weights(
     bins: int = 1,
     length_ranges: int = 1,
     span: int | None = None,
+    anchors: int = 0,
 ) -> torch.Tensor:
-    """[length_ranges * bins, num_nodes]: how much of an accepted run lies at each node, by part
-    of the run (and, with `length_ranges` > 1, by range of the run's length).
+    """[length_ranges * (bins + 2 anchors), num_nodes]: how much of an accepted run lies at each
+    node, by part of the run (and, with `length_ranges` > 1, by range of the run's length).
 
     `ends` [num_nodes] marks the states a run must end in: the accepting states (accepted runs),
     or the others (rejected runs); `start` holds each graph's initial node, `graph_of` the graph
@@ -103,6 +106,14 @@ def accepted_run_weights(
     normalised on its own. A trace chain then fills only its own length's range, and a DFA every
     range its accepted runs reach, so a trace is compared with the formula's words of about its
     own length.
+
+    `anchors` K > 0 adds, after the B parts of each range, 2K parts anchored at the run's ends:
+    part B + k holds the k-th letter from the start (its edge node and the state before it),
+    part B + K + k the k-th letter from the end (its edge node and the state after it), for
+    k < K. The B parts are relative (a fifth of a run is 1 letter of a 5-letter word and 2 of a
+    10-letter one, so runs of different lengths blur each other's positions); LTLf's next and
+    weak-next operators and the end of the trace are about exact positions from either end,
+    which anchored parts keep apart for every length.
 
     On a trace chain (share 1, its last state accepting) the one accepted run reads every node
     once, so part k is the k-th stretch of the trace; on a DFA it is where accepted words go —
@@ -125,21 +136,35 @@ def accepted_run_weights(
         b.append(torch.zeros(n, device=share.device).index_add_(0, src, b[-1][dst] * prob))
     a_t, b_t = torch.stack(a), torch.stack(b)
     span = span or max(hops // 2, 1)
-    out = torch.zeros(length_ranges * bins, n, device=share.device)
+    parts = bins + 2 * anchors
+    out = torch.zeros(length_ranges * parts, n, device=share.device)
     for length in range(1, hops // 2 + 1):
         h = 2 * length
         z = b_t[h, start]  # [graphs]: accepted mass at this length
         occupancy = a_t[: h + 1] * b_t[: h + 1].flip(0)  # [h + 1, n]
-        part = (torch.arange(h + 1, device=share.device) * bins) // (h + 1)
-        per_part = torch.zeros(bins, n, device=share.device).index_add_(0, part, occupancy)
+        per_part = _part_matrix(h, bins, anchors, share.device) @ occupancy  # [parts, n]
         ok = (z > 0) & (length <= limit)
-        first = min(length_ranges - 1, (length - 1) * length_ranges // span) * bins
-        out[first : first + bins] += torch.where(
+        first = min(length_ranges - 1, (length - 1) * length_ranges // span) * parts
+        out[first : first + parts] += torch.where(
             ok[graph_of], per_part / torch.where(ok, z, 1.0)[graph_of], 0.0
         )
     # each part sums to 1 per graph (or 0 where the graph never reaches it)
     total = torch.zeros(len(out), graphs, device=share.device).index_add_(1, graph_of, out)
     return out / total.clamp(min=1e-12)[:, graph_of]
+
+
+def _part_matrix(hops: int, bins: int, anchors: int, device: torch.device) -> torch.Tensor:
+    """[bins + 2 anchors, hops + 1]: which parts each node of a run of `hops` hops counts into
+    (`accepted_run_weights`): the i-th of its hops + 1 nodes into relative part
+    floor(bins * i / (hops + 1)), and, for the anchored parts, into letter i // 2 from the start
+    and letter (hops - i) // 2 from the end where those are below `anchors`."""
+    i = torch.arange(hops + 1, device=device)
+    m = torch.zeros(bins + 2 * anchors, hops + 1, device=device)
+    m[(i * bins) // (hops + 1), i] = 1.0
+    for part, k in ((bins, i // 2), (bins + anchors, (hops - i) // 2)):
+        near = (k < anchors) & (i < hops if part == bins else i > 0)
+        m[part + k[near], i[near]] = 1.0
+    return m
 
 
 def walk_weights(edge_index: torch.Tensor, start: torch.Tensor, num_nodes: int, steps: int):
@@ -166,14 +191,23 @@ class AutomatonEncoder(nn.Module):
         residual: bool = False,
         length_ranges: int = 1,
         jumping: bool = False,
+        anchors: int = 0,
+        conv: str = "gcn",
+        head: str = "linear",
     ) -> None:
         super().__init__()
-        if readout not in READOUTS:
-            raise SettingError("readout", f"must be one of {READOUTS}, not {readout!r}")
+        for name, value, allowed in (
+            ("readout", readout, READOUTS),
+            ("conv", conv, CONVS),
+            ("head", head, HEADS),
+        ):
+            if value not in allowed:
+                raise SettingError(name, f"must be one of {allowed}, not {value!r}")
         dims = [KINDS + FLAGS + edge_dim] + [hidden] * layers
-        self.convs = nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims))
+        layer = GCNConv if conv == "gcn" else GraphConv
+        self.convs = nn.ModuleList(layer(a, b) for a, b in itertools.pairwise(dims))
         self.back = (
-            nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims)) if directed else None
+            nn.ModuleList(layer(a, b) for a, b in itertools.pairwise(dims)) if directed else None
         )
         # `norm`: edge-node vectors standardised with statistics of the training graphs (q_e's
         # vectors share a large common component, so otherwise every graph starts at nearly the
@@ -183,18 +217,25 @@ class AutomatonEncoder(nn.Module):
             self.register_buffer("edge_mean", torch.zeros(edge_dim))
             self.register_buffer("edge_std", torch.ones(edge_dim))
         self.norms = nn.ModuleList(nn.LayerNorm(hidden) for _ in range(layers)) if norm else None
-        runs = bins * length_ranges
+        runs = (bins + 2 * anchors) * length_ranges
         parts = {"walk": 1, "steps": steps + 1, "accept": runs, "runs": 2 * runs}[readout]
         # `jumping`: the readout sees every layer's node vectors side by side, the input too
         # (PyG's JumpingKnowledge "cat"), not only the last layer's
         self.jumping = JumpingKnowledge("cat") if jumping else None
         width = dims[0] + hidden * layers if jumping else hidden
-        self.head = nn.Linear(width * parts, out_dim)
+        self.head = (
+            nn.Linear(width * parts, out_dim)
+            if head == "linear"
+            else nn.Sequential(
+                nn.Linear(width * parts, 2 * out_dim), nn.ReLU(), nn.Linear(2 * out_dim, out_dim)
+            )
+        )
         self.steps = steps
         self.readout = readout
         self.bins = bins
         self.max_length = max_length
         self.length_ranges = length_ranges
+        self.anchors = anchors
         self.residual = residual
         self._chains: dict[int, torch.Tensor] = {}  # trace length -> its chain's run weights
 
@@ -234,6 +275,7 @@ class AutomatonEncoder(nn.Module):
                     self.bins,
                     self.length_ranges,
                     self.max_length,
+                    self.anchors,
                 )
                 for e in ends
             ]

@@ -12,8 +12,9 @@ from collections.abc import Collection, Sequence
 import torch
 from torch_geometric.data import Batch, Data
 
+from tleaf_cli.embed.automaton import RUN_READOUTS
 from tleaf_cli.embed.encoders import PropositionEncoder
-from tleaf_cli.embed.graphs import cnf_graph, dfa_graph, letter_cnf, trace_graph
+from tleaf_cli.embed.graphs import cnf_graph, dfa_graph, letter_cnf, trace_graph, trace_graph_batch
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
 
@@ -74,12 +75,38 @@ def featured_dfa_graphs(dfas: Sequence[DFA], vectors: GuardVectors) -> list[Data
     return [_with_edge_vectors(g, vectors(ks)) for (g, _), ks in zip(built, keys, strict=True)]
 
 
+def trace_letter_vectors(
+    trace: Sequence[Collection[str]],
+    atoms: tuple[str, ...],
+    vectors: GuardVectors,
+    one_hot: bool = False,
+) -> torch.Tensor:
+    """[T, d]: q_e of a trace's letters over a formula's atoms (written as `letter_cnf` writes
+    the alphabet's letters)."""
+    return vectors([(atoms, tuple(map(tuple, letter_cnf(step, atoms, one_hot)))) for step in trace])
+
+
 def featured_trace_graph(
     trace: Sequence[Collection[str]],
     atoms: tuple[str, ...],
     vectors: GuardVectors,
     one_hot: bool = False,
 ) -> Data:
-    """A trace over a formula's atoms (letters written as `letter_cnf` does for the alphabet)."""
-    keys = [(atoms, tuple(map(tuple, letter_cnf(step, atoms, one_hot)))) for step in trace]
-    return _with_edge_vectors(trace_graph(len(trace)), vectors(keys))
+    """A trace over a formula's atoms as a chain graph with q_e vectors on its edge nodes."""
+    letters = trace_letter_vectors(trace, atoms, vectors, one_hot)
+    return _with_edge_vectors(trace_graph(len(trace)), letters)
+
+
+def chain_batch(encoder: torch.nn.Module, letters: torch.Tensor, lengths: Sequence[int]) -> Batch:
+    """The trace chains of these lengths as one graph batch, step t of trace i carrying row
+    sum(lengths[:i]) + t of `letters` [sum(lengths), d] (q_e vectors, or expected ones of soft
+    traces) on its edge node; with the readout weights of `encoder` (an AutomatonEncoder) where
+    its readout reads runs. Built with tensor ops: the same graphs as `featured_trace_graph`
+    collated, without a Data object per trace."""
+    batch, edge_nodes = trace_graph_batch(list(lengths))
+    if encoder.readout in RUN_READOUTS:  # chains' readout weights, computed once per length
+        batch.run_weights = encoder.chain_run_weights(list(lengths))
+    batch, edge_nodes = batch.to(letters.device), edge_nodes.to(letters.device)
+    edge_vec = letters.new_zeros(int(batch.num_nodes), letters.shape[-1])
+    batch.edge_vec = edge_vec.index_copy(0, edge_nodes, letters)
+    return batch

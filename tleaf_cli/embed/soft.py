@@ -23,9 +23,13 @@ from torch_geometric.data import Batch
 
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.rule_set import RuleSet
-from tleaf_cli.embed.automaton import RUN_READOUTS
-from tleaf_cli.embed.graphs import letter_cnf, syntax_graph, trace_graph_batch
-from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graphs, featured_trace_graph
+from tleaf_cli.embed.graphs import letter_cnf, syntax_graph
+from tleaf_cli.embed.meta_data import (
+    GuardVectors,
+    chain_batch,
+    featured_dfa_graphs,
+    trace_letter_vectors,
+)
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
 from tleaf_cli.embed.training import read_model_config
@@ -77,11 +81,22 @@ class Embedder:
         one-hot alphabet where `one_hot` (one bool for all, or one per trace; default:
         powerset)."""
         kinds = [one_hot] * len(traces) if isinstance(one_hot, bool) else one_hot
-        graphs = [
-            featured_trace_graph(t, a, self.vectors, h)
+        letters = [
+            trace_letter_vectors(t, a, self.vectors, h)
             for t, a, h in zip(traces, atoms, kinds, strict=True)
         ]
-        return self._encode(self.model.embed_traces, graphs, batch)
+        with torch.no_grad():
+            parts = [
+                self.model.embed_traces(
+                    chain_batch(
+                        self.model.trace,
+                        torch.cat(letters[i : i + batch]),
+                        [len(x) for x in letters[i : i + batch]],
+                    )
+                )
+                for i in range(0, len(letters), batch)
+            ]
+        return torch.cat(parts) if parts else torch.zeros((0, 0))
 
     def rule_set_vectors(self, rule_sets: Sequence[RuleSet]) -> tuple[torch.Tensor, torch.Tensor]:
         """q(A_φ) [R, d] and q_e of each rule set's one-hot letters (none, atoms[0], ...), padded
@@ -178,14 +193,8 @@ def soft_trace_vectors(
 ) -> torch.Tensor:
     """q(w̃) [N, d] of soft traces whose step-t edge node carries expected[i, t] (t < lengths[i]);
     `model` is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
-    batch, edge_nodes = trace_graph_batch(lengths.tolist())
-    if model.trace.readout in RUN_READOUTS:  # chains' readout weights, computed once per length
-        batch.run_weights = model.trace.chain_run_weights(lengths.tolist())
-    batch, edge_nodes = batch.to(expected.device), edge_nodes.to(expected.device)
     valid = torch.arange(expected.shape[1], device=expected.device)[None, :] < lengths[:, None]
-    edge_vec = expected.new_zeros(int(batch.num_nodes), expected.shape[-1])
-    batch.edge_vec = edge_vec.index_copy(0, edge_nodes, expected[valid])
-    return model.embed_traces(batch)
+    return model.embed_traces(chain_batch(model.trace, expected[valid], lengths.tolist()))
 
 
 def edge_model_dir(model_dir: Path, config: dict) -> Path:

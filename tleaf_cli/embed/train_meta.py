@@ -28,9 +28,14 @@ from tleaf_cli.data.artifacts import describe_inputs, relative_to, write_text_at
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.automaton import READOUTS, RUN_READOUTS, AutomatonEncoder
-from tleaf_cli.embed.encoders import anchor_pull, triplet_accuracy
+from tleaf_cli.embed.encoders import RadiusClassifier, anchor_pull, triplet_accuracy
 from tleaf_cli.embed.graphs import EDGE, syntax_graph
-from tleaf_cli.embed.meta_data import GuardVectors, featured_dfa_graph, featured_trace_graph
+from tleaf_cli.embed.meta_data import (
+    GuardVectors,
+    chain_batch,
+    featured_dfa_graph,
+    trace_letter_vectors,
+)
 from tleaf_cli.embed.syntax import SyntaxEncoder
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit
@@ -54,12 +59,17 @@ class MetaSettings:
     bins: int = 1  # accept/runs readouts: parts of a run, each with its own projection
     max_length: int = 12  # accept/runs readouts: longest run of a DFA counted (traces: whole)
     length_ranges: int = 1  # accept/runs readouts: runs of this many length ranges kept apart
+    anchors: int = 0  # accept/runs readouts: parts for the first and last this-many letters
+    conv: str = "gcn"  # message-passing layer: gcn (GCNConv) or graph (GraphConv)
+    head: str = "linear"  # readout to vector: linear, or mlp (one hidden ReLU layer)
     jumping: bool = False  # readouts over every layer's node vectors, the input's too
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
     norm: bool = False  # standardised edge vectors and LayerNorm
     pair_weight: float = 0.0  # weight of the auxiliary pair classifier's loss (0: none)
     pull: float = 0.0  # weight of mean d(formula, satisfying trace) (encoders.anchor_pull)
+    radius_weight: float = 0.0  # weight of the one-radius loss (encoders.RadiusClassifier)
+    sphere: bool = False  # vectors scaled to unit length (TripletEmbedder)
     margin: float = 1.0
     lr: float = 1e-3
     schedule: str = "constant"  # or "cosine" over `epochs` (training.SCHEDULES)
@@ -77,13 +87,28 @@ class TripletEmbedder(nn.Module):
     With `pair_head`, training also fits a classifier of (z_formula, z_trace) -> satisfies
     (binary cross-entropy on each triplet's two pairs), so the vectors must carry what decides
     satisfaction and not only an ordering of distances; the head is kept but not used after.
+    With `radius`, training also fits one radius for all formulas (`RadiusClassifier`).
+
+    With `sphere`, every vector is scaled to unit length, so squared distances lie in [0, 4].
+    Without it the triplet loss on squared distances can be lowered by stretching the whole
+    space, which rewards a few far-off triplets with large gradients; on the sphere the
+    margin has a fixed meaning and no triplet dominates.
     """
 
-    def __init__(self, formula: nn.Module, trace: nn.Module, pair_head: nn.Module | None = None):
+    def __init__(
+        self,
+        formula: nn.Module,
+        trace: nn.Module,
+        pair_head: nn.Module | None = None,
+        radius: RadiusClassifier | None = None,
+        sphere: bool = False,
+    ):
         super().__init__()
+        self.sphere = sphere
         self.formula = formula
         self.trace = trace
         self.pair_head = pair_head
+        self.radius = radius
 
     def pair_loss(self, triplet) -> torch.Tensor:
         anchor, pos, neg = triplet
@@ -93,11 +118,14 @@ class TripletEmbedder(nn.Module):
         target = torch.cat([torch.ones(len(anchor)), torch.zeros(len(anchor))]).to(logits)
         return nn.functional.binary_cross_entropy_with_logits(logits, target)
 
+    def _out(self, z: torch.Tensor) -> torch.Tensor:
+        return nn.functional.normalize(z, dim=-1) if self.sphere else z
+
     def embed_formulas(self, batch) -> torch.Tensor:
-        return self.formula(batch)
+        return self._out(self.formula(batch))
 
     def embed_traces(self, batch) -> torch.Tensor:
-        return self.trace(batch)
+        return self._out(self.trace(batch))
 
 
 def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor) -> TripletEmbedder:
@@ -115,15 +143,19 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.residual,
         settings.length_ranges,
         settings.jumping,
+        settings.anchors,
+        settings.conv,
+        settings.head,
     )
     head = None
     if settings.pair_weight > 0:
         d = settings.out_dim
         head = nn.Sequential(nn.Linear(2 * d, 256), nn.ReLU(), nn.Linear(256, 1))
+    radius = RadiusClassifier(settings.margin) if settings.radius_weight > 0 else None
     if settings.embedder == "dfa":
-        return TripletEmbedder(trace, trace, head)
+        return TripletEmbedder(trace, trace, head, radius, settings.sphere)
     formula = SyntaxEncoder(atom_table, settings.hidden, settings.layers, settings.out_dim)
-    return TripletEmbedder(formula, trace, head)
+    return TripletEmbedder(formula, trace, head, radius, settings.sphere)
 
 
 def store_run_weights(encoder: AutomatonEncoder, graphs: list, batch: int = 512) -> None:
@@ -179,10 +211,10 @@ def train_meta(
         if t["formula_id"] not in rows:
             continue
         row = rows[t["formula_id"]]
-        graph = featured_trace_graph(
+        letters = trace_letter_vectors(
             t["trace"], tuple(row["atoms"]), vectors, row["alphabet"] == "one-hot"
-        )
-        by_split[t["split"]][t["formula_id"]][t["label"]].append((graph, t["source"]))
+        )  # a trace is its letters' q_e vectors [T, d]; `embed` batches them as chains
+        by_split[t["split"]][t["formula_id"]][t["label"]].append((letters, t["source"]))
 
     def fixed_pairs(split: str, source: str | None = None):
         out = []
@@ -199,18 +231,15 @@ def train_meta(
     # ---- model and the shared triplet loop
     model = build_model(settings, vectors.dim, edge_model.atom_table)
     if settings.norm:
-        seen = [g for sides in by_split["train"].values() for g, _ in sides[True] + sides[False]]
+        seen = [x for sides in by_split["train"].values() for x, _ in sides[True] + sides[False]]
         if settings.embedder == "dfa":
-            seen += [formula_graphs[f] for f in train_formulas]
-        model.trace.set_edge_statistics(torch.cat([g.edge_vec[g.node_kind == EDGE] for g in seen]))
-    if settings.readout in RUN_READOUTS:  # the readout's weights, once per graph
-        seen = [
-            g for sides in by_split.values() for s in sides.values() for g, _ in s[True] + s[False]
-        ]
-        store_run_weights(
-            model.trace,
-            seen + list(formula_graphs.values()) if settings.embedder == "dfa" else seen,
-        )
+            seen += [
+                formula_graphs[f].edge_vec[formula_graphs[f].node_kind == EDGE]
+                for f in train_formulas
+            ]
+        model.trace.set_edge_statistics(torch.cat(seen))
+    if settings.readout in RUN_READOUTS and settings.embedder == "dfa":
+        store_run_weights(model.trace, list(formula_graphs.values()))  # once per graph
     model = model.to(device)
 
     def epoch_triplets(epoch: int, generator: torch.Generator):
@@ -233,10 +262,13 @@ def train_meta(
         distinct = {id(g): g for g in formulas}
         row = {key: i for i, key in enumerate(distinct)}
         z_formulas = model.embed_formulas(Batch.from_data_list(list(distinct.values())).to(device))
+        traces = sats + negs  # one batch of chains for both sides
+        chains = chain_batch(model.trace, torch.cat(traces).to(device), [len(x) for x in traces])
+        z_traces = model.embed_traces(chains)
         return (
             z_formulas[torch.tensor([row[id(g)] for g in formulas], device=device)],
-            model.embed_traces(Batch.from_data_list(list(sats)).to(device)),
-            model.embed_traces(Batch.from_data_list(list(negs)).to(device)),
+            z_traces[: len(sats)],
+            z_traces[len(sats) :],
         )
 
     def scores(pairs) -> dict[str, float]:
@@ -260,6 +292,8 @@ def train_meta(
         loss = anchor_pull(triplet[0], triplet[1]) * settings.pull
         if settings.pair_weight:
             loss = loss + settings.pair_weight * model.pair_loss(triplet)
+        if settings.radius_weight:
+            loss = loss + settings.radius_weight * model.radius.loss(*triplet)
         return loss
 
     val = fixed_pairs("val")
@@ -267,7 +301,9 @@ def train_meta(
         model,
         epoch_triplets,
         triplet_step(
-            embed, settings.margin, extra_loss if settings.pair_weight or settings.pull else None
+            embed,
+            settings.margin,
+            extra_loss if settings.pair_weight or settings.pull or settings.radius_weight else None,
         ),
         lambda: scores(val)["accuracy"],
         loop,
