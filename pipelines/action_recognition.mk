@@ -1,6 +1,7 @@
 # The paper's Fig. 4B (issue 6) on SYNTHETIC activities: gen-activities -> kb-extract ->
-# gen-traces --once-each -> train-edge -> train-meta --pull -> train-task (models x losses x seeds)
-# -> eval. Why --once-each, --pull and the lambdas: docs/results/action_recognition.md.
+# gen-traces --once-each -> train-edge -> train-meta --radius-weight --pull -> train-task
+# (models x losses x seeds) -> eval. Why --once-each, --radius-weight, --pull and the lambdas:
+# docs/results/action_recognition.md.
 # Re-runs only what changed; `make -j` runs the training runs in parallel.
 #   make -f pipelines/action_recognition.mk [TLEAF=tleaf] [SMALL=1] [JOBS=2] [SEEDS="0 1"]
 # SMALL=1: the whole chain on a tiny synthetic set in about a minute (used by the tests).
@@ -25,8 +26,11 @@ export OMP_NUM_THREADS
 
 # q_m as the model-checking pipeline trains it (docs/results/model_checking.md): messages along and
 # against the arcs, read out where accepted and rejected runs go (5 parts; rule sets' traces read
-# up to 20 letters, so runs that long are counted), cosine learning rate; plus --pull 0.02
-Q := --directed --readout runs --bins 5 --max-length 20 --schedule cosine --pull 0.02
+# up to 20 letters, so runs that long are counted), cosine learning rate, one radius for all
+# formulas (--radius-weight 1, issue 13: the distance d < r then means "satisfies" for every
+# rule set, which is what the tleaf loss reads); plus --pull 0.02
+Q := --directed --readout runs --bins 5 --max-length 20 --schedule cosine --radius-weight 1 \
+	--pull 0.02
 
 ifeq ($(SMALL),1)
 OUT ?= out/action-recognition-small
