@@ -92,6 +92,8 @@ AtomFeatures = Literal["onehot", "random", "text"]
 Embedder = Literal["dfa", "syntax"]
 Readout = Literal["walk", "steps", "accept", "runs"]
 Schedule = Literal["constant", "cosine"]
+Conv = Literal["gcn", "graph"]
+Head = Literal["linear", "mlp"]
 PpoSchedule = Literal["constant", "linear"]
 KbFormulaFrom = Literal["labels"]
 RuleSets = Literal["video", "ingredient"]
@@ -752,7 +754,7 @@ def train_meta(
         ),
     ] = 0,
     conv: Annotated[
-        str,
+        Conv,
         typer.Option(
             help="Message-passing layer: gcn (GCNConv, the paper's: degree-normalised mean with "
             "one weight) or graph (GraphConv: a node's own weight plus the sum of its "
@@ -760,7 +762,7 @@ def train_meta(
         ),
     ] = "gcn",
     head: Annotated[
-        str,
+        Head,
         typer.Option(
             help="From the readout's parts to the vector: linear (the paper's) or mlp (one "
             "hidden ReLU layer of twice --out-dim)."
