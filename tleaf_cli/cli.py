@@ -753,6 +753,18 @@ def train_meta(
             "a run apart, one projection per position from either end (0: none).",
         ),
     ] = 0,
+    probes: Annotated[
+        int,
+        typer.Option(
+            min=0,
+            help="accept/runs readouts: this many learned probe automata read along the runs; "
+            "a formula gets their state distributions expected over its accepted (and rejected) "
+            "words, a trace its own (0: none; docs/embedder.md).",
+        ),
+    ] = 0,
+    probe_states: Annotated[
+        int, typer.Option(min=1, help="--probes: the states of each probe automaton.")
+    ] = 4,
     conv: Annotated[
         Conv,
         typer.Option(
@@ -850,7 +862,7 @@ def train_meta(
     _targets([dfas, traces, edge], folders=[out])
     if readout not in ("accept", "runs"):
         _refuse(
-            _given(ctx, "bins", "max_length", "length_ranges", "anchors"),
+            _given(ctx, "bins", "max_length", "length_ranges", "anchors", "probes", "probe_states"),
             "only with --readout accept or runs",
         )
 
@@ -865,6 +877,8 @@ def train_meta(
         max_length=max_length,
         length_ranges=length_ranges,
         anchors=anchors,
+        probes=probes,
+        probe_states=probe_states,
         conv=conv,
         head=head,
         residual=residual,

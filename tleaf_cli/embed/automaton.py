@@ -45,6 +45,7 @@ from torch_geometric.nn import GCNConv, GraphConv, JumpingKnowledge, global_add_
 from torch_geometric.utils import degree, to_undirected
 
 from tleaf_cli.embed.graphs import EDGE, trace_graph_batch
+from tleaf_cli.embed.probes import ProbeBank
 from tleaf_cli.errors import SettingError
 
 KINDS = 2  # state, edge node
@@ -194,6 +195,8 @@ class AutomatonEncoder(nn.Module):
         anchors: int = 0,
         conv: str = "gcn",
         head: str = "linear",
+        probes: int = 0,
+        probe_states: int = 4,
     ) -> None:
         super().__init__()
         for name, value, allowed in (
@@ -222,12 +225,20 @@ class AutomatonEncoder(nn.Module):
         # `jumping`: the readout sees every layer's node vectors side by side, the input too
         # (PyG's JumpingKnowledge "cat"), not only the last layer's
         self.jumping = JumpingKnowledge("cat") if jumping else None
-        width = dims[0] + hidden * layers if jumping else hidden
+        width = (dims[0] + hidden * layers if jumping else hidden) * parts
+        # `probes` M > 0 (run readouts only): M probe automata read along the same runs
+        # (probes.ProbeBank), their features beside the nodes' parts
+        self.probes = None
+        if probes > 0:
+            if readout not in RUN_READOUTS:
+                raise SettingError("probes", f"need an accept/runs readout, not {readout!r}")
+            self.probes = ProbeBank(edge_dim, probes, probe_states, bins, max_length)
+            width += self.probes.width * (2 if readout == "runs" else 1)
         self.head = (
-            nn.Linear(width * parts, out_dim)
+            nn.Linear(width, out_dim)
             if head == "linear"
             else nn.Sequential(
-                nn.Linear(width * parts, 2 * out_dim), nn.ReLU(), nn.Linear(2 * out_dim, out_dim)
+                nn.Linear(width, 2 * out_dim), nn.ReLU(), nn.Linear(2 * out_dim, out_dim)
             )
         )
         self.steps = steps
@@ -254,7 +265,7 @@ class AutomatonEncoder(nn.Module):
         then rejected runs' parts); they depend on the graphs only, so callers that embed the
         same graphs again may store them as `run_weights` [num_nodes, parts] on each graph."""
         start = batch.ptr[:-1] + batch.initial
-        ends = [batch.flags[:, 1]] + ([batch.rejecting] if self.readout == "runs" else [])
+        ends = self._ends(batch)
         # a trace chain is read to its end whatever its length (`horizon`, its length); a DFA
         # (horizon 0) up to max_length letters
         horizon = getattr(batch, "horizon", None)
@@ -280,6 +291,10 @@ class AutomatonEncoder(nn.Module):
                 for e in ends
             ]
         )
+
+    def _ends(self, batch) -> list[torch.Tensor]:
+        """Where the readout's runs end: accepting states, and for `runs` the rejecting ones."""
+        return [batch.flags[:, 1]] + ([batch.rejecting] if self.readout == "runs" else [])
 
     def set_edge_statistics(self, edge_vectors: torch.Tensor) -> None:
         """Standardise edge-node vectors like these (rows: the training graphs' edge nodes)."""
@@ -314,6 +329,8 @@ class AutomatonEncoder(nn.Module):
             cached = getattr(batch, "run_weights", None)
             r = cached.t() if cached is not None else self.run_weights(batch)
             parts = [global_add_pool(rk.unsqueeze(1) * x, batch.batch, size=graphs) for rk in r]
+            if self.probes is not None:
+                parts += [self.probes(batch, e, batch.edge_vec) for e in self._ends(batch)]
             return self.head(torch.cat(parts, dim=1))
         p = walk_distributions(arcs, start, x.shape[0], self.steps)
         if self.readout == "walk":

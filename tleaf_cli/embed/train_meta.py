@@ -62,6 +62,8 @@ class MetaSettings:
     anchors: int = 0  # accept/runs readouts: parts for the first and last this-many letters
     conv: str = "gcn"  # message-passing layer: gcn (GCNConv) or graph (GraphConv)
     head: str = "linear"  # readout to vector: linear, or mlp (one hidden ReLU layer)
+    probes: int = 0  # accept/runs readouts: probe automata read along the runs (probes.py)
+    probe_states: int = 4  # states of each probe automaton
     jumping: bool = False  # readouts over every layer's node vectors, the input's too
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
@@ -146,6 +148,8 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.anchors,
         settings.conv,
         settings.head,
+        settings.probes,
+        settings.probe_states,
     )
     head = None
     if settings.pair_weight > 0:

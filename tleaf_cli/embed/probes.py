@@ -1,0 +1,142 @@
+"""Probe automata: a readout that describes a language by where its words lead small learned
+automata (issue 13).
+
+A bank of M soft automata ("probes") with S states each reads words letter by letter:
+
+    π_m        = softmax(p_m)                                 (start distribution of probe m)
+    T_m(x)     = softmax_rows( reshape(W_m x + c_m, [S, S]) )  (its transition on a letter whose
+                                                               q_e vector is x)
+    φ_m,t(w)   = π_m T_m(x_1) ... T_m(x_t)                    (its states after t letters)
+
+A trace w has the features φ(w): the probes' state distributions along the word, averaged over
+B equal parts of its positions 0..T (part floor(B t / (T + 1))), and after its last letter. An
+automaton A gets the same features in expectation over the words it accepts,
+
+    μ(A) = mean over lengths T  E_{w uniform among accepted words of length T} [ φ(w) ]
+
+computed exactly (for the guard vectors given) by a forward pass through the product of A and the
+probes: α_t(u) = P(A at u after t uniform letters) · (probe distribution on those runs), and
+β_h(u) = P(A reaches an accepting state h letters after u) from A alone (the probes do not
+decide acceptance), so E[φ_t | accepted at T] = Σ_u α_t(u) β_(T-t)(u) / β_T(start).
+
+A trace chain is the automaton that accepts its one word, so the same computation gives φ(w)
+on it: formula and trace vectors live in one space by construction, where the GNN readouts
+compare a DFA state's neighbourhood with a stretch of a trace and must learn to make those
+comparable. Where the GNN readout averages node vectors that see a few letters around them,
+a probe carries state along the whole word (like an RNN), so it can follow "since a, b has held"
+or "the last a came before the first c" over any distance.
+
+On an edge node of a DFA the transition is taken on its guard's vector q_e(guard) with weight
+share(guard): the letters it reads stand in for one averaged letter. That is exact for a trace
+chain (its edge nodes carry the letters) and an approximation on DFAs (the probes read a guard as
+a letter; q_e places guards among the letters they accept).
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from tleaf_cli.embed.graphs import STATE
+
+
+class ProbeBank(nn.Module):
+    """M learned soft automata with S states each, read along an automaton's accepted runs.
+
+    Args:
+        edge_dim: width of the edge-node vectors (q_e's output).
+        probes: M, the number of probe automata.
+        states: S, the states of each.
+        bins: B, equal parts of a run's positions, each averaged on its own.
+        max_length: the longest run of a DFA counted (a trace chain is read to its end).
+
+    `forward(batch, ends)` returns [graphs, (B + 1) · M · S]: for each part and after the last
+    letter, each probe's state distribution in expectation over the runs that end in `ends`
+    (accepting states: accepted words; or the rejecting ones), averaged over the lengths at
+    which the graph has such runs; zeros for a graph that has none.
+    """
+
+    def __init__(
+        self, edge_dim: int, probes: int = 16, states: int = 4, bins: int = 5, max_length: int = 12
+    ) -> None:
+        super().__init__()
+        self.probes, self.states, self.bins, self.max_length = probes, states, bins, max_length
+        self.transition = nn.Linear(edge_dim, probes * states * states)
+        self.start = nn.Parameter(torch.zeros(probes, states))
+        with torch.no_grad():  # start near "stay put" so long words do not blur to the mean
+            eye = torch.eye(states).expand(probes, states, states).reshape(-1)
+            self.transition.bias.copy_(2.0 * eye)
+            self.start[:, 0] = 2.0
+
+    @property
+    def width(self) -> int:
+        return (self.bins + 1) * self.probes * self.states
+
+    def forward(self, batch, ends: torch.Tensor, edge_vec: torch.Tensor) -> torch.Tensor:
+        src, dst = batch.edge_index
+        n, m, s = int(batch.num_nodes), self.probes, self.states
+        graphs = int(batch.ptr.numel() - 1)
+        start = batch.ptr[:-1] + batch.initial
+        device = edge_vec.device
+        horizon = getattr(batch, "horizon", None)
+        limit = (
+            torch.full((graphs,), self.max_length, device=device)
+            if horizon is None
+            else torch.where(horizon > 0, horizon, self.max_length)
+        )
+        letters = int(limit.max())
+        is_edge = batch.node_kind != STATE
+        # transitions on edge nodes, weighted by the share of letters they read
+        edges = torch.nonzero(is_edge).flatten()
+        trans = self.transition(edge_vec[edges]).view(-1, m, s, s).softmax(dim=-1)
+        trans = trans * batch.share[edges].view(-1, 1, 1, 1)
+        slot = torch.full((n,), -1, dtype=torch.long, device=device)
+        slot[edges] = torch.arange(len(edges), device=device)
+        into_edge = slot[dst] >= 0  # state -> edge arcs; the others go edge -> state
+        # forward: alpha at states after t letters, [letters + 1, n, m, s]
+        alpha = torch.zeros(n, m, s, device=device)
+        alpha[start] = self.start.softmax(dim=-1)
+        a = [alpha]
+        # backward on the automaton alone: beta_h(u), P(in `ends` h letters after state u)
+        b = [ends.float()]
+        for _ in range(letters):
+            at_edges = torch.zeros(len(edges), m, s, device=device)
+            at_edges.index_add_(0, slot[dst[into_edge]], a[-1][src[into_edge]])
+            moved = torch.einsum("ems,emst->emt", at_edges, trans)
+            out = ~into_edge
+            nxt = torch.zeros(n, m, s, device=device)
+            a.append(nxt.index_add(0, dst[out], moved[slot[src[out]]]))
+            # beta: from a state, over its edges: share * beta(target)
+            on_edge = torch.zeros(n, device=device).index_add_(
+                0, src[out], b[-1][dst[out]] * batch.share[src[out]]
+            )
+            b.append(
+                torch.zeros(n, device=device).index_add_(0, src[into_edge], on_edge[dst[into_edge]])
+            )
+        # runs are counted at states only (after each letter), so keep the states' rows
+        states = torch.nonzero(~is_edge).flatten()
+        a_t, b_t = torch.stack(a)[:, states], torch.stack(b)  # [L + 1, states, ...]
+        at_start, b_t = b_t[:, start], b_t[:, states]
+        graph_of = batch.batch[states]
+        parts = self.bins + 1
+        total = torch.zeros(graphs, parts, m, s, device=device)
+        counted = torch.zeros(graphs, device=device)
+        for length in range(1, letters + 1):
+            z = at_start[length]  # accepted mass at this length, per graph
+            ok = (z > 0) & (length <= limit)
+            if not bool(ok.any()):
+                continue
+            # occupancy at time t of runs of this length ending in `ends`, on the states of the
+            # graphs that have such runs (a batch of trace chains: those of this length only)
+            keep = torch.nonzero(ok[graph_of]).flatten()
+            occ = a_t[: length + 1, keep] * b_t[: length + 1, keep].flip(0)[..., None, None]
+            t = torch.arange(length + 1, device=device)
+            part = (t * self.bins) // (length + 1)
+            part_of = torch.zeros(parts, length + 1, device=device)
+            part_of[part, t] = 1.0 / torch.bincount(part, minlength=self.bins)[part].float()
+            part_of[self.bins, length] = 1.0
+            per_part = torch.einsum("pt,tnms->npms", part_of, occ)  # [kept states, parts, m, s]
+            per_part = per_part / z[graph_of[keep]].view(-1, 1, 1, 1)
+            total = total.index_add(0, graph_of[keep], per_part)
+            counted = counted + ok.float()
+        return (total / counted.clamp(min=1).view(-1, 1, 1, 1)).reshape(graphs, -1)
