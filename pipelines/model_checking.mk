@@ -44,7 +44,7 @@ EDGE := --epochs 3
 # and losses are the same. Epoch counts fit the 30-minute budget on 2 cores.
 META := --directed --readout runs --bins 5 --schedule cosine --patience 3 --radius-weight 1
 # The larger setting (issue 13): PROBES=16 EPOCHS=12 adds 16 probe automata to q_m (--probes,
-# docs/embedder.md) and trains it 12 epochs: Table I +1 to +2 points per tier at about twice the
+# docs/embedder.md) and trains it 12 epochs: Table I +0.6 / +2.5 / +3.4 points, at about 2.5x the
 # pipeline's time (docs/results/model_checking.md, "The larger setting"). The syntax rows are the
 # default setting's.
 PROBES ?= 0
