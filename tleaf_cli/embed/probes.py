@@ -50,8 +50,8 @@ class ProbeBank(nn.Module):
         bins: B, equal parts of a run's positions, each averaged on its own.
         max_length: the longest run of a DFA counted (a trace chain is read to its end).
 
-    `forward(batch, ends)` returns [graphs, (B + 1) · M · S]: for each part and after the last
-    letter, each probe's state distribution in expectation over the runs that end in `ends`
+    `forward(batch, ends, edge_vec)` returns [graphs, (B + 1) · M · S]: for each part and after
+    the last letter, each probe's state distribution in expectation over the runs that end in `ends`
     (accepting states: accepted words; or the rejecting ones), averaged over the lengths at
     which the graph has such runs; zeros for a graph that has none.
     """
