@@ -44,7 +44,7 @@ from torch import nn
 from torch_geometric.nn import GCNConv, GraphConv, JumpingKnowledge, global_add_pool
 from torch_geometric.utils import degree, to_undirected
 
-from tleaf_cli.embed.graphs import EDGE, trace_graph_batch
+from tleaf_cli.embed.graphs import EDGE, read_limits, trace_graph_batch
 from tleaf_cli.embed.probes import ProbeBank
 from tleaf_cli.errors import SettingError
 
@@ -266,14 +266,7 @@ class AutomatonEncoder(nn.Module):
         same graphs again may store them as `run_weights` [num_nodes, parts] on each graph."""
         start = batch.ptr[:-1] + batch.initial
         ends = self._ends(batch)
-        # a trace chain is read to its end whatever its length (`horizon`, its length); a DFA
-        # (horizon 0) up to max_length letters
-        horizon = getattr(batch, "horizon", None)
-        limit = (
-            self.max_length
-            if horizon is None
-            else torch.where(horizon > 0, horizon, self.max_length)
-        )
+        limit = read_limits(batch, self.max_length)
         return torch.cat(
             [
                 accepted_run_weights(

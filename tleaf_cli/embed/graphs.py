@@ -210,6 +210,16 @@ def trace_graph(length: int) -> Data:
     )
 
 
+def read_limits(batch, max_length: int) -> torch.Tensor:
+    """[graphs]: how many letters the run readouts read of each graph of a batch: a trace chain
+    to its end (`horizon`, its length), a DFA (horizon 0, or no horizon field) up to
+    `max_length` letters."""
+    horizon = getattr(batch, "horizon", None)
+    if horizon is None:
+        return torch.full((int(batch.ptr.numel() - 1),), max_length, device=batch.ptr.device)
+    return torch.where(horizon > 0, horizon, max_length)
+
+
 def trace_graph_batch(lengths: Sequence[int]) -> tuple[Batch, torch.Tensor]:
     """The batch of trace chain graphs (`trace_graph`) of these lengths, built with
     tensor ops, and the node index of every edge node (graph by graph, step by step)."""

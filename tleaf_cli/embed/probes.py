@@ -37,7 +37,7 @@ from __future__ import annotations
 import torch
 from torch import nn
 
-from tleaf_cli.embed.graphs import STATE
+from tleaf_cli.embed.graphs import STATE, read_limits
 
 
 class ProbeBank(nn.Module):
@@ -78,12 +78,7 @@ class ProbeBank(nn.Module):
         graphs = int(batch.ptr.numel() - 1)
         start = batch.ptr[:-1] + batch.initial
         device = edge_vec.device
-        horizon = getattr(batch, "horizon", None)
-        limit = (
-            torch.full((graphs,), self.max_length, device=device)
-            if horizon is None
-            else torch.where(horizon > 0, horizon, self.max_length)
-        )
+        limit = read_limits(batch, self.max_length)
         letters = int(limit.max())
         is_edge = batch.node_kind != STATE
         # transitions on edge nodes, weighted by the share of letters they read
