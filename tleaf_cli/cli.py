@@ -765,6 +765,15 @@ def train_meta(
     probe_states: Annotated[
         int, typer.Option(min=1, help="--probes: the states of each probe automaton.")
     ] = 4,
+    probe_mix: Annotated[
+        int,
+        typer.Option(
+            min=0,
+            help="--probes: also average, over the states a run ends in, a small network's "
+            "reading of the probes' final states given that end state, this wide (0: none; "
+            "docs/embedder.md).",
+        ),
+    ] = 0,
     conv: Annotated[
         Conv,
         typer.Option(
@@ -862,9 +871,20 @@ def train_meta(
     _targets([dfas, traces, edge], folders=[out])
     if readout not in ("accept", "runs"):
         _refuse(
-            _given(ctx, "bins", "max_length", "length_ranges", "anchors", "probes", "probe_states"),
+            _given(
+                ctx,
+                "bins",
+                "max_length",
+                "length_ranges",
+                "anchors",
+                "probes",
+                "probe_states",
+                "probe_mix",
+            ),
             "only with --readout accept or runs",
         )
+    if probes == 0:
+        _refuse(_given(ctx, "probe_states", "probe_mix"), "only with --probes")
 
     settings = MetaSettings(
         embedder=embedder,
@@ -879,6 +899,7 @@ def train_meta(
         anchors=anchors,
         probes=probes,
         probe_states=probe_states,
+        probe_mix=probe_mix,
         conv=conv,
         head=head,
         residual=residual,

@@ -197,6 +197,7 @@ class AutomatonEncoder(nn.Module):
         head: str = "linear",
         probes: int = 0,
         probe_states: int = 4,
+        probe_mix: int = 0,
     ) -> None:
         super().__init__()
         for name, value, allowed in (
@@ -232,7 +233,7 @@ class AutomatonEncoder(nn.Module):
         if probes > 0:
             if readout not in RUN_READOUTS:
                 raise SettingError("probes", f"need an accept/runs readout, not {readout!r}")
-            self.probes = ProbeBank(edge_dim, probes, probe_states, bins, max_length)
+            self.probes = ProbeBank(edge_dim, probes, probe_states, bins, max_length, probe_mix)
             width += self.probes.width * (2 if readout == "runs" else 1)
         self.head = (
             nn.Linear(width, out_dim)

@@ -64,6 +64,7 @@ class MetaSettings:
     head: str = "linear"  # readout to vector: linear, or mlp (one hidden ReLU layer)
     probes: int = 0  # accept/runs readouts: probe automata read along the runs (probes.py)
     probe_states: int = 4  # states of each probe automaton
+    probe_mix: int = 0  # probes: width of the end-state mixture through g (probes.py; 0: none)
     jumping: bool = False  # readouts over every layer's node vectors, the input's too
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
@@ -150,6 +151,7 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.head,
         settings.probes,
         settings.probe_states,
+        settings.probe_mix,
     )
     head = None
     if settings.pair_weight > 0:
