@@ -61,6 +61,13 @@ def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
     assert any(k.startswith("action_out") for k in saved)
 
 
+def test_a_finished_pipeline_is_up_to_date(small_pipeline: Path) -> None:
+    """`make -q` exits 0: nothing re-runs (the KB and the videos come from one command)."""
+    result = make_small("action_recognition.mk", small_pipeline, "-q", "MODELS=lstm",
+                        "LOSSES=none tleaf checker")  # fmt: skip
+    assert result.returncode == 0, result.stdout[-2000:]
+
+
 def test_checker_loss_trains_exactly_like_the_reference(small_pipeline: Path) -> None:
     """No gradient, same seed: the checker run's weights equal the reference run's."""
     runs = small_pipeline / "runs"
