@@ -58,7 +58,7 @@ def test_formula_features_are_the_mean_over_its_words_of_each_length(formula, ac
     bank = _bank(dim, bins, max_length)
     batch = Batch.from_data_list([graph])
     ends = batch.flags[:, 1] if accepted else batch.rejecting
-    ours = bank(batch, ends, batch.edge_vec).view(bins + 1, 3, 2)
+    ours = bank(batch, [ends], batch.edge_vec).view(bins + 1, 3, 2)
 
     src, dst = graph.edge_index.tolist()
     node_of = {}  # (state, target state) -> edge node
@@ -80,6 +80,10 @@ def test_formula_features_are_the_mean_over_its_words_of_each_length(formula, ac
             per_length.append(torch.stack(feats).mean(0))
     expected = torch.stack(per_length).mean(0)
     assert torch.allclose(ours, expected, atol=1e-5)
+    # both end sets in one call: the same features side by side
+    both = bank(batch, [batch.flags[:, 1], batch.rejecting], batch.edge_vec)
+    alone = [bank(batch, [e], batch.edge_vec) for e in (batch.flags[:, 1], batch.rejecting)]
+    assert torch.allclose(both, torch.cat(alone, dim=1))
 
 
 def test_a_trace_chain_gets_its_own_words_features() -> None:
@@ -91,14 +95,14 @@ def test_a_trace_chain_gets_its_own_words_features() -> None:
     batch, edge_nodes = trace_graph_batch(lengths)
     letters = torch.randn(sum(lengths), dim)
     batch.edge_vec = torch.zeros(batch.num_nodes, dim).index_copy(0, edge_nodes, letters)
-    ours = bank(batch, batch.flags[:, 1], batch.edge_vec).view(len(lengths), bins + 1, 3, 2)
+    ours = bank(batch, [batch.flags[:, 1]], batch.edge_vec).view(len(lengths), bins + 1, 3, 2)
     first = 0
     for k, length in enumerate(lengths):
         expected = _features(_run(bank, letters[first : first + length]), bins)
         assert torch.allclose(ours[k], expected, atol=1e-6)
         first += length
     # and a chain has no rejected runs: zeros
-    assert bank(batch, batch.rejecting, batch.edge_vec).abs().max() == 0
+    assert bank(batch, [batch.rejecting], batch.edge_vec).abs().max() == 0
 
 
 @pytest.mark.parametrize("formula", ["(a U b) <-> G c", "G(a -> X b)"])
@@ -114,11 +118,11 @@ def test_the_end_state_mixture_is_g_of_each_end_states_mean_weighted_by_its_word
     graph.edge_vec = torch.randn(graph.num_nodes, dim)
     bank = _bank(dim, bins, max_length, mix)
     batch = Batch.from_data_list([graph])
-    ours = bank(batch, batch.flags[:, 1], batch.edge_vec)
+    ours = bank(batch, [batch.flags[:, 1]], batch.edge_vec)
     assert ours.shape == (1, bank.width) and bank.width == (bins + 1) * 3 * 2 + mix
     plain = _bank(dim, bins, max_length)
     plain.load_state_dict(bank.state_dict(), strict=False)
-    assert torch.allclose(ours[0, :-mix], plain(batch, batch.flags[:, 1], batch.edge_vec)[0])
+    assert torch.allclose(ours[0, :-mix], plain(batch, [batch.flags[:, 1]], batch.edge_vec)[0])
 
     src, dst = graph.edge_index.tolist()
     node_of = {}
@@ -155,7 +159,7 @@ def test_a_trace_chains_mixture_is_g_of_its_final_states() -> None:
     batch, edge_nodes = trace_graph_batch(lengths)
     letters = torch.randn(sum(lengths), dim)
     batch.edge_vec = torch.zeros(batch.num_nodes, dim).index_copy(0, edge_nodes, letters)
-    ours = bank(batch, batch.flags[:, 1], batch.edge_vec)[:, -mix:]
+    ours = bank(batch, [batch.flags[:, 1]], batch.edge_vec)[:, -mix:]
     first = 0
     for k, length in enumerate(lengths):
         final = _run(bank, letters[first : first + length])[-1]

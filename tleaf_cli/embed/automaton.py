@@ -324,7 +324,7 @@ class AutomatonEncoder(nn.Module):
             r = cached.t() if cached is not None else self.run_weights(batch)
             parts = [global_add_pool(rk.unsqueeze(1) * x, batch.batch, size=graphs) for rk in r]
             if self.probes is not None:
-                parts += [self.probes(batch, e, batch.edge_vec) for e in self._ends(batch)]
+                parts.append(self.probes(batch, self._ends(batch), batch.edge_vec))
             return self.head(torch.cat(parts, dim=1))
         p = walk_distributions(arcs, start, x.shape[0], self.steps)
         if self.readout == "walk":
