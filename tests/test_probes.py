@@ -45,6 +45,22 @@ def _features(dist: list[torch.Tensor], bins: int) -> torch.Tensor:
     return torch.stack([*parts, dist[-1]])
 
 
+def _words(dfa, graph, length: int):
+    """Every word of `length` letters: (the state it ends in, the edge nodes its run takes)."""
+    src, dst = graph.edge_index.tolist()
+    node_of = {}  # (state, target state) -> edge node
+    for s, e in zip(src, dst, strict=True):
+        if graph.node_kind[e] == EDGE:
+            node_of[s, dst[src.index(e)]] = e
+    for word in itertools.product(range(dfa.alphabet.size), repeat=length):
+        state, nodes = dfa.initial, []
+        for letter in word:
+            nxt = int(dfa.table[state, letter])
+            nodes.append(node_of[state, nxt])
+            state = nxt
+        yield state, nodes
+
+
 @pytest.mark.parametrize("formula", ["a U b", "G(a -> X b)", "F(a & X !b)"])
 @pytest.mark.parametrize("accepted", [True, False])
 def test_formula_features_are_the_mean_over_its_words_of_each_length(formula, accepted) -> None:
@@ -60,20 +76,10 @@ def test_formula_features_are_the_mean_over_its_words_of_each_length(formula, ac
     ends = batch.flags[:, 1] if accepted else batch.rejecting
     ours = bank(batch, [ends], batch.edge_vec).view(bins + 1, 3, 2)
 
-    src, dst = graph.edge_index.tolist()
-    node_of = {}  # (state, target state) -> edge node
-    for s, e in zip(src, dst, strict=True):
-        if graph.node_kind[e] == EDGE:
-            node_of[s, dst[src.index(e)]] = e
     per_length = []
     for length in range(1, max_length + 1):
         feats = []
-        for word in itertools.product(range(dfa.alphabet.size), repeat=length):
-            state, nodes = dfa.initial, []
-            for letter in word:
-                nxt = int(dfa.table[state, letter])
-                nodes.append(node_of[state, nxt])
-                state = nxt
+        for state, nodes in _words(dfa, graph, length):
             if bool(dfa.accepting[state]) == accepted:
                 feats.append(_features(_run(bank, graph.edge_vec[nodes]), bins))
         if feats:
@@ -124,20 +130,10 @@ def test_the_end_state_mixture_is_g_of_each_end_states_mean_weighted_by_its_word
     plain.load_state_dict(bank.state_dict(), strict=False)
     assert torch.allclose(ours[0, :-mix], plain(batch, [batch.flags[:, 1]], batch.edge_vec)[0])
 
-    src, dst = graph.edge_index.tolist()
-    node_of = {}
-    for s, e in zip(src, dst, strict=True):
-        if graph.node_kind[e] == EDGE:
-            node_of[s, dst[src.index(e)]] = e
     per_length = []
     for length in range(1, max_length + 1):
         by_end: dict[int, list[torch.Tensor]] = {}
-        for word in itertools.product(range(dfa.alphabet.size), repeat=length):
-            state, nodes = dfa.initial, []
-            for letter in word:
-                nxt = int(dfa.table[state, letter])
-                nodes.append(node_of[state, nxt])
-                state = nxt
+        for state, nodes in _words(dfa, graph, length):
             if dfa.accepting[state]:
                 by_end.setdefault(state, []).append(_run(bank, graph.edge_vec[nodes])[-1])
         count = sum(len(v) for v in by_end.values())
