@@ -774,6 +774,16 @@ def train_meta(
             "docs/embedder.md).",
         ),
     ] = 0,
+    monitors: Annotated[
+        int,
+        typer.Option(
+            min=0,
+            help="Fixed temporal monitors (F p, G p, p U q, G(p -> X q), ...) over the first "
+            "this-many atoms of each formula: a formula gets the share of its accepted (and "
+            "rejected) words each monitor accepts, a trace whether each accepts it (0: none; "
+            "DFA embedder only; docs/embedder.md).",
+        ),
+    ] = 0,
     conv: Annotated[
         Conv,
         typer.Option(
@@ -885,6 +895,8 @@ def train_meta(
         )
     if probes == 0:
         _refuse(_given(ctx, "probe_states", "probe_mix"), "only with --probes")
+    if embedder != "dfa":
+        _refuse(_given(ctx, "monitors"), "only with --embedder dfa (monitors read DFAs)")
 
     settings = MetaSettings(
         embedder=embedder,
@@ -900,6 +912,7 @@ def train_meta(
         probes=probes,
         probe_states=probe_states,
         probe_mix=probe_mix,
+        monitors=monitors,
         conv=conv,
         head=head,
         residual=residual,

@@ -46,7 +46,8 @@ from torch_geometric.utils import degree, to_undirected
 
 from tleaf_cli.embed.graphs import EDGE, read_limits, trace_graph_batch
 from tleaf_cli.embed.probes import ProbeBank
-from tleaf_cli.errors import SettingError
+from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.logic.monitors import MonitorBank
 
 KINDS = 2  # state, edge node
 FLAGS = 2  # initial, accepting
@@ -198,6 +199,7 @@ class AutomatonEncoder(nn.Module):
         probes: int = 0,
         probe_states: int = 4,
         probe_mix: int = 0,
+        monitors: int = 0,
     ) -> None:
         super().__init__()
         for name, value, allowed in (
@@ -235,6 +237,15 @@ class AutomatonEncoder(nn.Module):
                 raise SettingError("probes", f"need an accept/runs readout, not {readout!r}")
             self.probes = ProbeBank(edge_dim, probes, probe_states, bins, max_length, probe_mix)
             width += self.probes.width * (2 if readout == "runs" else 1)
+        # `monitors` K > 0: fixed temporal monitors over the first K atoms (logic/monitors.py);
+        # the graphs carry their features (`monitor`, [graphs, 2 F]: accepted, rejected words),
+        # computed when they are built, so here they are only read
+        self.monitor_bank = MonitorBank(monitors, max_length) if monitors > 0 else None
+        self.monitor_width = 0
+        if self.monitor_bank is not None:
+            ends = 2 if readout == "runs" else 1
+            self.monitor_width = self.monitor_bank.width * ends
+            width += self.monitor_width
         self.head = (
             nn.Linear(width, out_dim)
             if head == "linear"
@@ -325,9 +336,22 @@ class AutomatonEncoder(nn.Module):
             parts = [global_add_pool(rk.unsqueeze(1) * x, batch.batch, size=graphs) for rk in r]
             if self.probes is not None:
                 parts.append(self.probes(batch, self._ends(batch), batch.edge_vec))
+            if self.monitor_bank is not None:
+                parts.append(self.monitor_features(batch))
             return self.head(torch.cat(parts, dim=1))
         p = walk_distributions(arcs, start, x.shape[0], self.steps)
         if self.readout == "walk":
-            return self.head(global_add_pool(p.mean(dim=0).unsqueeze(1) * x, batch.batch))
-        per_step = [global_add_pool(pk.unsqueeze(1) * x, batch.batch, size=graphs) for pk in p]
-        return self.head(torch.cat(per_step, dim=1))
+            parts = [global_add_pool(p.mean(dim=0).unsqueeze(1) * x, batch.batch, size=graphs)]
+        else:
+            parts = [global_add_pool(pk.unsqueeze(1) * x, batch.batch, size=graphs) for pk in p]
+        if self.monitor_bank is not None:
+            parts.append(self.monitor_features(batch))
+        return self.head(torch.cat(parts, dim=1))
+
+    def monitor_features(self, batch) -> torch.Tensor:
+        """[graphs, monitor_width]: the monitors' shares of the accepted (and, for `runs`,
+        the rejected) words the graphs carry as `monitor` (meta_data builds them)."""
+        features = getattr(batch, "monitor", None)
+        if features is None:
+            raise InputError("this q reads monitor features; build its graphs with its bank")
+        return features[:, : self.monitor_width].to(batch.edge_vec.dtype)

@@ -16,7 +16,9 @@ from tleaf_cli.embed.automaton import RUN_READOUTS
 from tleaf_cli.embed.encoders import PropositionEncoder
 from tleaf_cli.embed.graphs import cnf_graph, dfa_graph, letter_cnf, trace_graph, trace_graph_batch
 from tleaf_cli.errors import InputError
+from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.monitors import MonitorBank
 
 Key = tuple[tuple[str, ...], tuple[tuple[int, ...], ...]]
 
@@ -62,17 +64,37 @@ def _with_edge_vectors(graph: Data, vectors: torch.Tensor) -> Data:
     return graph
 
 
-def featured_dfa_graph(dfa: DFA, vectors: GuardVectors) -> Data:
-    return featured_dfa_graphs([dfa], vectors)[0]
+def featured_dfa_graph(dfa: DFA, vectors: GuardVectors, monitors: MonitorBank | None = None):
+    return featured_dfa_graphs([dfa], vectors, monitors)[0]
 
 
-def featured_dfa_graphs(dfas: Sequence[DFA], vectors: GuardVectors) -> list[Data]:
+def featured_dfa_graphs(
+    dfas: Sequence[DFA], vectors: GuardVectors, monitors: MonitorBank | None = None
+) -> list[Data]:
     """The graphs of `dfas` with q_e vectors on their edge nodes; every guard not seen before
-    goes through q_e in one batch."""
+    goes through q_e in one batch. With `monitors`, each graph also carries the shares of its
+    accepted and rejected words that each monitor accepts (`monitor`, [1, 2 F])."""
     built = [dfa_graph(dfa) for dfa in dfas]
     keys = [[(dfa.atoms, g) for g in guards] for dfa, (_, guards) in zip(dfas, built, strict=True)]
     vectors([k for ks in keys for k in ks])  # fills the cache
-    return [_with_edge_vectors(g, vectors(ks)) for (g, _), ks in zip(built, keys, strict=True)]
+    graphs = [_with_edge_vectors(g, vectors(ks)) for (g, _), ks in zip(built, keys, strict=True)]
+    if monitors is not None:
+        for graph, dfa in zip(graphs, dfas, strict=True):
+            graph.monitor = torch.from_numpy(monitors.of_dfa(dfa)).reshape(1, -1)
+    return graphs
+
+
+def trace_monitor_features(
+    trace: Sequence[Collection[str]],
+    atoms: tuple[str, ...],
+    monitors: MonitorBank,
+    one_hot: bool = False,
+) -> torch.Tensor:
+    """[2 F]: a trace's monitor features as a DFA's are laid out: which monitors accept it
+    (its one accepted word), then zeros (a trace chain has no rejected words)."""
+    alphabet = Alphabet(tuple(atoms), "one-hot" if one_hot else "powerset")
+    word = monitors.of_word(alphabet.truth(), [alphabet.index(step) for step in trace])
+    return torch.cat([torch.from_numpy(word), torch.zeros(len(word))])
 
 
 def trace_letter_vectors(
@@ -97,16 +119,24 @@ def featured_trace_graph(
     return _with_edge_vectors(trace_graph(len(trace)), letters)
 
 
-def chain_batch(encoder: torch.nn.Module, letters: torch.Tensor, lengths: Sequence[int]) -> Batch:
+def chain_batch(
+    encoder: torch.nn.Module,
+    letters: torch.Tensor,
+    lengths: Sequence[int],
+    monitor: torch.Tensor | None = None,
+) -> Batch:
     """The trace chains of these lengths as one graph batch, step t of trace i carrying row
     sum(lengths[:i]) + t of `letters` [sum(lengths), d] (q_e vectors, or expected ones of soft
     traces) on its edge node; with the readout weights of `encoder` (an AutomatonEncoder) where
-    its readout reads runs. Built with tensor ops: the same graphs as `featured_trace_graph`
-    collated, without a Data object per trace."""
+    its readout reads runs, and the traces' monitor features `monitor` [traces, 2 F] where
+    given (`trace_monitor_features`). Built with tensor ops: the same graphs as
+    `featured_trace_graph` collated, without a Data object per trace."""
     batch, edge_nodes = trace_graph_batch(list(lengths))
     if encoder.readout in RUN_READOUTS:  # chains' readout weights, computed once per length
         batch.run_weights = encoder.chain_run_weights(list(lengths))
     batch, edge_nodes = batch.to(letters.device), edge_nodes.to(letters.device)
     edge_vec = letters.new_zeros(int(batch.num_nodes), letters.shape[-1])
     batch.edge_vec = edge_vec.index_copy(0, edge_nodes, letters)
+    if monitor is not None:
+        batch.monitor = monitor.to(letters.device)
     return batch

@@ -29,11 +29,14 @@ from tleaf_cli.embed.meta_data import (
     chain_batch,
     featured_dfa_graphs,
     trace_letter_vectors,
+    trace_monitor_features,
 )
+from tleaf_cli.embed.soft_monitors import monitor_classes, soft_monitor_features
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
 from tleaf_cli.embed.training import read_model_config
 from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
 
@@ -67,7 +70,7 @@ class Embedder:
         formula text, `embed_formula_rows`)."""
         if self.kind != "dfa":
             raise InputError(f"a q of kind {self.kind!r} does not read DFAs")
-        graphs = featured_dfa_graphs(dfas, self.vectors)
+        graphs = featured_dfa_graphs(dfas, self.vectors, self.model.trace.monitor_bank)
         return self._encode(self.model.embed_formulas, graphs, batch)
 
     def embed_traces(
@@ -85,6 +88,17 @@ class Embedder:
             trace_letter_vectors(t, a, self.vectors, h)
             for t, a, h in zip(traces, atoms, kinds, strict=True)
         ]
+        bank = self.model.trace.monitor_bank
+        monitors = (
+            None
+            if bank is None
+            else torch.stack(
+                [
+                    trace_monitor_features(t, a, bank, h)
+                    for t, a, h in zip(traces, atoms, kinds, strict=True)
+                ]
+            )
+        )
         with torch.no_grad():
             parts = [
                 self.model.embed_traces(
@@ -92,6 +106,7 @@ class Embedder:
                         self.model.trace,
                         torch.cat(letters[i : i + batch]),
                         [len(x) for x in letters[i : i + batch]],
+                        None if monitors is None else monitors[i : i + batch],
                     )
                 )
                 for i in range(0, len(letters), batch)
@@ -122,6 +137,20 @@ class Embedder:
         for j, (_, table) in enumerate(embedded):
             tables[j, : len(table)] = table
         return torch.stack([vector for vector, _ in embedded]), tables
+
+    def monitor_classes(
+        self, rule_sets: Sequence[RuleSet], letters: int
+    ) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """Each rule set's monitor classes of its one-hot letters, padded to `letters` [R, M,
+        letters], and which monitors its atoms fill [R, M]; None for a q without monitors."""
+        bank = self.model.trace.monitor_bank
+        if bank is None:
+            return None
+        tables = [monitor_classes(bank, Alphabet(r.atoms, "one-hot").truth()) for r in rule_sets]
+        classes = torch.zeros(len(tables), bank.width, letters, dtype=torch.long)
+        for j, (c, _) in enumerate(tables):
+            classes[j, :, : c.shape[1]] = c
+        return classes, torch.stack([p for _, p in tables])
 
     @staticmethod
     def _encode(encode, graphs, batch: int) -> torch.Tensor:
@@ -176,12 +205,20 @@ class Embedder:
         """[B, d] vectors of soft traces, each [T_b, len(columns)], over a formula's atoms."""
         columns = list(atoms) if columns is None else list(columns)
         _, table = self.letter_vectors(atoms, domain)
-        expected = torch.nn.utils.rnn.pad_sequence(
-            [self.letter_probabilities(p, columns, atoms, domain) @ table for p in traces],
+        probs = torch.nn.utils.rnn.pad_sequence(
+            [self.letter_probabilities(p, columns, atoms, domain) for p in traces],
             batch_first=True,
         )
         lengths = torch.tensor([p.shape[0] for p in traces])
-        return soft_trace_vectors(self.model, expected, lengths)
+        bank = self.model.trace.monitor_bank
+        monitor = None
+        if bank is not None:
+            classes, present = monitor_classes(bank, Alphabet(tuple(atoms), domain).truth())
+            n = len(traces)
+            monitor = soft_monitor_features(
+                bank, probs, lengths, classes.expand(n, -1, -1), present.expand(n, -1)
+            )
+        return soft_trace_vectors(self.model, probs @ table, lengths, monitor)
 
     def embed_soft_trace(self, probs: torch.Tensor, atoms, columns=None, domain="one-hot"):
         """The vector of one soft trace [T, len(columns)] (see `embed_soft_traces`)."""
@@ -189,12 +226,16 @@ class Embedder:
 
 
 def soft_trace_vectors(
-    model: torch.nn.Module, expected: torch.Tensor, lengths: torch.Tensor
+    model: torch.nn.Module,
+    expected: torch.Tensor,
+    lengths: torch.Tensor,
+    monitor: torch.Tensor | None = None,
 ) -> torch.Tensor:
-    """q(w̃) [N, d] of soft traces whose step-t edge node carries expected[i, t] (t < lengths[i]);
-    `model` is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
+    """q(w̃) [N, d] of soft traces whose step-t edge node carries expected[i, t] (t < lengths[i]),
+    with their monitor features [N, 2 F] where q reads them (`soft_monitor_features`); `model`
+    is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
     valid = torch.arange(expected.shape[1], device=expected.device)[None, :] < lengths[:, None]
-    return model.embed_traces(chain_batch(model.trace, expected[valid], lengths.tolist()))
+    return model.embed_traces(chain_batch(model.trace, expected[valid], lengths.tolist(), monitor))
 
 
 def edge_model_dir(model_dir: Path, config: dict) -> Path:

@@ -35,6 +35,7 @@ from tleaf_cli.embed.meta_data import (
     chain_batch,
     featured_dfa_graph,
     trace_letter_vectors,
+    trace_monitor_features,
 )
 from tleaf_cli.embed.syntax import SyntaxEncoder
 from tleaf_cli.embed.train_edge import load_edge_model
@@ -65,6 +66,7 @@ class MetaSettings:
     probes: int = 0  # accept/runs readouts: probe automata read along the runs (probes.py)
     probe_states: int = 4  # states of each probe automaton
     probe_mix: int = 0  # probes: width of the end-state mixture through g (probes.py; 0: none)
+    monitors: int = 0  # fixed temporal monitors over this many atom slots (logic/monitors.py)
     jumping: bool = False  # readouts over every layer's node vectors, the input's too
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
@@ -152,6 +154,7 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.probes,
         settings.probe_states,
         settings.probe_mix,
+        settings.monitors,
     )
     head = None
     if settings.pair_weight > 0:
@@ -201,12 +204,14 @@ def train_meta(
     vocab_index = {a: i for i, a in enumerate(edge_config["vocabulary"])}
     rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
     traces = read_traces(traces_path)
+    model = build_model(settings, vectors.dim, edge_model.atom_table)
+    monitors = model.trace.monitor_bank
     if "split" not in traces.column_names:
         raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
     formula_graphs = {}
     for fid, row in rows.items():
         if settings.embedder == "dfa":
-            formula_graphs[fid] = featured_dfa_graph(dfa_from_row(row), vectors)
+            formula_graphs[fid] = featured_dfa_graph(dfa_from_row(row), vectors, monitors)
         else:
             vectors.ids(row["atoms"])  # every atom must have features
             formula_graphs[fid] = syntax_graph(parse(row["formula"]), vocab_index)
@@ -217,10 +222,16 @@ def train_meta(
         if t["formula_id"] not in rows:
             continue
         row = rows[t["formula_id"]]
-        letters = trace_letter_vectors(
-            t["trace"], tuple(row["atoms"]), vectors, row["alphabet"] == "one-hot"
-        )  # a trace is its letters' q_e vectors [T, d]; `embed` batches them as chains
-        by_split[t["split"]][t["formula_id"]][t["label"]].append((letters, t["source"]))
+        atoms, one_hot = tuple(row["atoms"]), row["alphabet"] == "one-hot"
+        # a trace is its letters' q_e vectors [T, d] (`embed` batches them as chains), with
+        # its monitor features where q reads them
+        letters = trace_letter_vectors(t["trace"], atoms, vectors, one_hot)
+        monitor = (
+            None
+            if monitors is None
+            else trace_monitor_features(t["trace"], atoms, monitors, one_hot)
+        )
+        by_split[t["split"]][t["formula_id"]][t["label"]].append(((letters, monitor), t["source"]))
 
     def fixed_pairs(split: str, source: str | None = None):
         out = []
@@ -235,9 +246,10 @@ def train_meta(
         raise InputError(f"{traces_path}: needs satisfying and violating traces in train and val")
 
     # ---- model and the shared triplet loop
-    model = build_model(settings, vectors.dim, edge_model.atom_table)
     if settings.norm:
-        seen = [x for sides in by_split["train"].values() for x, _ in sides[True] + sides[False]]
+        seen = [
+            x for sides in by_split["train"].values() for (x, _), _ in sides[True] + sides[False]
+        ]
         if settings.embedder == "dfa":
             seen += [
                 formula_graphs[f].edge_vec[formula_graphs[f].node_kind == EDGE]
@@ -269,7 +281,13 @@ def train_meta(
         row = {key: i for i, key in enumerate(distinct)}
         z_formulas = model.embed_formulas(Batch.from_data_list(list(distinct.values())).to(device))
         traces = sats + negs  # one batch of chains for both sides
-        chains = chain_batch(model.trace, torch.cat(traces).to(device), [len(x) for x in traces])
+        monitor = None if monitors is None else torch.stack([m for _, m in traces])
+        chains = chain_batch(
+            model.trace,
+            torch.cat([x for x, _ in traces]).to(device),
+            [len(x) for x, _ in traces],
+            monitor,
+        )
         z_traces = model.embed_traces(chains)
         return (
             z_formulas[torch.tensor([row[id(g)] for g in formulas], device=device)],

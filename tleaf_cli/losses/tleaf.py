@@ -12,6 +12,7 @@ from __future__ import annotations
 import torch
 
 from tleaf_cli.embed.soft import Embedder, soft_trace_vectors
+from tleaf_cli.embed.soft_monitors import soft_monitor_features
 from tleaf_cli.losses.packed import PackedRuleSets
 
 
@@ -28,6 +29,12 @@ def tleaf_loss(
     formula_vectors, letter_table = embedder.rule_set_vectors(packed.rule_sets)
     device = letters.device
     # [N, T, d_e]: padded letters have probability 0 and a zero vector
-    expected = letters.exp() @ letter_table.to(device)[rows]
-    z_trace = soft_trace_vectors(embedder.model, expected, lengths)
+    probs = letters.exp()
+    expected = probs @ letter_table.to(device)[rows]
+    classes = embedder.monitor_classes(packed.rule_sets, letters.shape[-1])
+    monitor = None
+    if classes is not None:  # a q with monitors reads the soft trace's monitor features too
+        bank = embedder.model.trace.monitor_bank
+        monitor = soft_monitor_features(bank, probs, lengths, classes[0][rows], classes[1][rows])
+    z_trace = soft_trace_vectors(embedder.model, expected, lengths, monitor)
     return (z_trace - formula_vectors.to(device)[rows]).pow(2).sum(dim=1)

@@ -1,0 +1,166 @@
+"""Temporal monitors (`train-meta --monitors`): each monitor against LTLf semantics, a DFA's
+shares against listing its words, the soft (torch) features against the crisp ones."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+import torch
+
+from tleaf_cli.embed.soft_monitors import monitor_classes, soft_monitor_features
+from tleaf_cli.logic.alphabet import Alphabet
+from tleaf_cli.logic.compile import compile_formula
+from tleaf_cli.logic.formulas import parse
+from tleaf_cli.logic.monitors import MonitorBank
+from tleaf_cli.logic.semantics import satisfies
+
+# each pattern as the LTLf formula it stands for (P, Q: the monitor's literals)
+PATTERNS = {
+    "F": "F(P)",
+    "G": "G(P)",
+    "at1": "P",
+    "at2": "X(P)",
+    "at3": "X(X(P))",
+    "last": "F(P & last)",
+    "before_last": "F(P & X(last))",
+    "U": "(P U Q)",
+    "F_and_X": "F(P & X(Q))",
+    "G_X": "G(P -> X(Q))",
+    "G_F": "G(P -> F(Q))",
+    "F_and": "F(P & Q)",
+}
+ATOMS = ("a", "b", "c")
+
+
+def _formula(monitor) -> str:
+    p, q = (
+        ("" if sign else "!") + ATOMS[slot]
+        for sign, slot in zip(monitor.signs, monitor.slots, strict=True)
+    )
+    return PATTERNS[monitor.name].replace("P", f"({p})").replace("Q", f"({q})")
+
+
+def test_every_monitor_accepts_the_words_its_formula_holds_on():
+    bank = MonitorBank(3)
+    assert bank.width == 7 * 3 + 18 * 3 * 2
+    alphabet = Alphabet(ATOMS)
+    rng = np.random.default_rng(0)
+    words = [rng.integers(0, alphabet.size, size=rng.integers(1, 7)) for _ in range(150)]
+    features = np.stack([bank.of_word(alphabet.truth(), w) for w in words])
+    for k, monitor in enumerate(bank.monitors):
+        formula = parse(_formula(monitor))
+        expected = [satisfies([alphabet.letter(i) for i in w], formula) for w in words]
+        assert features[:, k].tolist() == [float(x) for x in expected], str(monitor)
+
+
+@pytest.mark.parametrize(
+    "formula", ["G(a -> X(b))", "(a U b) <-> F(c)", "X(a) | G(!b)", "F(a & b)"]
+)
+def test_a_dfas_shares_are_those_of_its_listed_words(formula):
+    dfa = compile_formula(formula)
+    bank = MonitorBank(3, max_length=4)
+    truth = dfa.alphabet.truth()
+    expected, counted = np.zeros((2, bank.width)), np.zeros(2)
+    for length in range(1, 5):
+        words: list[list[np.ndarray]] = [[], []]
+        for w in itertools.product(range(dfa.alphabet.size), repeat=length):
+            words[0 if dfa.accepting[dfa.run(w)] else 1].append(bank.of_word(truth, w))
+        for row in (0, 1):
+            if words[row]:
+                expected[row] += np.mean(words[row], axis=0)
+                counted[row] += 1
+    expected /= counted[:, None]
+    np.testing.assert_allclose(bank.of_dfa(dfa), expected, atol=1e-6)
+
+
+def test_missing_atom_slots_read_zero_and_extra_atoms_are_ignored():
+    bank = MonitorBank(3)
+    dfa = compile_formula("F(a) & G(b)")  # two atoms: slot 2 is empty
+    shares = bank.of_dfa(dfa)
+    uses_slot_2 = np.array([2 in m.slots for m in bank.monitors])
+    assert (shares[:, uses_slot_2] == 0).all() and (shares[0, ~uses_slot_2] > 0).any()
+    small = MonitorBank(1)  # reads atom a only, of any alphabet
+    assert small.of_dfa(compile_formula("F(a) & G(b)")).shape == (2, small.width)
+
+
+def test_soft_features_of_one_hot_letters_are_the_crisp_ones_and_carry_gradients():
+    bank = MonitorBank(2)
+    alphabet = Alphabet(("a", "b"), "one-hot")
+    classes, present = monitor_classes(bank, alphabet.truth())
+    rng = np.random.default_rng(1)
+    words = [rng.integers(0, alphabet.size, size=n) for n in (1, 3, 5)]
+    probs = torch.zeros(3, 5, alphabet.size)
+    for n, w in enumerate(words):
+        probs[n, torch.arange(len(w)), torch.from_numpy(w)] = 1.0
+    lengths = torch.tensor([len(w) for w in words])
+    soft = soft_monitor_features(
+        bank, probs, lengths, classes.expand(3, -1, -1), present.expand(3, -1)
+    )
+    crisp = torch.stack([torch.from_numpy(bank.of_word(alphabet.truth(), w)) for w in words])
+    torch.testing.assert_close(soft[:, : bank.width], crisp)
+    assert (soft[:, bank.width :] == 0).all()
+    logits = torch.zeros(1, 4, alphabet.size, requires_grad=True)
+    out = soft_monitor_features(
+        bank, logits.softmax(-1), torch.tensor([4]), classes[None], present[None]
+    )
+    out[0, : bank.width].sum().backward()
+    assert logits.grad.abs().sum() > 0
+    assert ((out >= 0) & (out <= 1 + 1e-6)).all()
+
+
+@pytest.fixture(scope="module")
+def monitor_q(chain, tmp_path_factory):
+    """A small q with monitors trained through train-meta, and what train-meta reported."""
+    from tleaf_cli.embed.train_meta import MetaSettings, train_meta
+
+    out = tmp_path_factory.mktemp("q") / "m"
+    settings = MetaSettings(
+        hidden=16, layers=1, out_dim=8, epochs=3, patience=3, batch_size=32, lr=3e-3,
+        directed=True, readout="runs", bins=2, monitors=3, radius_weight=1.0,
+    )  # fmt: skip
+    metrics = train_meta(chain["dfas"], chain["traces"], chain["edge"], out, settings)
+    return out, metrics
+
+
+def test_a_q_with_monitors_trains_saves_and_reloads_identically(chain, monitor_q) -> None:
+    from test_run_readout import _held_out_accuracy
+
+    from tleaf_cli.embed.soft import load_embedder
+
+    out, metrics = monitor_q
+    assert metrics["history"][-1]["loss"] < metrics["history"][0]["loss"]
+    q = load_embedder(out)
+    assert q.model.trace.monitor_bank.width == MonitorBank(3).width
+    reloaded = _held_out_accuracy(q, chain["dfas"], chain["traces"])
+    assert reloaded == pytest.approx(metrics["test"]["triplet_accuracy"], abs=1e-6)
+    # the monitor block moves the vectors: the same traces with the block zeroed embed elsewhere
+    head = q.model.trace.head.weight
+    assert head[:, -q.model.trace.monitor_width :].abs().sum() > 0
+
+
+def test_soft_traces_and_the_tleaf_loss_read_the_monitors(monitor_q) -> None:
+    import tleaf_cli as tl
+    from tleaf_cli.embed.soft import load_embedder
+
+    q = load_embedder(monitor_q[0])
+    atoms = ("a", "b", "c")
+    trace = [{"b"}, set(), {"a"}, {"c"}]
+    probs = torch.tensor([[0.0, 1, 0], [0, 0, 0], [1, 0, 0], [0, 0, 1]])
+    for domain in ("one-hot", "powerset"):
+        crisp = q.embed_traces([trace], [atoms], one_hot=domain == "one-hot")[0]
+        soft = q.embed_soft_trace(probs, atoms, domain=domain)
+        torch.testing.assert_close(soft, crisp, atol=1e-5, rtol=1e-5)
+    rules = tl.RuleSet("G(a -> F(b))", list(atoms))
+    logits = torch.randn(3, 5, len(atoms), requires_grad=True)
+    loss = tl.logic_loss("tleaf", torch.log_softmax(logits, -1), rules, embedder=q)
+    loss.backward()
+    assert loss.item() > 0 and logits.grad.abs().sum() > 0
+
+
+def test_cli_refuses_monitors_for_the_syntax_baseline(chain, chain_cli, tmp_path) -> None:
+    args = ["train-meta", chain["dfas"], chain["traces"], "--edge", chain["edge"]]
+    result = chain_cli(*args, "-o", tmp_path / "q", "--embedder", "syntax", "--monitors", 3)
+    assert result.exit_code != 0 and "--monitors: only with --embedder dfa" in result.output
+    assert not (tmp_path / "q").exists()

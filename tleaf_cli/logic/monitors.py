@@ -1,0 +1,186 @@
+"""Temporal monitors: small fixed automata over one or two literals, and the share of a DFA's
+words that each one accepts (issue 13).
+
+A monitor reads a word through two Boolean inputs per letter, p = atom i holds and q = atom j
+holds (i, j are positions in the formula's sorted atoms; i = j for the one-atom monitors), and
+says whether a simple temporal pattern occurred. The patterns are the building blocks of the
+formulas people and the generator write (LTLf's F, G, U, X and the ends of the trace):
+
+    one atom p   F p,  G p,  p at letter 1, 2, 3,  p at the last letter, at the one before
+    atoms p, q   p U q,  F(p & X q),  G(p -> X q),  G(p -> F q)   (ordered pairs, each literal
+                 either sign), and F(p & q) (unordered pairs, each sign)
+
+A trace w gets ψ(w): 1 where a monitor accepts it, else 0. A DFA A gets, for its accepted words
+and for its rejected ones, the share that each monitor accepts,
+
+    μ(A) = mean over lengths T of P(monitor accepts w | w uniform among the accepted words of
+           length T)
+
+over the lengths 1..max_length that have such words, computed exactly by a forward pass through
+the product of A and the monitors (no sampling). The DFA's own language is a Boolean function of
+where its words lead; these shares describe it by patterns every formula shares, so a formula
+never seen in training is described in the same coordinates as the ones that were, and a trace
+sits in them too. With the shares of accepted and of rejected words, "is ψ(w) nearer the
+accepted mean than the rejected one" already decides membership for most formulas
+(docs/results/model_checking.md measures how often).
+
+Atoms are taken by position: slot k is the DFA's k-th atom (its alphabet's sorted atoms); a
+DFA with fewer atoms than `slots` leaves the missing slots' features at 0, one with more
+ignores the extra atoms. Numpy only (logic never imports torch).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from tleaf_cli.logic.dfa import DFA
+
+STATES = 5  # every monitor padded to this many states (the positional ones need 5)
+
+# Templates: (transition rows [states][class], accepting states); class = p + 2 q of a letter.
+_ONE_ATOM: dict[str, tuple[list[list[int]], list[int]]] = {
+    "F": ([[0, 1, 0, 1], [1, 1, 1, 1]], [1]),
+    "G": ([[1, 0, 1, 0], [1, 1, 1, 1]], [0]),
+    # p at letter k (1-based): states 0..k-1 count letters, then yes (k) / no (k + 1)
+    "at1": ([[2, 1, 2, 1], [1, 1, 1, 1], [2, 2, 2, 2]], [1]),
+    "at2": ([[1, 1, 1, 1], [3, 2, 3, 2], [2, 2, 2, 2], [3, 3, 3, 3]], [2]),
+    "at3": (
+        [[1, 1, 1, 1], [2, 2, 2, 2], [4, 3, 4, 3], [3, 3, 3, 3], [4, 4, 4, 4]],
+        [3],
+    ),
+    "last": ([[0, 1, 0, 1], [0, 1, 0, 1]], [1]),
+    # states: (p at the letter before the last, p at the last) as 2 * before + last
+    "before_last": (
+        [[0, 1, 0, 1], [2, 3, 2, 3], [0, 1, 0, 1], [2, 3, 2, 3]],
+        [2, 3],
+    ),
+}
+_TWO_ATOMS: dict[str, tuple[list[list[int]], list[int]]] = {
+    # 0 undecided, 1 true, 2 false
+    "U": ([[2, 0, 1, 1], [1, 1, 1, 1], [2, 2, 2, 2]], [1]),
+    # 0 nothing pending, 1 the last letter had p, 2 found p then q
+    "F_and_X": ([[0, 1, 0, 1], [0, 1, 2, 2], [2, 2, 2, 2]], [2]),
+    # 0 fine, 1 p at the last letter (q owed next), 2 failed; strong next: owed at the end fails
+    "G_X": ([[0, 1, 0, 1], [2, 2, 0, 1], [2, 2, 2, 2]], [0]),
+    # 0 nothing owed, 1 a p still waits for a q
+    "G_F": ([[0, 1, 0, 0], [1, 1, 0, 0]], [0]),
+}
+_TOGETHER: tuple[list[list[int]], list[int]] = ([[0, 0, 0, 1], [1, 1, 1, 1]], [1])  # F(p & q)
+
+
+@dataclass(frozen=True)
+class Monitor:
+    """One monitor: its pattern, the atom slots (i, j) and signs it reads, its tables."""
+
+    name: str
+    slots: tuple[int, int]
+    signs: tuple[bool, bool]  # True: the atom itself; False: its negation
+    table: np.ndarray  # int [STATES, 4]: next state on class p + 2 q
+    accepting: np.ndarray  # bool [STATES]
+
+    def __str__(self) -> str:
+        p, q = (("" if s else "!") + f"x{k}" for s, k in zip(self.signs, self.slots, strict=True))
+        return f"{self.name}({p})" if self.slots[0] == self.slots[1] else f"{self.name}({p},{q})"
+
+
+def _padded(rows: list[list[int]], accepting: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    table = np.tile(np.arange(STATES)[:, None], (1, 4))  # padding states stay put
+    table[: len(rows)] = rows
+    acc = np.zeros(STATES, dtype=bool)
+    acc[accepting] = True
+    return table, acc
+
+
+class MonitorBank:
+    """The monitors over `slots` atom positions, and their features of DFAs and of words.
+
+    Args:
+        slots: K, how many of a formula's atoms (by position) the monitors read.
+        max_length: the longest words of a DFA counted.
+
+    `width` = 7 K + 18 K (K - 1) features per set of words.
+    """
+
+    def __init__(self, slots: int, max_length: int = 12) -> None:
+        self.slots, self.max_length = slots, max_length
+        monitors = []
+        for i in range(slots):
+            for name, (rows, acc) in _ONE_ATOM.items():
+                monitors.append(Monitor(name, (i, i), (True, True), *_padded(rows, acc)))
+        for (i, j), signs in itertools.product(
+            itertools.permutations(range(slots), 2), itertools.product((True, False), repeat=2)
+        ):
+            for name, (rows, acc) in _TWO_ATOMS.items():
+                monitors.append(Monitor(name, (i, j), signs, *_padded(rows, acc)))
+            if i < j:
+                monitors.append(Monitor("F_and", (i, j), signs, *_padded(*_TOGETHER)))
+        self.monitors = monitors
+        self.tables = np.stack([m.table for m in monitors])  # [M, S, 4]
+        self.accepting = np.stack([m.accepting for m in monitors])  # [M, S]
+
+    @property
+    def width(self) -> int:
+        return len(self.monitors)
+
+    def names(self) -> list[str]:
+        return [str(m) for m in self.monitors]
+
+    def classes(self, truth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """[M, letters]: each monitor's input class on each letter (truth: [letters, atoms]);
+        and [M]: whether the monitor's atoms exist in this alphabet."""
+        atoms = truth.shape[1]
+        slots = np.array([m.slots for m in self.monitors])  # [M, 2]
+        signs = np.array([m.signs for m in self.monitors])
+        present = (slots < atoms).all(axis=1)
+        padded = np.concatenate([truth, np.zeros((len(truth), 1), dtype=bool)], axis=1)
+        columns = np.where(slots < atoms, slots, atoms)  # absent atoms read a False column
+        p = signs[:, :1] == padded[:, columns[:, 0]].T
+        q = signs[:, 1:] == padded[:, columns[:, 1]].T
+        return p.astype(np.int64) + 2 * q.astype(np.int64), present
+
+    def of_word(self, truth: np.ndarray, letters: Sequence[int]) -> np.ndarray:
+        """[width] float32: 1 where a monitor accepts the word (letter indices of an alphabet
+        whose atom truth table is `truth`, [letters, atoms]), else 0."""
+        classes, present = self.classes(truth)
+        rows = np.arange(len(self.monitors))
+        state = np.zeros(len(self.monitors), dtype=np.int64)
+        for letter in letters:
+            state = self.tables[rows, state, classes[:, letter]]
+        return (self.accepting[rows, state] & present).astype(np.float32)
+
+    def of_dfa(self, dfa: DFA) -> np.ndarray:
+        """[2, width] float32: the share of the DFA's accepted (row 0) and rejected (row 1)
+        words that each monitor accepts, the mean over the lengths 1..max_length with such
+        words (0 where there are none)."""
+        classes, present = self.classes(dfa.alphabet.truth())  # [M, A]
+        m, a = classes.shape
+        n = dfa.num_states
+        # step[m, c, s, s'] = 1 where the monitor goes s -> s' on class c
+        step = np.zeros((m, 4, STATES, STATES))
+        mm, ss, cc = np.meshgrid(np.arange(m), np.arange(STATES), np.arange(4), indexing="ij")
+        step[mm, cc, ss, self.tables[mm, ss, cc]] = 1.0
+        # moves[m, c, u, u'] = share of the letters of class c (for monitor m) taking u -> u'
+        onehot = np.zeros((a, n, n))
+        onehot[np.arange(a)[:, None], np.arange(n)[None, :], dfa.table.T] = 1.0
+        by_class = np.zeros((m, 4, a))
+        by_class[np.arange(m)[:, None], classes, np.arange(a)[None, :]] = 1.0 / a
+        moves = np.einsum("mca,auv->mcuv", by_class, onehot)
+        alpha = np.zeros((m, n, STATES))  # P(DFA at u, monitor at s) after t uniform letters
+        alpha[:, dfa.initial, 0] = 1.0
+        out = np.zeros((2, m))
+        counted = np.zeros(2)
+        for _ in range(self.max_length):
+            at_class = moves.transpose(0, 1, 3, 2) @ alpha[:, None]  # [m, c, v, s]
+            alpha = (at_class @ step).sum(axis=1)  # [m, v, t]
+            for row, ends in enumerate((dfa.accepting, ~dfa.accepting)):
+                mass = alpha[0, ends].sum()  # the DFA's own share, the same for every monitor
+                if mass > 0:
+                    hit = (alpha[:, ends] * self.accepting[:, None, :]).sum(axis=(1, 2))
+                    out[row] += hit / mass
+                    counted[row] += 1
+        out /= np.maximum(counted, 1)[:, None]
+        return (out * present).astype(np.float32)
