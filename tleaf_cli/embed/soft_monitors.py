@@ -35,15 +35,7 @@ def soft_monitor_features(
     alphabet, padded letters with any class: their probability is 0)."""
     device = probs.device
     m = bank.width
-    tables = torch.from_numpy(bank.tables).to(device)  # [M, S, 4]
-    step = torch.zeros(m, 4, STATES, STATES, device=device)
-    mm, ss, cc = torch.meshgrid(
-        torch.arange(m, device=device),
-        torch.arange(STATES, device=device),
-        torch.arange(4, device=device),
-        indexing="ij",
-    )
-    step[mm, cc, ss, tables[mm, ss, cc]] = 1.0
+    step = torch.from_numpy(bank.steps).to(device, probs.dtype)  # [M, 4, S, S]
     onehot = torch.nn.functional.one_hot(classes.to(device), 4).to(probs.dtype)  # [N, M, L, 4]
     per_class = torch.einsum("ntl,nmlc->ntmc", probs, onehot)  # [N, T, M, 4]
     state = probs.new_zeros(len(probs), m, STATES)

@@ -121,6 +121,10 @@ class MonitorBank:
         self.monitors = monitors
         self.tables = np.stack([m.table for m in monitors])  # [M, S, 4]
         self.accepting = np.stack([m.accepting for m in monitors])  # [M, S]
+        # steps[m, c, s, s'] = 1 where monitor m goes s -> s' on class c
+        self.steps = np.zeros((len(monitors), 4, STATES, STATES))
+        mm, ss, cc = np.meshgrid(*(np.arange(k) for k in self.tables.shape), indexing="ij")
+        self.steps[mm, cc, ss, self.tables[mm, ss, cc]] = 1.0
 
     @property
     def width(self) -> int:
@@ -155,32 +159,44 @@ class MonitorBank:
     def of_dfa(self, dfa: DFA) -> np.ndarray:
         """[2, width] float32: the share of the DFA's accepted (row 0) and rejected (row 1)
         words that each monitor accepts, the mean over the lengths 1..max_length with such
-        words (0 where there are none)."""
+        words (0 where there are none).
+
+        Monitors that read the same literals move alike on the DFA's letters, so they go
+        through the product together: per group, moves[c, u, u'] = the share of letters of
+        class c that take state u to u', and the group's monitors' states ride along."""
         classes, present = self.classes(dfa.alphabet.truth())  # [M, A]
-        m, a = classes.shape
-        n = dfa.num_states
-        # step[m, c, s, s'] = 1 where the monitor goes s -> s' on class c
-        step = np.zeros((m, 4, STATES, STATES))
-        mm, ss, cc = np.meshgrid(np.arange(m), np.arange(STATES), np.arange(4), indexing="ij")
-        step[mm, cc, ss, self.tables[mm, ss, cc]] = 1.0
-        # moves[m, c, u, u'] = share of the letters of class c (for monitor m) taking u -> u'
+        a, n = dfa.alphabet.size, dfa.num_states
+        # the DFA alone: P(at u after t uniform letters), for each length's accepted mass
         onehot = np.zeros((a, n, n))
         onehot[np.arange(a)[:, None], np.arange(n)[None, :], dfa.table.T] = 1.0
-        by_class = np.zeros((m, 4, a))
-        by_class[np.arange(m)[:, None], classes, np.arange(a)[None, :]] = 1.0 / a
-        moves = np.einsum("mca,auv->mcuv", by_class, onehot)
-        alpha = np.zeros((m, n, STATES))  # P(DFA at u, monitor at s) after t uniform letters
-        alpha[:, dfa.initial, 0] = 1.0
-        out = np.zeros((2, m))
-        counted = np.zeros(2)
+        walk = onehot.mean(axis=0)
+        at = [np.eye(n)[dfa.initial]]
         for _ in range(self.max_length):
-            at_class = moves.transpose(0, 1, 3, 2) @ alpha[:, None]  # [m, c, v, s]
-            alpha = (at_class @ step).sum(axis=1)  # [m, v, t]
-            for row, ends in enumerate((dfa.accepting, ~dfa.accepting)):
-                mass = alpha[0, ends].sum()  # the DFA's own share, the same for every monitor
-                if mass > 0:
-                    hit = (alpha[:, ends] * self.accepting[:, None, :]).sum(axis=(1, 2))
-                    out[row] += hit / mass
-                    counted[row] += 1
-        out /= np.maximum(counted, 1)[:, None]
+            at.append(at[-1] @ walk)
+        ends = np.stack([dfa.accepting, ~dfa.accepting]).astype(float)  # [2, n]
+        mass = np.stack(at[1:]) @ ends.T  # [lengths, 2]
+        hit = np.zeros((self.max_length, 2, self.width))
+        for members in self._groups(classes, present):
+            by_class = np.zeros((4, a))
+            by_class[classes[members[0]], np.arange(a)] = 1.0 / a
+            # moves[c, v, u]: the share of letters of class c that take state u to v
+            moves = np.einsum("ca,auv->cvu", by_class, onehot)
+            step = self.steps[members]  # [g, 4, S, S]
+            alpha = np.zeros((len(members), n, STATES))  # P(DFA at u, monitor at s)
+            alpha[:, dfa.initial, 0] = 1.0
+            accepting = self.accepting[members][:, None, :]
+            for t in range(self.max_length):
+                at_class = moves @ alpha[:, None]  # [g, c, v, s]
+                alpha = (at_class @ step).sum(axis=1)  # [g, v, t]
+                hit[t][:, members] = ends @ (alpha * accepting).sum(axis=-1).T
+        share = np.where(mass[:, :, None] > 0, hit / np.where(mass > 0, mass, 1)[:, :, None], 0)
+        counted = (mass > 0).sum(axis=0)  # [2]
+        out = share.sum(axis=0) / np.maximum(counted, 1)[:, None]
         return (out * present).astype(np.float32)
+
+    def _groups(self, classes: np.ndarray, present: np.ndarray) -> list[np.ndarray]:
+        """The present monitors grouped by the literals they read (equal class rows)."""
+        groups: dict[bytes, list[int]] = {}
+        for k in np.flatnonzero(present):
+            groups.setdefault(classes[k].tobytes(), []).append(int(k))
+        return [np.array(g) for g in groups.values()]
