@@ -35,6 +35,10 @@ Q := --directed --readout runs --bins 5 --max-length 20 --schedule cosine --radi
 # (issue 13, docs/embedder.md; docs/results/action_recognition.md measures both)
 PROBES ?= 0
 Q += $(if $(filter-out 0,$(PROBES)),--probes $(PROBES))
+# MONITORS=K: q_m with temporal monitors over each rule set's first K atoms (issue 13, as the
+# model-checking pipeline; docs/results/action_recognition.md measures it)
+MONITORS ?= 0
+Q += $(if $(filter-out 0,$(MONITORS)),--monitors $(MONITORS))
 
 ifeq ($(SMALL),1)
 OUT ?= out/action-recognition-small

@@ -58,20 +58,26 @@ def test_every_monitor_accepts_the_words_its_formula_holds_on():
 @pytest.mark.parametrize(
     "formula", ["G(a -> X(b))", "(a U b) <-> F(c)", "X(a) | G(!b)", "F(a & b)"]
 )
-def test_a_dfas_shares_are_those_of_its_listed_words(formula):
+@pytest.mark.parametrize("ranges", [1, 2])
+def test_a_dfas_shares_are_those_of_its_listed_words(formula, ranges):
+    """Per length range (lengths 1-2 and 3-4 with 2 ranges), the mean over its lengths of the
+    share of accepted / rejected words each monitor accepts; a word fills its own range."""
     dfa = compile_formula(formula)
-    bank = MonitorBank(3, max_length=4)
+    bank = MonitorBank(3, max_length=4, ranges=ranges)
     truth = dfa.alphabet.truth()
-    expected, counted = np.zeros((2, bank.width)), np.zeros(2)
+    expected, counted = np.zeros((2, bank.features)), np.zeros((2, bank.features))
     for length in range(1, 5):
         words: list[list[np.ndarray]] = [[], []]
         for w in itertools.product(range(dfa.alphabet.size), repeat=length):
             words[0 if dfa.accepting[dfa.run(w)] else 1].append(bank.of_word(truth, w))
+        block = np.zeros(bank.features, dtype=bool)
+        block[bank.range_of(length) * bank.width : (bank.range_of(length) + 1) * bank.width] = 1
+        assert not np.stack(words[0] + words[1])[:, ~block].any()
         for row in (0, 1):
             if words[row]:
                 expected[row] += np.mean(words[row], axis=0)
-                counted[row] += 1
-    expected /= counted[:, None]
+                counted[row] += block
+    expected /= np.maximum(counted, 1)
     np.testing.assert_allclose(bank.of_dfa(dfa), expected, atol=1e-6)
 
 
@@ -85,8 +91,9 @@ def test_missing_atom_slots_read_zero_and_extra_atoms_are_ignored():
     assert small.of_dfa(compile_formula("F(a) & G(b)")).shape == (2, small.width)
 
 
-def test_soft_features_of_one_hot_letters_are_the_crisp_ones_and_carry_gradients():
-    bank = MonitorBank(2)
+@pytest.mark.parametrize("ranges", [1, 3])
+def test_soft_features_of_one_hot_letters_are_the_crisp_ones_and_carry_gradients(ranges):
+    bank = MonitorBank(2, max_length=6, ranges=ranges)
     alphabet = Alphabet(("a", "b"), "one-hot")
     classes, present = monitor_classes(bank, alphabet.truth())
     rng = np.random.default_rng(1)
@@ -99,13 +106,13 @@ def test_soft_features_of_one_hot_letters_are_the_crisp_ones_and_carry_gradients
         bank, probs, lengths, classes.expand(3, -1, -1), present.expand(3, -1)
     )
     crisp = torch.stack([torch.from_numpy(bank.of_word(alphabet.truth(), w)) for w in words])
-    torch.testing.assert_close(soft[:, : bank.width], crisp)
-    assert (soft[:, bank.width :] == 0).all()
+    torch.testing.assert_close(soft[:, : bank.features], crisp)
+    assert (soft[:, bank.features :] == 0).all()
     logits = torch.zeros(1, 4, alphabet.size, requires_grad=True)
     out = soft_monitor_features(
         bank, logits.softmax(-1), torch.tensor([4]), classes[None], present[None]
     )
-    out[0, : bank.width].sum().backward()
+    out[0, : bank.features].sum().backward()
     assert logits.grad.abs().sum() > 0
     assert ((out >= 0) & (out <= 1 + 1e-6)).all()
 

@@ -784,6 +784,14 @@ def train_meta(
             "DFA embedder only; docs/embedder.md).",
         ),
     ] = 0,
+    monitor_ranges: Annotated[
+        int,
+        typer.Option(
+            min=1,
+            help="--monitors: keep this many ranges of word length apart (a formula's shares "
+            "per range, a trace in its own length's range).",
+        ),
+    ] = 1,
     conv: Annotated[
         Conv,
         typer.Option(
@@ -897,6 +905,8 @@ def train_meta(
         _refuse(_given(ctx, "probe_states", "probe_mix"), "only with --probes")
     if embedder != "dfa":
         _refuse(_given(ctx, "monitors"), "only with --embedder dfa (monitors read DFAs)")
+    if monitors == 0:
+        _refuse(_given(ctx, "monitor_ranges"), "only with --monitors")
 
     settings = MetaSettings(
         embedder=embedder,
@@ -913,6 +923,7 @@ def train_meta(
         probe_states=probe_states,
         probe_mix=probe_mix,
         monitors=monitors,
+        monitor_ranges=monitor_ranges,
         conv=conv,
         head=head,
         residual=residual,

@@ -200,6 +200,7 @@ class AutomatonEncoder(nn.Module):
         probe_states: int = 4,
         probe_mix: int = 0,
         monitors: int = 0,
+        monitor_ranges: int = 1,
     ) -> None:
         super().__init__()
         for name, value, allowed in (
@@ -240,11 +241,13 @@ class AutomatonEncoder(nn.Module):
         # `monitors` K > 0: fixed temporal monitors over the first K atoms (logic/monitors.py);
         # the graphs carry their features (`monitor`, [graphs, 2 F]: accepted, rejected words),
         # computed when they are built, so here they are only read
-        self.monitor_bank = MonitorBank(monitors, max_length) if monitors > 0 else None
+        self.monitor_bank = (
+            MonitorBank(monitors, max_length, monitor_ranges) if monitors > 0 else None
+        )
         self.monitor_width = 0
         if self.monitor_bank is not None:
             ends = 2 if readout == "runs" else 1
-            self.monitor_width = self.monitor_bank.width * ends
+            self.monitor_width = self.monitor_bank.features * ends
             width += self.monitor_width
         self.head = (
             nn.Linear(width, out_dim)

@@ -90,8 +90,9 @@ def trace_monitor_features(
     monitors: MonitorBank,
     one_hot: bool = False,
 ) -> torch.Tensor:
-    """[2 F]: a trace's monitor features as a DFA's are laid out: which monitors accept it
-    (its one accepted word), then zeros (a trace chain has no rejected words)."""
+    """[2 R F]: a trace's monitor features as a DFA's are laid out: which monitors accept it
+    (its one accepted word, in its length's range), then zeros (a trace chain has no rejected
+    words)."""
     alphabet = Alphabet(tuple(atoms), "one-hot" if one_hot else "powerset")
     word = monitors.of_word(alphabet.truth(), [alphabet.index(step) for step in trace])
     return torch.cat([torch.from_numpy(word), torch.zeros(len(word))])

@@ -30,7 +30,7 @@ def soft_monitor_features(
     classes: torch.Tensor,
     present: torch.Tensor,
 ) -> torch.Tensor:
-    """[N, 2 F] for soft traces `probs` [N, T, letters] (rows past `lengths` [N] ignored), trace n
+    """[N, 2 R F] for soft traces `probs` [N, T, letters] (rows past `lengths` [N] ignored), trace n
     read with `classes` [N, M, letters] and `present` [N, M] (`monitor_classes` of its
     alphabet, padded letters with any class: their probability is 0)."""
     device = probs.device
@@ -44,5 +44,9 @@ def soft_monitor_features(
         moved = torch.einsum("nms,nmc,mcsu->nmu", state, per_class[:, t], step)
         state = torch.where((t < lengths.to(device)).view(-1, 1, 1), moved, state)
     accepting = torch.from_numpy(bank.accepting).to(device, probs.dtype)
-    accepted = (state * accepting).sum(dim=-1) * present.to(device, probs.dtype)
-    return torch.cat([accepted, torch.zeros_like(accepted)], dim=1)
+    accepted = (state * accepting).sum(dim=-1) * present.to(device, probs.dtype)  # [N, M]
+    # in the trace's length range (logic.monitors.MonitorBank.range_of), the others 0
+    ranges = [bank.range_of(int(n)) for n in lengths]
+    at_range = torch.nn.functional.one_hot(torch.tensor(ranges, device=device), bank.ranges)
+    placed = (at_range.to(probs.dtype)[:, :, None] * accepted[:, None, :]).flatten(1)
+    return torch.cat([placed, torch.zeros_like(placed)], dim=1)

@@ -67,6 +67,7 @@ class MetaSettings:
     probe_states: int = 4  # states of each probe automaton
     probe_mix: int = 0  # probes: width of the end-state mixture through g (probes.py; 0: none)
     monitors: int = 0  # fixed temporal monitors over this many atom slots (logic/monitors.py)
+    monitor_ranges: int = 1  # monitors: ranges of word length kept apart
     jumping: bool = False  # readouts over every layer's node vectors, the input's too
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
@@ -155,6 +156,7 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.probe_states,
         settings.probe_mix,
         settings.monitors,
+        settings.monitor_ranges,
     )
     head = None
     if settings.pair_weight > 0:

@@ -101,12 +101,15 @@ class MonitorBank:
     Args:
         slots: K, how many of a formula's atoms (by position) the monitors read.
         max_length: the longest words of a DFA counted.
+        ranges: R, ranges of word length kept apart: lengths 1..max_length cut in R equal
+            ranges (longer words in the last); a DFA gets its shares per range, a word fills
+            its own length's range and leaves the others 0.
 
-    `width` = 7 K + 18 K (K - 1) features per set of words.
+    `width` = 7 K + 18 K (K - 1) monitors; `features` = R · width per set of words.
     """
 
-    def __init__(self, slots: int, max_length: int = 12) -> None:
-        self.slots, self.max_length = slots, max_length
+    def __init__(self, slots: int, max_length: int = 12, ranges: int = 1) -> None:
+        self.slots, self.max_length, self.ranges = slots, max_length, ranges
         monitors = []
         for i in range(slots):
             for name, (rows, acc) in _ONE_ATOM.items():
@@ -130,6 +133,14 @@ class MonitorBank:
     def width(self) -> int:
         return len(self.monitors)
 
+    @property
+    def features(self) -> int:
+        return self.ranges * self.width
+
+    def range_of(self, length: int) -> int:
+        """The length range a word of `length` letters falls in."""
+        return min(self.ranges - 1, (length - 1) * self.ranges // self.max_length)
+
     def names(self) -> list[str]:
         return [str(m) for m in self.monitors]
 
@@ -147,18 +158,21 @@ class MonitorBank:
         return p.astype(np.int64) + 2 * q.astype(np.int64), present
 
     def of_word(self, truth: np.ndarray, letters: Sequence[int]) -> np.ndarray:
-        """[width] float32: 1 where a monitor accepts the word (letter indices of an alphabet
-        whose atom truth table is `truth`, [letters, atoms]), else 0."""
+        """[features] float32: in the word's length range, 1 where a monitor accepts the word
+        (letter indices of an alphabet whose atom truth table is `truth`, [letters, atoms]),
+        else 0; the other ranges 0."""
         classes, present = self.classes(truth)
         rows = np.arange(len(self.monitors))
         state = np.zeros(len(self.monitors), dtype=np.int64)
         for letter in letters:
             state = self.tables[rows, state, classes[:, letter]]
-        return (self.accepting[rows, state] & present).astype(np.float32)
+        out = np.zeros((self.ranges, self.width), dtype=np.float32)
+        out[self.range_of(len(letters))] = self.accepting[rows, state] & present
+        return out.ravel()
 
     def of_dfa(self, dfa: DFA) -> np.ndarray:
-        """[2, width] float32: the share of the DFA's accepted (row 0) and rejected (row 1)
-        words that each monitor accepts, the mean over the lengths 1..max_length with such
+        """[2, features] float32: the share of the DFA's accepted (row 0) and rejected (row 1)
+        words that each monitor accepts, per length range the mean over its lengths with such
         words (0 where there are none).
 
         Monitors that read the same literals move alike on the DFA's letters, so they go
@@ -190,9 +204,13 @@ class MonitorBank:
                 alpha = (at_class @ step).sum(axis=1)  # [g, v, t]
                 hit[t][:, members] = ends @ (alpha * accepting).sum(axis=-1).T
         share = np.where(mass[:, :, None] > 0, hit / np.where(mass > 0, mass, 1)[:, :, None], 0)
-        counted = (mass > 0).sum(axis=0)  # [2]
-        out = share.sum(axis=0) / np.maximum(counted, 1)[:, None]
-        return (out * present).astype(np.float32)
+        out = np.zeros((2, self.ranges, self.width))
+        counted = np.zeros((2, self.ranges, 1))
+        for t in range(self.max_length):  # length t + 1
+            out[:, self.range_of(t + 1)] += share[t]
+            counted[:, self.range_of(t + 1), 0] += mass[t] > 0
+        out = out / np.maximum(counted, 1) * present
+        return out.reshape(2, -1).astype(np.float32)
 
     def _groups(self, classes: np.ndarray, present: np.ndarray) -> list[np.ndarray]:
         """The present monitors grouped by the literals they read (equal class rows)."""
