@@ -54,7 +54,9 @@ PROBES ?= 0
 # accepts beside its GNN readout (--monitors, docs/embedder.md): Low 76.6 -> 83.6 at the same
 # epochs (docs/results/model_checking.md). MONITORS=0: the q of 2026-11-25.
 MONITORS ?= 6
+MONITOR_RANGES ?= 1
 META_dfa := $(META) --epochs $(EPOCHS) $(if $(filter-out 0,$(MONITORS)),--monitors $(MONITORS)) \
+    $(if $(filter-out 0,$(MONITORS)),$(if $(filter-out 1,$(MONITOR_RANGES)),--monitor-ranges $(MONITOR_RANGES))) \
     $(if $(filter-out 0,$(PROBES)),--probes $(PROBES))
 META_syntax := $(META) --epochs $(SYNTAX_EPOCHS)
 endif

@@ -129,7 +129,7 @@ def chain_batch(
     """The trace chains of these lengths as one graph batch, step t of trace i carrying row
     sum(lengths[:i]) + t of `letters` [sum(lengths), d] (q_e vectors, or expected ones of soft
     traces) on its edge node; with the readout weights of `encoder` (an AutomatonEncoder) where
-    its readout reads runs, and the traces' monitor features `monitor` [traces, 2 F] where
+    its readout reads runs, and the traces' monitor features `monitor` [traces, 2 R F] where
     given (`trace_monitor_features`). Built with tensor ops: the same graphs as
     `featured_trace_graph` collated, without a Data object per trace."""
     batch, edge_nodes = trace_graph_batch(list(lengths))

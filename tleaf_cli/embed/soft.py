@@ -232,7 +232,7 @@ def soft_trace_vectors(
     monitor: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """q(w̃) [N, d] of soft traces whose step-t edge node carries expected[i, t] (t < lengths[i]),
-    with their monitor features [N, 2 F] where q reads them (`soft_monitor_features`); `model`
+    with their monitor features [N, 2 R F] where q reads them (`soft_monitor_features`); `model`
     is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
     valid = torch.arange(expected.shape[1], device=expected.device)[None, :] < lengths[:, None]
     return model.embed_traces(chain_batch(model.trace, expected[valid], lengths.tolist(), monitor))

@@ -24,6 +24,10 @@ sits in them too. With the shares of accepted and of rejected words, "is ψ(w) n
 accepted mean than the rejected one" already decides membership for most formulas
 (docs/results/model_checking.md measures how often).
 
+With R length ranges (`ranges`), the shares are kept per range of word length (lengths
+1..max_length cut in R equal ranges) and a word fills its own length's range: a trace is then
+compared with the formula's words of about its own length.
+
 Atoms are taken by position: slot k is the DFA's k-th atom (its alphabet's sorted atoms); a
 DFA with fewer atoms than `slots` leaves the missing slots' features at 0, one with more
 ignores the extra atoms. Numpy only (logic never imports torch).
