@@ -7,8 +7,10 @@ gets its node features (`edge_vec`) when it is built.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Collection, Sequence
 
+import numpy as np
 import torch
 from torch_geometric.data import Batch, Data
 
@@ -93,9 +95,17 @@ def trace_monitor_features(
     """[2 R F]: a trace's monitor features as a DFA's are laid out: which monitors accept it
     (its one accepted word, in its length's range), then zeros (a trace chain has no rejected
     words)."""
-    alphabet = Alphabet(tuple(atoms), "one-hot" if one_hot else "powerset")
-    word = monitors.of_word(alphabet.truth(), [alphabet.index(step) for step in trace])
+    alphabet, truth = _alphabet(tuple(atoms), one_hot)
+    word = monitors.of_word(truth, [alphabet.index(step) for step in trace])
     return torch.cat([torch.from_numpy(word), torch.zeros(len(word))])
+
+
+@functools.lru_cache(maxsize=1024)
+def _alphabet(atoms: tuple[str, ...], one_hot: bool) -> tuple[Alphabet, np.ndarray]:
+    """An alphabet and its atom truth table, built once per (atoms, kind): a traces file
+    holds tens of thousands of traces over a few atom lists."""
+    alphabet = Alphabet(atoms, "one-hot" if one_hot else "powerset")
+    return alphabet, alphabet.truth()
 
 
 def trace_letter_vectors(
