@@ -239,7 +239,7 @@ class AutomatonEncoder(nn.Module):
             self.probes = ProbeBank(edge_dim, probes, probe_states, bins, max_length, probe_mix)
             width += self.probes.width * (2 if readout == "runs" else 1)
         # `monitors` K > 0: fixed temporal monitors over the first K atoms (logic/monitors.py);
-        # the graphs carry their features (`monitor`, [graphs, 2 F]: accepted, rejected words),
+        # the graphs carry their features (`monitor`, [graphs, 2 R F]: accepted, rejected words),
         # computed when they are built, so here they are only read
         self.monitor_bank = (
             MonitorBank(monitors, max_length, monitor_ranges) if monitors > 0 else None
