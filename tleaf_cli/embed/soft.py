@@ -51,7 +51,6 @@ class Embedder:
         for p in self.model.parameters():
             p.requires_grad_(False)
         self._rule_sets: dict[str, tuple[torch.Tensor, torch.Tensor]] = {}  # formula -> vectors
-        self._monitor_classes: dict[tuple[str, ...], tuple[torch.Tensor, torch.Tensor]] = {}
 
     @property
     def kind(self) -> str:
@@ -147,10 +146,7 @@ class Embedder:
         bank = self.model.trace.monitor_bank
         if bank is None:
             return None
-        for atoms in {r.atoms for r in rule_sets} - self._monitor_classes.keys():
-            truth = Alphabet(atoms, "one-hot").truth()
-            self._monitor_classes[atoms] = monitor_classes(bank, truth)  # once per atom list
-        tables = [self._monitor_classes[r.atoms] for r in rule_sets]
+        tables = [monitor_classes(bank, Alphabet(r.atoms, "one-hot").truth()) for r in rule_sets]
         classes = torch.zeros(len(tables), bank.width, letters, dtype=torch.long)
         for j, (c, _) in enumerate(tables):
             classes[j, :, : c.shape[1]] = c

@@ -20,7 +20,7 @@ def monitor_classes(bank: MonitorBank, truth: np.ndarray) -> tuple[torch.Tensor,
     """[M, letters] each monitor's class of each letter, and [M] whether its atoms exist, for an
     alphabet with atom truth table `truth` [letters, atoms]."""
     classes, present = bank.classes(truth)
-    return torch.from_numpy(classes), torch.from_numpy(present)
+    return torch.tensor(classes), torch.tensor(present)  # copies: the bank's are read-only
 
 
 def soft_monitor_features(

@@ -132,6 +132,7 @@ class MonitorBank:
         self.steps = np.zeros((len(monitors), 4, STATES, STATES))
         mm, ss, cc = np.meshgrid(*(np.arange(k) for k in self.tables.shape), indexing="ij")
         self.steps[mm, cc, ss, self.tables[mm, ss, cc]] = 1.0
+        self._classes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # per alphabet
 
     @property
     def width(self) -> int:
@@ -150,7 +151,15 @@ class MonitorBank:
 
     def classes(self, truth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """[M, letters]: each monitor's input class on each letter (truth: [letters, atoms]);
-        and [M]: whether the monitor's atoms exist in this alphabet."""
+        and [M]: whether the monitor's atoms exist in this alphabet. Computed once per
+        alphabet (read-only arrays): a traces file holds tens of thousands of words over a few
+        alphabets, and this is most of the cost of `of_word`."""
+        key = (truth.shape, truth.tobytes())
+        if key not in self._classes:
+            self._classes[key] = self._compute_classes(truth)
+        return self._classes[key]
+
+    def _compute_classes(self, truth: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         atoms = truth.shape[1]
         slots = np.array([m.slots for m in self.monitors])  # [M, 2]
         signs = np.array([m.signs for m in self.monitors])
@@ -159,7 +168,10 @@ class MonitorBank:
         columns = np.where(slots < atoms, slots, atoms)  # absent atoms read a False column
         p = signs[:, :1] == padded[:, columns[:, 0]].T
         q = signs[:, 1:] == padded[:, columns[:, 1]].T
-        return p.astype(np.int64) + 2 * q.astype(np.int64), present
+        classes = p.astype(np.int64) + 2 * q.astype(np.int64)
+        for array in (classes, present):
+            array.setflags(write=False)
+        return classes, present
 
     def of_word(self, truth: np.ndarray, letters: Sequence[int]) -> np.ndarray:
         """[features] float32: in the word's length range, 1 where a monitor accepts the word
