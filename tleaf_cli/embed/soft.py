@@ -254,5 +254,7 @@ def load_embedder(model_dir: str | Path) -> Embedder:
     edge_model, edge_config = load_edge_model(edge_model_dir(model_dir, config))
     vectors = GuardVectors(edge_model, edge_config["vocabulary"])
     model = build_model(MetaSettings(**config["settings"]), vectors.dim, edge_model.atom_table)
-    model.load_state_dict(torch.load(model_dir / "weights.pt", weights_only=True))
+    model.load_state_dict(
+        torch.load(model_dir / "weights.pt", map_location="cpu", weights_only=True)
+    )
     return Embedder(model, vectors, config)

@@ -132,7 +132,9 @@ def load_edge_model(model_dir: str | Path) -> tuple[PropositionEncoder, dict]:
     # The atom table is a buffer in the weights: a placeholder of its shape is enough here.
     table = torch.zeros(len(config["vocabulary"]), config["atom_feature_dim"])
     model = PropositionEncoder(table, s.hidden, s.layers, s.out_dim)
-    model.load_state_dict(torch.load(model_dir / "weights.pt", weights_only=True))
+    model.load_state_dict(
+        torch.load(model_dir / "weights.pt", map_location="cpu", weights_only=True)
+    )
     return model.eval(), config
 
 

@@ -170,7 +170,7 @@ def fit(
             on_epoch(record)
 
     model.load_state_dict(best_weights)
-    save_atomic(best_weights, out_dir / WEIGHTS)
+    save_atomic(_on_cpu(best_weights), out_dir / WEIGHTS)
     return {"best": best, "history": history}
 
 
@@ -198,6 +198,13 @@ def _snapshot(model: torch.nn.Module) -> dict[str, torch.Tensor]:
     return out
 
 
+def _on_cpu(weights: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
+    """`weights` on the CPU, whatever device they were trained on, so that a model trained on a
+    GPU loads on any machine; entries that share a tensor still share its copy."""
+    copies: dict[int, torch.Tensor] = {}
+    return {name: copies.setdefault(id(t), t.cpu()) for name, t in weights.items()}
+
+
 def _restore(
     checkpoint: Path,
     model: torch.nn.Module,
@@ -208,7 +215,7 @@ def _restore(
     run's (history, best, best weights, epochs since the best, epochs trained). InputError
     for a file that is not a checkpoint of this model."""
     try:
-        state = torch.load(checkpoint, weights_only=True)
+        state = torch.load(checkpoint, map_location="cpu", weights_only=True)
         model.load_state_dict(state["model"])
         optimiser.load_state_dict(state["optimiser"])
         if scheduler is not None and state["scheduler"] is not None:
