@@ -191,9 +191,10 @@ class MonitorBank:
         words that each monitor accepts, per length range the mean over its lengths with such
         words (0 where there are none).
 
-        Monitors that read the same literals move alike on the DFA's letters, so they go
-        through the product together: per group, moves[c, u, u'] = the share of letters of
-        class c that take state u to u', and the group's monitors' states ride along."""
+        Monitors that read the same literals move alike on the DFA's letters: per group of
+        them, moves[c, u, u'] = the share of letters of class c that take state u to u'. All
+        present monitors then go through the product with the DFA at once, one batched
+        product per letter of the word."""
         classes, present = self.classes(dfa.alphabet.truth())  # [M, A]
         a, n = dfa.alphabet.size, dfa.num_states
         # the DFA alone: P(at u after t uniform letters), for each length's accepted mass
@@ -206,19 +207,28 @@ class MonitorBank:
         ends = np.stack([dfa.accepting, ~dfa.accepting]).astype(float)  # [2, n]
         mass = np.stack(at[1:]) @ ends.T  # [lengths, 2]
         hit = np.zeros((self.max_length, 2, self.width))
-        for members in self._groups(classes, present):
-            by_class = np.zeros((4, a))
-            by_class[classes[members[0]], np.arange(a)] = 1.0 / a
-            # moves[c, v, u]: the share of letters of class c that take state u to v
-            moves = np.einsum("ca,auv->cvu", by_class, onehot)
-            step = self.steps[members]  # [g, 4, S, S]
-            alpha = np.zeros((len(members), n, STATES))  # P(DFA at u, monitor at s)
-            alpha[:, dfa.initial, 0] = 1.0
-            accepting = self.accepting[members][:, None, :]
+        members, group, slot = self._groups(classes, present)
+        if len(members):
+            groups, size = group.max() + 1, slot.max() + 1
+            # by_class[g, c, a] = 1/a where letter a is of class c for group g's monitors
+            by_class = np.zeros((groups, 4, a))
+            by_class[group[:, None], classes[members], np.arange(a)] = 1.0 / a
+            # moves[g, v, (c, u)]: the share of letters of class c that take state u to v
+            moves = np.einsum("gca,auv->gvcu", by_class, onehot, optimize=True)
+            moves = moves.reshape(groups, n, 4 * n)
+            # the monitors laid out [group, slot] (unused slots never move and accept nothing)
+            step = np.zeros((groups, size, 4, STATES, STATES))
+            step[group, slot] = self.steps[members]
+            accepting = np.zeros((groups, size, 1, STATES))
+            accepting[group, slot, 0] = self.accepting[members]
+            alpha = np.zeros((groups, size, n, STATES))  # P(DFA at u, monitor at s)
+            alpha[group, slot, dfa.initial, 0] = 1.0
             for t in range(self.max_length):
-                at_class = moves @ alpha[:, None]  # [g, c, v, s]
-                alpha = (at_class @ step).sum(axis=1)  # [g, v, t]
-                hit[t][:, members] = ends @ (alpha * accepting).sum(axis=-1).T
+                monitor_moved = alpha[:, :, None] @ step  # [g, slot, c, u, s']
+                stacked = monitor_moved.transpose(0, 2, 3, 1, 4).reshape(groups, 4 * n, -1)
+                alpha = (moves @ stacked).reshape(groups, n, size, STATES).transpose(0, 2, 1, 3)
+                ends_at = (alpha * accepting).sum(axis=-1)[group, slot]  # [members, n]
+                hit[t][:, members] = ends @ ends_at.T
         share = np.where(mass[:, :, None] > 0, hit / np.where(mass > 0, mass, 1)[:, :, None], 0)
         out = np.zeros((2, self.ranges, self.width))
         counted = np.zeros((2, self.ranges, 1))
@@ -228,9 +238,19 @@ class MonitorBank:
         out = out / np.maximum(counted, 1) * present
         return out.reshape(2, -1).astype(np.float32)
 
-    def _groups(self, classes: np.ndarray, present: np.ndarray) -> list[np.ndarray]:
-        """The present monitors grouped by the literals they read (equal class rows)."""
-        groups: dict[bytes, list[int]] = {}
-        for k in np.flatnonzero(present):
-            groups.setdefault(classes[k].tobytes(), []).append(int(k))
-        return [np.array(g) for g in groups.values()]
+    def _groups(
+        self, classes: np.ndarray, present: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The present monitors, each one's group and its slot in the group: monitors that
+        read the same literals (equal class rows) share a group, so that the DFA's moves per
+        class are built once per group."""
+        members = np.flatnonzero(present)
+        if not len(members):
+            return members, members, members
+        _, group = np.unique(classes[members], axis=0, return_inverse=True)
+        group = group.reshape(-1)
+        order = np.argsort(group, kind="stable")
+        starts = np.concatenate([[0], np.cumsum(np.bincount(group))[:-1]])
+        slot = np.empty_like(group)
+        slot[order] = np.arange(len(group)) - starts[group[order]]
+        return members, group, slot
