@@ -47,7 +47,7 @@ EDGE := --epochs 3
 # the tleaf loss reads, 61 -> 72 on Low, the MLP unchanged). The syntax baseline's trace encoder
 # and losses are the same. Epoch counts fit the 30-minute budget on 2 cores. No early stop
 # inside the schedule (--patience = the epochs): the learning rate only falls in the last
-# epochs, the best val epoch was the last in 26 of the 27 DFA runs that ran them all, and
+# epochs, the best val epoch was the last in 25 of the 26 DFA runs that ran them all, and
 # --patience 3 once stopped a High run at epoch 4 on a lucky first epoch (67.7 instead of ~71).
 META := --directed --readout runs --bins 5 --schedule cosine --patience $(EPOCHS) --radius-weight 1
 # The larger setting (issue 13): PROBES=16 EPOCHS=12 adds 16 probe automata to q_m (--probes,
