@@ -38,6 +38,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -133,6 +134,7 @@ class MonitorBank:
         mm, ss, cc = np.meshgrid(*(np.arange(k) for k in self.tables.shape), indexing="ij")
         self.steps[mm, cc, ss, self.tables[mm, ss, cc]] = 1.0
         self._classes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # per alphabet
+        self._layouts: dict[tuple, _Layout] = {}  # per alphabet
 
     @property
     def width(self) -> int:
@@ -154,7 +156,7 @@ class MonitorBank:
         and [M]: whether the monitor's atoms exist in this alphabet. Computed once per
         alphabet (read-only arrays): a traces file holds tens of thousands of words over a few
         alphabets, and this is most of the cost of `of_word`."""
-        key = (truth.shape, truth.tobytes())
+        key = _alphabet_key(truth)
         if key not in self._classes:
             self._classes[key] = self._compute_classes(truth)
         return self._classes[key]
@@ -195,7 +197,9 @@ class MonitorBank:
         them, moves[c, u, u'] = the share of letters of class c that take state u to u'. All
         present monitors then go through the product with the DFA at once, one batched
         product per letter of the word."""
-        classes, present = self.classes(dfa.alphabet.truth())  # [M, A]
+        truth = dfa.alphabet.truth()
+        _, present = self.classes(truth)
+        layout = self._layout(truth)
         a, n = dfa.alphabet.size, dfa.num_states
         # the DFA alone: P(at u after t uniform letters), for each length's accepted mass
         onehot = np.zeros((a, n, n))
@@ -207,27 +211,19 @@ class MonitorBank:
         ends = np.stack([dfa.accepting, ~dfa.accepting]).astype(float)  # [2, n]
         mass = np.stack(at[1:]) @ ends.T  # [lengths, 2]
         hit = np.zeros((self.max_length, 2, self.width))
-        members, group, slot = self._groups(classes, present)
-        if len(members):
-            groups, size = group.max() + 1, slot.max() + 1
-            # by_class[g, c, a] = 1/a where letter a is of class c for group g's monitors
-            by_class = np.zeros((groups, 4, a))
-            by_class[group[:, None], classes[members], np.arange(a)] = 1.0 / a
+        if len(layout.members):
+            members, group, slot = layout.members, layout.group, layout.slot
+            groups, size = layout.step.shape[:2]
             # moves[g, v, (c, u)]: the share of letters of class c that take state u to v
-            moves = np.einsum("gca,auv->gvcu", by_class, onehot, optimize=True)
+            moves = np.einsum("gca,auv->gvcu", layout.by_class, onehot, optimize=True)
             moves = moves.reshape(groups, n, 4 * n)
-            # the monitors laid out [group, slot] (unused slots never move and accept nothing)
-            step = np.zeros((groups, size, 4, STATES, STATES))
-            step[group, slot] = self.steps[members]
-            accepting = np.zeros((groups, size, 1, STATES))
-            accepting[group, slot, 0] = self.accepting[members]
             alpha = np.zeros((groups, size, n, STATES))  # P(DFA at u, monitor at s)
             alpha[group, slot, dfa.initial, 0] = 1.0
             for t in range(self.max_length):
-                monitor_moved = alpha[:, :, None] @ step  # [g, slot, c, u, s']
+                monitor_moved = alpha[:, :, None] @ layout.step  # [g, slot, c, u, s']
                 stacked = monitor_moved.transpose(0, 2, 3, 1, 4).reshape(groups, 4 * n, -1)
                 alpha = (moves @ stacked).reshape(groups, n, size, STATES).transpose(0, 2, 1, 3)
-                ends_at = (alpha * accepting).sum(axis=-1)[group, slot]  # [members, n]
+                ends_at = (alpha * layout.accepting).sum(axis=-1)[group, slot]  # [members, n]
                 hit[t][:, members] = ends @ ends_at.T
         share = np.where(mass[:, :, None] > 0, hit / np.where(mass > 0, mass, 1)[:, :, None], 0)
         out = np.zeros((2, self.ranges, self.width))
@@ -238,19 +234,51 @@ class MonitorBank:
         out = out / np.maximum(counted, 1) * present
         return out.reshape(2, -1).astype(np.float32)
 
-    def _groups(
-        self, classes: np.ndarray, present: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The present monitors, each one's group and its slot in the group: monitors that
-        read the same literals (equal class rows) share a group, so that the DFA's moves per
-        class are built once per group."""
+    def _layout(self, truth: np.ndarray) -> _Layout:
+        """How `of_dfa` lays the present monitors out for an alphabet, built once per alphabet:
+        monitors that read the same literals (equal class rows) share a group, so that the
+        DFA's moves per class are built once per group; each has a slot in its group."""
+        key = _alphabet_key(truth)
+        if key in self._layouts:
+            return self._layouts[key]
+        classes, present = self.classes(truth)
         members = np.flatnonzero(present)
-        if not len(members):
-            return members, members, members
-        _, group = np.unique(classes[members], axis=0, return_inverse=True)
-        group = group.reshape(-1)
-        order = np.argsort(group, kind="stable")
-        starts = np.concatenate([[0], np.cumsum(np.bincount(group))[:-1]])
-        slot = np.empty_like(group)
-        slot[order] = np.arange(len(group)) - starts[group[order]]
-        return members, group, slot
+        group = slot = members
+        groups = size = 0
+        if len(members):
+            _, group = np.unique(classes[members], axis=0, return_inverse=True)
+            group = group.reshape(-1)
+            order = np.argsort(group, kind="stable")
+            starts = np.concatenate([[0], np.cumsum(np.bincount(group))[:-1]])
+            slot = np.empty_like(group)
+            slot[order] = np.arange(len(group)) - starts[group[order]]
+            groups, size = group.max() + 1, slot.max() + 1
+        letters = classes.shape[1]
+        # by_class[g, c, a] = 1/letters where letter a is of class c for group g's monitors
+        by_class = np.zeros((groups, 4, letters))
+        by_class[group[:, None], classes[members], np.arange(letters)] = 1.0 / letters
+        # the monitors' moves and accepting states laid out [group, slot] (unused slots never
+        # move and accept nothing)
+        step = np.zeros((groups, size, 4, STATES, STATES))
+        step[group, slot] = self.steps[members]
+        accepting = np.zeros((groups, size, 1, STATES))
+        accepting[group, slot, 0] = self.accepting[members]
+        layout = _Layout(members, group, slot, by_class, step, accepting)
+        self._layouts[key] = layout
+        return layout
+
+
+class _Layout(NamedTuple):
+    """A bank's present monitors for one alphabet, as `MonitorBank.of_dfa` runs them."""
+
+    members: np.ndarray  # [m] the present monitors
+    group: np.ndarray  # [m] each one's group (monitors reading the same literals)
+    slot: np.ndarray  # [m] its place in its group
+    by_class: np.ndarray  # [groups, 4, letters]: 1/letters where a letter is of class c
+    step: np.ndarray  # [groups, slots, 4, S, S]: the monitors' moves on each class
+    accepting: np.ndarray  # [groups, slots, 1, S]
+
+
+def _alphabet_key(truth: np.ndarray) -> tuple:
+    """A dictionary key for an alphabet, from its atom truth table [letters, atoms]."""
+    return truth.shape, truth.tobytes()
