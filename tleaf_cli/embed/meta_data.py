@@ -14,6 +14,7 @@ import numpy as np
 import torch
 from torch_geometric.data import Batch, Data
 
+from tleaf_cli.data.monitor_cache import monitor_shares
 from tleaf_cli.embed.automaton import RUN_READOUTS
 from tleaf_cli.embed.encoders import PropositionEncoder
 from tleaf_cli.embed.graphs import cnf_graph, dfa_graph, letter_cnf, trace_graph, trace_graph_batch
@@ -66,23 +67,20 @@ def _with_edge_vectors(graph: Data, vectors: torch.Tensor) -> Data:
     return graph
 
 
-def featured_dfa_graph(dfa: DFA, vectors: GuardVectors, monitors: MonitorBank | None = None):
-    return featured_dfa_graphs([dfa], vectors, monitors)[0]
-
-
 def featured_dfa_graphs(
     dfas: Sequence[DFA], vectors: GuardVectors, monitors: MonitorBank | None = None
 ) -> list[Data]:
     """The graphs of `dfas` with q_e vectors on their edge nodes; every guard not seen before
     goes through q_e in one batch. With `monitors`, each graph also carries the shares of its
-    accepted and rejected words that each monitor accepts (`monitor`, [1, 2 F])."""
+    accepted and rejected words that each monitor accepts (`monitor`, [1, 2 F]), kept on disk
+    between processes (`data.monitor_cache`)."""
     built = [dfa_graph(dfa) for dfa in dfas]
     keys = [[(dfa.atoms, g) for g in guards] for dfa, (_, guards) in zip(dfas, built, strict=True)]
     vectors([k for ks in keys for k in ks])  # fills the cache
     graphs = [_with_edge_vectors(g, vectors(ks)) for (g, _), ks in zip(built, keys, strict=True)]
     if monitors is not None:
-        for graph, dfa in zip(graphs, dfas, strict=True):
-            graph.monitor = torch.from_numpy(monitors.of_dfa(dfa)).reshape(1, -1)
+        for graph, shares in zip(graphs, monitor_shares(dfas, monitors), strict=True):
+            graph.monitor = torch.from_numpy(shares).reshape(1, -1)
     return graphs
 
 

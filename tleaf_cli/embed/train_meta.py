@@ -33,7 +33,7 @@ from tleaf_cli.embed.graphs import EDGE, syntax_graph
 from tleaf_cli.embed.meta_data import (
     GuardVectors,
     chain_batch,
-    featured_dfa_graph,
+    featured_dfa_graphs,
     trace_letter_vectors,
     trace_monitor_features,
 )
@@ -210,11 +210,12 @@ def train_meta(
     monitors = model.trace.monitor_bank
     if "split" not in traces.column_names:
         raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
-    formula_graphs = {}
-    for fid, row in rows.items():
-        if settings.embedder == "dfa":
-            formula_graphs[fid] = featured_dfa_graph(dfa_from_row(row), vectors, monitors)
-        else:
+    if settings.embedder == "dfa":  # in one call: one q_e batch, the monitor shares cached
+        dfas = [dfa_from_row(row) for row in rows.values()]
+        formula_graphs = dict(zip(rows, featured_dfa_graphs(dfas, vectors, monitors), strict=True))
+    else:
+        formula_graphs = {}
+        for fid, row in rows.items():
             vectors.ids(row["atoms"])  # every atom must have features
             formula_graphs[fid] = syntax_graph(parse(row["formula"]), vocab_index)
     by_split: dict[str, dict[str, dict[bool, list]]] = defaultdict(

@@ -1,0 +1,87 @@
+"""The monitor shares of a set of DFAs, kept on disk between processes (issue 13).
+
+`MonitorBank.of_dfa` is exact and costs about 33 ms per High-tier DFA: the model-checking
+pipeline asked for the same 1,000 DFAs' shares six times per tier (q_m's training and its
+evaluation, three seeds each), about 200 s of CPU on High. `monitor_shares` computes them once
+per (DFA set, bank) and keeps them as one .npy file under the compile cache's folder
+(`$TLEAF_CACHE_DIR`, else `~/.cache/tleaf`), `monitors/<key>.npy`.
+
+The key is a SHA-256 of everything the shares depend on: the bank (its monitors' tables and
+accepting states, slots, maximum length, ranges, and `FORMAT`, raised whenever `of_dfa`'s
+arithmetic changes) and each DFA (alphabet, transition table, initial and accepting states) in
+order. A file is written whole (temporary file, then rename), so processes that compute the same
+set at once leave one good copy; a file that cannot be read is computed again.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from tleaf_cli.data.artifacts import atomic_path
+from tleaf_cli.data.compile_dfas import default_cache_dir
+from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.monitors import MonitorBank
+
+FORMAT = 1  # raise when MonitorBank.of_dfa computes something else from the same inputs
+
+
+def monitor_shares(
+    dfas: Sequence[DFA], bank: MonitorBank, cache_dir: Path | None = None, use_cache: bool = True
+) -> np.ndarray:
+    """[len(dfas), 2, features] float32: `bank.of_dfa` of every DFA, from the cache where this
+    set was computed before (`cache_dir`: default `default_cache_dir()`; `use_cache=False`
+    computes and writes nothing)."""
+    if not use_cache or not dfas:
+        return _compute(dfas, bank)
+    path = Path(cache_dir or default_cache_dir()) / "monitors" / f"{_key(dfas, bank)}.npy"
+    expected = (len(dfas), 2, bank.features)
+    try:
+        shares = np.load(path)
+        if shares.shape == expected and shares.dtype == np.float32:
+            return shares
+    except (OSError, ValueError):
+        pass  # not there yet, or unreadable: compute it again
+    shares = _compute(dfas, bank)
+    _write_atomic(path, shares)
+    return shares
+
+
+def _compute(dfas: Sequence[DFA], bank: MonitorBank) -> np.ndarray:
+    if not dfas:
+        return np.zeros((0, 2, bank.features), dtype=np.float32)
+    return np.stack([bank.of_dfa(dfa) for dfa in dfas])
+
+
+def _key(dfas: Sequence[DFA], bank: MonitorBank) -> str:
+    digest = hashlib.sha256()
+    settings = (FORMAT, bank.slots, bank.max_length, bank.ranges, bank.tables.shape)
+    digest.update(repr(settings).encode())
+    digest.update(bank.tables.astype(np.int64).tobytes())
+    digest.update(bank.accepting.astype(bool).tobytes())
+    for dfa in dfas:
+        head = (dfa.alphabet.atoms, dfa.alphabet.kind, dfa.initial, dfa.table.shape)
+        digest.update(repr(head).encode())
+        digest.update(dfa.table.tobytes())
+        digest.update(dfa.accepting.tobytes())
+    return digest.hexdigest()
+
+
+def _write_atomic(path: Path, shares: np.ndarray) -> None:
+    """Write the file whole or not at all; a cache that cannot be written is only slower."""
+    try:
+        temporary = atomic_path(path)
+    except OSError:
+        return
+    try:
+        with open(temporary, "wb") as file:
+            np.save(file, shares)
+        os.replace(temporary, path)
+    except OSError:
+        pass
+    finally:
+        temporary.unlink(missing_ok=True)
