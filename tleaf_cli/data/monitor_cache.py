@@ -7,10 +7,12 @@ per (DFA set, bank) and keeps them as one .npy file under the compile cache's fo
 (`$TLEAF_CACHE_DIR`, else `~/.cache/tleaf`), `monitors/<key>.npy`.
 
 The key is a SHA-256 of everything the shares depend on: the bank (its monitors' tables and
-accepting states, slots, maximum length, ranges, and `FORMAT`, raised whenever `of_dfa`'s
-arithmetic changes) and each DFA (alphabet, transition table, initial and accepting states) in
-order. A file is written whole (temporary file, then rename), so processes that compute the same
-set at once leave one good copy; a file that cannot be read is computed again.
+accepting states, slots, maximum length, ranges, and `logic.monitors.SHARES_VERSION`, raised
+whenever `of_dfa`'s arithmetic changes) and each DFA (alphabet, transition table, initial and
+accepting states) in order. A file is written whole (temporary file, then rename), so processes
+that compute the same set at once leave one good copy; a file that cannot be read is computed
+again. The folder only ever grows (about 14 MB per High-tier set of 1,000 DFAs); delete it to
+reclaim the space.
 """
 
 from __future__ import annotations
@@ -25,9 +27,7 @@ import numpy as np
 from tleaf_cli.data.artifacts import atomic_path
 from tleaf_cli.data.compile_dfas import default_cache_dir
 from tleaf_cli.logic.dfa import DFA
-from tleaf_cli.logic.monitors import MonitorBank
-
-FORMAT = 1  # raise when MonitorBank.of_dfa computes something else from the same inputs
+from tleaf_cli.logic.monitors import SHARES_VERSION, MonitorBank
 
 
 def monitor_shares(
@@ -59,7 +59,7 @@ def _compute(dfas: Sequence[DFA], bank: MonitorBank) -> np.ndarray:
 
 def _key(dfas: Sequence[DFA], bank: MonitorBank) -> str:
     digest = hashlib.sha256()
-    settings = (FORMAT, bank.slots, bank.max_length, bank.ranges, bank.tables.shape)
+    settings = (SHARES_VERSION, bank.slots, bank.max_length, bank.ranges, bank.tables.shape)
     digest.update(repr(settings).encode())
     digest.update(bank.tables.astype(np.int64).tobytes())
     digest.update(bank.accepting.astype(bool).tobytes())

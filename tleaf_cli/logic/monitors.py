@@ -45,6 +45,9 @@ import numpy as np
 from tleaf_cli.logic.dfa import DFA
 
 STATES = 5  # every monitor padded to this many states (the positional ones need 5)
+# raise whenever `MonitorBank.of_dfa` computes other shares from the same bank and DFA: the
+# on-disk cache of shares (data/monitor_cache.py) keys on it
+SHARES_VERSION = 1
 
 # Templates: (transition rows [states][class], accepting states); class = p + 2 q of a letter.
 _ONE_ATOM: dict[str, tuple[list[list[int]], list[int]]] = {
