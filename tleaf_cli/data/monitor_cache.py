@@ -11,8 +11,8 @@ accepting states, slots, maximum length, ranges, and `logic.monitors.SHARES_VERS
 whenever `of_dfa`'s arithmetic changes) and each DFA (alphabet, transition table, initial and
 accepting states) in order. A file is written whole (temporary file, then rename), so processes
 that compute the same set at once leave one good copy; a file that cannot be read is computed
-again. The folder only ever grows (about 14 MB per High-tier set of 1,000 DFAs); delete it to
-reclaim the space.
+again. The folder only ever grows (14 MB per set of 1,000 DFAs with the pipeline's bank);
+delete it to reclaim the space.
 """
 
 from __future__ import annotations
