@@ -166,6 +166,22 @@ def test_soft_traces_and_the_tleaf_loss_read_the_monitors(monitor_q) -> None:
     assert loss.item() > 0 and logits.grad.abs().sum() > 0
 
 
+def test_only_whole_dfa_files_keep_their_shares_on_disk(chain, monitor_q, _isolated_cache):
+    """A loss's rule sets (fresh subsets each batch) write no share file; a dfas.parquet's rows
+    (train-meta, every evaluation) write one, and embed the same when read back from it."""
+    import tleaf_cli as tl
+    from tleaf_cli.data.dfa_table import read_dfas
+    from tleaf_cli.embed.soft import load_embedder
+
+    q = load_embedder(monitor_q[0])
+    q.rule_set_vectors([tl.RuleSet("G(a -> F(b))", ["a", "b", "c"])])
+    assert not (_isolated_cache / "monitors").exists()
+    rows = [r for r in read_dfas(chain["dfas"]).rows if r["error"] is None]
+    first = q.embed_formula_rows(rows)
+    assert len(list((_isolated_cache / "monitors").glob("*.npy"))) == 1
+    assert torch.equal(load_embedder(monitor_q[0]).embed_formula_rows(rows), first)
+
+
 def test_cli_refuses_monitors_for_the_syntax_baseline(chain, chain_cli, tmp_path) -> None:
     args = ["train-meta", chain["dfas"], chain["traces"], "--edge", chain["edge"]]
     result = chain_cli(*args, "-o", tmp_path / "q", "--embedder", "syntax", "--monitors", 3)

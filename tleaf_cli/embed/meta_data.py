@@ -68,19 +68,27 @@ def _with_edge_vectors(graph: Data, vectors: torch.Tensor) -> Data:
 
 
 def featured_dfa_graphs(
-    dfas: Sequence[DFA], vectors: GuardVectors, monitors: MonitorBank | None = None
+    dfas: Sequence[DFA],
+    vectors: GuardVectors,
+    monitors: MonitorBank | None = None,
+    cache_shares: bool = False,
 ) -> list[Data]:
     """The graphs of `dfas` with q_e vectors on their edge nodes; every guard not seen before
     goes through q_e in one batch. With `monitors`, each graph also carries the shares of its
-    accepted and rejected words that each monitor accepts (`monitor`, [1, 2 F]), kept on disk
-    between processes (`data.monitor_cache`)."""
+    accepted and rejected words that each monitor accepts (`monitor`, [1, 2 F]).
+
+    `cache_shares`: keep this DFA set's shares on disk between processes
+    (`data.monitor_cache`), for a whole dfas.parquet that train-meta and every evaluation read
+    again. Off for sets that do not come back whole (a loss's fresh rule sets in one batch):
+    each would leave a file never read."""
     built = [dfa_graph(dfa) for dfa in dfas]
     keys = [[(dfa.atoms, g) for g in guards] for dfa, (_, guards) in zip(dfas, built, strict=True)]
     vectors([k for ks in keys for k in ks])  # fills the cache
     graphs = [_with_edge_vectors(g, vectors(ks)) for (g, _), ks in zip(built, keys, strict=True)]
     if monitors is not None:
-        for graph, shares in zip(graphs, monitor_shares(dfas, monitors), strict=True):
-            graph.monitor = torch.from_numpy(shares).reshape(1, -1)
+        shares = monitor_shares(dfas, monitors, use_cache=cache_shares)
+        for graph, one in zip(graphs, shares, strict=True):
+            graph.monitor = torch.from_numpy(one).reshape(1, -1)
     return graphs
 
 

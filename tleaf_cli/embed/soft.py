@@ -58,19 +58,23 @@ class Embedder:
 
     def embed_formula_rows(self, rows: Sequence[dict], batch: int = 256) -> torch.Tensor:
         """[len(rows), d] for compiled dfas.parquet rows: their DFA (q_m) or parse tree."""
-        if self.kind == "dfa":
-            return self.embed_dfas([dfa_from_row(r) for r in rows], batch)
+        if self.kind == "dfa":  # a dfas.parquet's rows come back whole: share cache on
+            return self.embed_dfas([dfa_from_row(r) for r in rows], batch, cache_shares=True)
         for r in rows:
             self.vectors.ids(r["atoms"])  # every atom must have features
         graphs = [syntax_graph(parse(r["formula"]), self.vectors.index) for r in rows]
         return self._encode(self.model.embed_formulas, graphs, batch)
 
-    def embed_dfas(self, dfas: Sequence[DFA], batch: int = 256) -> torch.Tensor:
+    def embed_dfas(
+        self, dfas: Sequence[DFA], batch: int = 256, cache_shares: bool = False
+    ) -> torch.Tensor:
         """[len(dfas), d]: q_m of compiled DFAs (a q of kind `dfa`; the syntax baseline reads
-        formula text, `embed_formula_rows`)."""
+        formula text, `embed_formula_rows`). `cache_shares`: keep the monitor shares of this
+        DFA set on disk (`featured_dfa_graphs`), for sets that come back whole."""
         if self.kind != "dfa":
             raise InputError(f"a q of kind {self.kind!r} does not read DFAs")
-        graphs = featured_dfa_graphs(dfas, self.vectors, self.model.trace.monitor_bank)
+        bank = self.model.trace.monitor_bank
+        graphs = featured_dfa_graphs(dfas, self.vectors, bank, cache_shares=cache_shares)
         return self._encode(self.model.embed_formulas, graphs, batch)
 
     def embed_traces(

@@ -212,7 +212,8 @@ def train_meta(
         raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
     if settings.embedder == "dfa":  # in one call: one q_e batch, the monitor shares cached
         dfas = [dfa_from_row(row) for row in rows.values()]
-        formula_graphs = dict(zip(rows, featured_dfa_graphs(dfas, vectors, monitors), strict=True))
+        graphs = featured_dfa_graphs(dfas, vectors, monitors, cache_shares=True)
+        formula_graphs = dict(zip(rows, graphs, strict=True))
     else:
         formula_graphs = {}
         for fid, row in rows.items():
