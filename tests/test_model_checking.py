@@ -147,6 +147,7 @@ def test_results_table_reads_both_mlps_and_older_reports(tmp_path) -> None:
         if with_all:  # a current report; the other is one written before balanced accuracy
             r["mlp"]["balanced_accuracy"] = mlp - 0.1
             r["distance"]["balanced_accuracy"] = 0.55
+            r["settings"] = {"pair_features": "rich"}
             r["mlp_all_negatives"] = {
                 "accuracy": 0.7,
                 "balanced_accuracy": 0.65,
@@ -157,8 +158,14 @@ def test_results_table_reads_both_mlps_and_older_reports(tmp_path) -> None:
         return path
 
     table = results_table([report(0, 0.8, True), report(1, 0.9, False)], tmp_path / "t.md")
-    cells = [line.strip("| ").split(" | ") for line in table.splitlines()[2:]]
+    lines = table.splitlines()
+    cells = [line.strip("| ").split(" | ") for line in lines[2:] if line.startswith("|")]
     rows = {c[1]: c[2] for c in cells}
+    # the MLPs' inputs named under the table: the older report's (no settings) was concat
+    assert lines[-1] == (
+        "The MLPs' input (pair features): concat, [z_φ ; z_w], "
+        "rich, [z_φ ; z_w ; abs(z_φ − z_w) ; z_φ ⊙ z_w]."
+    )
     assert rows["MLP 512-128, accuracy (2 : 1 satisfying)"] == "85.00 ± 5.00 (n=2)"
     assert rows["MLP 512-128, balanced accuracy"] == "70.00 ± 0.00 (n=1)"  # the older: none
     assert rows["MLP fitted on all negatives, balanced accuracy"] == "65.00 ± 0.00 (n=1)"

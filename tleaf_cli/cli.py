@@ -792,6 +792,23 @@ def train_meta(
             "per range, a trace in its own length's range).",
         ),
     ] = 1,
+    evidence: Annotated[
+        bool,
+        typer.Option(
+            "--evidence/--no-evidence",
+            help="--monitors with --readout runs: append the monitors' naive-Bayes block to "
+            "every vector, a unit-sphere block whose distance falls as the naive-Bayes score "
+            "for 'satisfies' rises (docs/embedder.md).",
+        ),
+    ] = False,
+    evidence_scale: Annotated[
+        float,
+        typer.Option(
+            min=1e-6,
+            help="--evidence: the block's squared scale γ² at the start (learned after); "
+            "larger lets the naive-Bayes evidence outweigh the learned part's distance.",
+        ),
+    ] = 32.0,
     conv: Annotated[
         Conv,
         typer.Option(
@@ -906,7 +923,11 @@ def train_meta(
     if embedder != "dfa":
         _refuse(_given(ctx, "monitors"), "only with --embedder dfa (monitors read DFAs)")
     if monitors == 0:
-        _refuse(_given(ctx, "monitor_ranges"), "only with --monitors")
+        _refuse(_given(ctx, "monitor_ranges", "evidence"), "only with --monitors")
+    if not evidence:
+        _refuse(_given(ctx, "evidence_scale"), "only with --evidence")
+    if evidence and readout != "runs":
+        _refuse(["--evidence"], "only with --readout runs (it reads the rejected words' shares)")
 
     settings = MetaSettings(
         embedder=embedder,
@@ -924,6 +945,8 @@ def train_meta(
         probe_mix=probe_mix,
         monitors=monitors,
         monitor_ranges=monitor_ranges,
+        evidence=evidence,
+        evidence_scale=evidence_scale,
         conv=conv,
         head=head,
         residual=residual,

@@ -29,6 +29,7 @@ from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.automaton import READOUTS, RUN_READOUTS, AutomatonEncoder
 from tleaf_cli.embed.encoders import RadiusClassifier, anchor_pull, triplet_accuracy
+from tleaf_cli.embed.evidence import MonitorEvidence, chain_lengths
 from tleaf_cli.embed.graphs import EDGE, syntax_graph
 from tleaf_cli.embed.meta_data import (
     GuardVectors,
@@ -68,6 +69,8 @@ class MetaSettings:
     probe_mix: int = 0  # probes: width of the end-state mixture through g (probes.py; 0: none)
     monitors: int = 0  # fixed temporal monitors over this many atom slots (logic/monitors.py)
     monitor_ranges: int = 1  # monitors: ranges of word length kept apart
+    evidence: bool = False  # monitors: their naive-Bayes block beside the vector (evidence.py)
+    evidence_scale: float = 32.0  # evidence: the block's γ² at the start
     jumping: bool = False  # readouts over every layer's node vectors, the input's too
     residual: bool = False  # each layer after the first adds to its input
     directed: bool = False  # messages forwards and backwards through separate weights
@@ -95,6 +98,9 @@ class TripletEmbedder(nn.Module):
     satisfaction and not only an ordering of distances; the head is kept but not used after.
     With `radius`, training also fits one radius for all formulas (`RadiusClassifier`).
 
+    With `evidence` (a `MonitorEvidence`), each vector is followed by the monitors' naive-Bayes
+    block, whose squared distance falls with the score (embed/evidence.py).
+
     With `sphere`, every vector is scaled to unit length, so squared distances lie in [0, 4].
     Without it the triplet loss on squared distances can be lowered by stretching the whole
     space; on the sphere the margin has a fixed meaning. (Measured on Low: no change in
@@ -108,9 +114,11 @@ class TripletEmbedder(nn.Module):
         pair_head: nn.Module | None = None,
         radius: RadiusClassifier | None = None,
         sphere: bool = False,
+        evidence: MonitorEvidence | None = None,
     ):
         super().__init__()
         self.sphere = sphere
+        self.evidence = evidence
         self.formula = formula
         self.trace = trace
         self.pair_head = pair_head
@@ -128,10 +136,17 @@ class TripletEmbedder(nn.Module):
         return nn.functional.normalize(z, dim=-1) if self.sphere else z
 
     def embed_formulas(self, batch) -> torch.Tensor:
-        return self._out(self.formula(batch))
+        z = self._out(self.formula(batch))
+        if self.evidence is None:
+            return z
+        return torch.cat([z, self.evidence.formulas(self.formula.monitor_features(batch))], dim=1)
 
     def embed_traces(self, batch) -> torch.Tensor:
-        return self._out(self.trace(batch))
+        z = self._out(self.trace(batch))
+        if self.evidence is None:
+            return z
+        evidence = self.evidence.traces(self.trace.monitor_features(batch), chain_lengths(batch))
+        return torch.cat([z, evidence], dim=1)
 
 
 def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor) -> TripletEmbedder:
@@ -162,9 +177,17 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
     if settings.pair_weight > 0:
         d = settings.out_dim
         head = nn.Sequential(nn.Linear(2 * d, 256), nn.ReLU(), nn.Linear(256, 1))
-    radius = RadiusClassifier(settings.margin) if settings.radius_weight > 0 else None
+    evidence = None
+    radius_at = settings.margin
+    if settings.evidence:
+        if trace.monitor_bank is None or settings.readout != "runs" or settings.embedder != "dfa":
+            raise SettingError("evidence", "needs --embedder dfa, --monitors K and --readout runs")
+        evidence = MonitorEvidence(trace.monitor_bank, settings.evidence_scale)
+        # the block's distances lie about 2γ² (its boundary), and Adam moves r slowly
+        radius_at += evidence.boundary
+    radius = RadiusClassifier(radius_at) if settings.radius_weight > 0 else None
     if settings.embedder == "dfa":
-        return TripletEmbedder(trace, trace, head, radius, settings.sphere)
+        return TripletEmbedder(trace, trace, head, radius, settings.sphere, evidence)
     formula = SyntaxEncoder(atom_table, settings.hidden, settings.layers, settings.out_dim)
     return TripletEmbedder(formula, trace, head, radius, settings.sphere)
 

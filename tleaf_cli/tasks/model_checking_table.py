@@ -27,6 +27,12 @@ CLASSIFIER_ROWS = (
     ("distance", "distance rule, balanced accuracy"),
 )
 
+# what `eval model-checking --pair-features` feeds the MLP
+PAIR_INPUTS = {
+    "concat": "concat, [z_φ ; z_w]",
+    "rich": "rich, [z_φ ; z_w ; abs(z_φ − z_w) ; z_φ ⊙ z_w]",
+}
+
 
 def mean_se(values: Sequence[float]) -> tuple[float, float]:
     n = len(values)
@@ -43,6 +49,7 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
     fitted on all negatives (balanced accuracy, hard negatives), and the distance rule."""
     cells: dict[tuple[str, str, str], list[float]] = defaultdict(list)
     labels: list[str] = []
+    inputs: set[str] = set()  # the MLPs' pair features, as the reports name them
     for path in report_paths:
         try:
             r = json.loads(Path(path).read_text())
@@ -58,6 +65,7 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
             if "mlp_all_negatives" in r:  # reports written before the second MLP have none
                 scores["mlp_all"] = r["mlp_all_negatives"].get("balanced_accuracy")
                 scores["hard_all"] = r["mlp_all_negatives"]["hard_negative_accuracy"]
+            inputs.add(r.get("settings", {}).get("pair_features", "concat"))
         except (OSError, ValueError, KeyError) as e:
             raise InputError(f"{path}: not a model-checking report ({e})") from None
         for clf, value in scores.items():
@@ -85,5 +93,7 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
         shown = [f"{p[0]:.2f} ± {p[1]:.2f}" if p else "–" for p in paper]
         lines.append(f"| {ROW_NAMES[e]} | paper (MLP) | " + " | ".join(shown) + " |")
     text = "\n".join(lines) + "\n"
+    named = ", ".join(PAIR_INPUTS.get(i, i) for i in sorted(inputs))
+    text += f"\nThe MLPs' input (pair features): {named}.\n"
     write_text_atomic(out, text)
     return text
