@@ -39,6 +39,11 @@ Q += $(if $(filter-out 0,$(PROBES)),--probes $(PROBES))
 # model-checking pipeline; docs/results/action_recognition.md measures it)
 MONITORS ?= 0
 Q += $(if $(filter-out 0,$(MONITORS)),--monitors $(MONITORS))
+# EVIDENCE=1 (with MONITORS=K): the monitors' naive-Bayes block in q's vectors, as the
+# model-checking pipeline's q (issue 13, ninth session; docs/results/action_recognition.md)
+EVIDENCE ?= 0
+EVIDENCE_SCALE ?= 256
+Q += $(if $(filter 1,$(EVIDENCE)),--evidence --evidence-scale $(EVIDENCE_SCALE))
 
 ifeq ($(SMALL),1)
 OUT ?= out/action-recognition-small

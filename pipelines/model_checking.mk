@@ -7,6 +7,12 @@ JOBS ?= 2
 SMALL ?= 0
 # formulas are drawn with this seed (the models' seeds are SEEDS)
 DATA_SEED ?= 0
+# Table I's MLP reads [z_φ ; z_w ; |z_φ − z_w| ; z_φ ⊙ z_w] (rich) for both rows, or the
+# concatenation alone (concat, the pipeline's until the ninth session). The paper names the MLP
+# (512, 128), not its input; whether w satisfies φ is a relation between the two vectors, and a
+# score that is a dot product (the evidence block below) is out of reach of an MLP that sees them
+# side by side only (docs/results/model_checking.md, ninth session).
+PAIR_FEATURES ?= rich
 # where q_e and q_m train: cpu, or cuda (evaluations stay on the CPU). On one H200 with 16 cores
 # the per-epoch gain is 1.4x (High q_e) to 2.6x (High q_m); the work is mostly CPU-side batch
 # building (docs/results/model_checking.md, "On a GPU").
@@ -24,7 +30,7 @@ N := 40
 K := 8
 EDGE := --epochs 2 --hidden 32 --out-dim 16
 META := --epochs 3 --hidden 32 --layers 2 --out-dim 16 --directed --readout runs --bins 5
-META_dfa := $(META) --monitors 3
+META_dfa := $(META) --monitors 3 --evidence
 META_syntax := $(META)
 else
 OUT ?= out/model-checking
@@ -56,16 +62,26 @@ META := --directed --readout runs --bins 5 --schedule cosine --patience $(EPOCHS
 # default setting's.
 PROBES ?= 0
 # Temporal monitors (issue 13, 2026-11-26): fixed small automata for F p, G p, p U q,
-# G(p -> X q), ... over each formula's first MONITORS atoms (6: High's; Low and Moderate have 3,
-# the other slots read 0); q_m reads the share of a DFA's accepted and rejected words each one
-# accepts beside its GNN readout (--monitors, docs/embedder.md): Low 76.6 -> 83.6 at the same
-# epochs (docs/results/model_checking.md). MONITORS=0: the q of 2026-11-25. MONITOR_RANGES=3:
-# the shares per third of the word lengths (a trace in its own), chosen over 1 on val triplet
-# accuracy on both formula draws (Low +0.002, Moderate +0.003, High +0.03).
-MONITORS ?= 6
+# G(p -> X q), ... over each formula's first K atoms; q_m reads the share of a DFA's accepted and
+# rejected words each one accepts beside its GNN readout (--monitors, docs/embedder.md): Low
+# 76.6 -> 83.6 at the same epochs (docs/results/model_checking.md). K per tier: the tier's atoms
+# (Low and Moderate formulas have 3, High 6; until the ninth session every tier read 6 slots,
+# the slots past a formula's atoms reading 0: the same information, 4.5x the features).
+# MONITORS=K sets every tier's, MONITORS=0: the q of 2026-11-25. MONITOR_RANGES=3: the shares
+# per third of the word lengths (a trace in its own), chosen over 1 on val triplet accuracy on
+# both formula draws (Low +0.002, Moderate +0.003, High +0.03).
+MONITORS ?=
+monitors = $(if $(MONITORS),$(MONITORS),$(if $(filter high,$(1)),6,3))
 MONITOR_RANGES ?= 3
-META_dfa := $(META) --epochs $(EPOCHS) $(if $(filter-out 0,$(MONITORS)),--monitors $(MONITORS)) \
-    $(if $(filter-out 0,$(MONITORS)),$(if $(filter-out 1,$(MONITOR_RANGES)),--monitor-ranges $(MONITOR_RANGES))) \
+# Evidence (issue 13, ninth session): the monitors' naive-Bayes score as a unit-sphere block of
+# q's vectors (--evidence, docs/embedder.md), γ² = EVIDENCE_SCALE at the start; EVIDENCE=0: the
+# q of the eighth session
+EVIDENCE ?= 1
+EVIDENCE_SCALE ?= 256
+mon_flags = $(if $(filter-out 0,$(1)),--monitors $(1) \
+    $(if $(filter-out 1,$(MONITOR_RANGES)),--monitor-ranges $(MONITOR_RANGES)) \
+    $(if $(filter 1,$(EVIDENCE)),--evidence --evidence-scale $(EVIDENCE_SCALE)))
+META_dfa = $(META) --epochs $(EPOCHS) $(call mon_flags,$(call monitors,$(1))) \
     $(if $(filter-out 0,$(PROBES)),--probes $(PROBES))
 META_syntax := $(META) --epochs $(SYNTAX_EPOCHS)
 endif
@@ -110,10 +126,11 @@ $(OUT)/%/edge/metrics.json: $(OUT)/%/dfas.parquet
 define RUN
 $(OUT)/$(1)/seed$(2)/meta-$(3)/metrics.json: $(OUT)/$(1)/traces.parquet $(OUT)/$(1)/edge/metrics.json
 	$(TLEAF) train-meta $(OUT)/$(1)/dfas.parquet $$< --edge $(OUT)/$(1)/edge \
-	    --embedder $(3) -o $$(@D) $(META_$(3)) --device $(DEVICE) --seed $(2) -q
+	    --embedder $(3) -o $$(@D) $(call META_$(3),$(1)) --device $(DEVICE) --seed $(2) -q
 $(OUT)/$(1)/seed$(2)/eval-$(3)/report.json: $(OUT)/$(1)/seed$(2)/meta-$(3)/metrics.json
 	$(TLEAF) eval model-checking $(OUT)/$(1)/dfas.parquet $(OUT)/$(1)/traces.parquet \
-	    --embedder $(OUT)/$(1)/seed$(2)/meta-$(3) -o $$(@D) --label $(1) --seed $(2) -q
+	    --embedder $(OUT)/$(1)/seed$(2)/meta-$(3) -o $$(@D) --label $(1) --seed $(2) \
+	    --pair-features $(PAIR_FEATURES) -q
 endef
 $(foreach t,$(TIERS),$(foreach s,$(SEEDS),$(foreach e,syntax dfa,$(eval $(call RUN,$(t),$(s),$(e))))))
 
