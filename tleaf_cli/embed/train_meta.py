@@ -181,7 +181,7 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
     radius_at = settings.margin
     if settings.evidence:
         if trace.monitor_bank is None or settings.readout != "runs" or settings.embedder != "dfa":
-            raise SettingError("evidence", "needs --embedder dfa, --monitors K and --readout runs")
+            raise SettingError("evidence", "needs the dfa embedder, monitors and the runs readout")
         evidence = MonitorEvidence(trace.monitor_bank, settings.evidence_scale)
         # the block's distances lie about 2γ² (its boundary), and Adam moves r slowly
         radius_at += evidence.boundary
