@@ -82,6 +82,17 @@ def test_a_q_with_evidence_reloads_identically_and_reads_soft_traces(chain, evid
     torch.testing.assert_close(soft, crisp, atol=1e-5, rtol=1e-5)
 
 
+def test_the_pair_head_reads_the_whole_vector() -> None:
+    """`--pair-weight` sizes its classifier for the learned part and the block together."""
+    from tleaf_cli.embed.train_meta import MetaSettings, build_model
+
+    settings = MetaSettings(
+        hidden=8, layers=1, out_dim=4, readout="runs", monitors=2, evidence=True, pair_weight=1
+    )
+    model = build_model(settings, edge_dim=3, atom_table=torch.eye(2))
+    assert model.pair_head[0].in_features == 2 * (4 + model.evidence.dim)
+
+
 def test_cli_refuses_evidence_without_monitors(chain, chain_cli, tmp_path) -> None:
     args = ["train-meta", chain["dfas"], chain["traces"], "--edge", chain["edge"]]
     result = chain_cli(*args, "-o", tmp_path / "q", "--readout", "runs", "--evidence")

@@ -26,13 +26,14 @@ distance q's losses and the T-LEAF loss read is the learned part's plus this one
 part is trained on what the evidence gets wrong.
 
 Only γ is learned. The cosine s / (‖[u ; δ]‖ M) is small (on Low, satisfying pairs 0.016 and
-violating ones −0.013 on average), so γ² starts at `scale` (32: the block then parts the two by
-about 2, the triplet margin's size); Adam moves log γ by about the learning rate per step, and
-from γ = 1 the block stayed too faint to matter (measured: it shrank to γ² = 0.37, the distance
-rule 79.1 against the block's own 84.4). Per-monitor weights learned beside it (c_k ψ_k w_k,
-starting at 1) made its own decisions worse (84.4 against plain naive Bayes's 90.1 on Low's test
-pairs): the triplet loss does not ask them to keep the boundary at s = 0. So the block is naive
-Bayes as it stands.
+violating ones −0.013 on average), so γ² starts at `scale` (default 32: the block then parts the
+two by about 2, the triplet margin's size; the Table I pipeline's 256 keeps the learned part's
+distances from blurring the block's boundary on High); Adam moves log γ by about the learning
+rate per step, so γ stays near its start, and from γ = 1 the block stayed too faint to matter
+(measured: it shrank to γ² = 0.37, the distance rule 79.1 against the block's own 84.4).
+Per-monitor weights learned beside it (c_k ψ_k w_k, starting at 1) made its own decisions
+worse (84.4 against plain naive Bayes's 90.1 on Low's test pairs): the triplet loss does not ask
+them to keep the boundary at s = 0. So the block is naive Bayes as it stands.
 """
 
 from __future__ import annotations

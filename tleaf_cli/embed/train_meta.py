@@ -173,10 +173,6 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         settings.monitors,
         settings.monitor_ranges,
     )
-    head = None
-    if settings.pair_weight > 0:
-        d = settings.out_dim
-        head = nn.Sequential(nn.Linear(2 * d, 256), nn.ReLU(), nn.Linear(256, 1))
     evidence = None
     radius_at = settings.margin
     if settings.evidence:
@@ -185,6 +181,10 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
         evidence = MonitorEvidence(trace.monitor_bank, settings.evidence_scale)
         # the block's distances lie about 2γ² (its boundary), and Adam moves r slowly
         radius_at += evidence.boundary
+    head = None
+    if settings.pair_weight > 0:
+        d = settings.out_dim + (evidence.dim if evidence is not None else 0)
+        head = nn.Sequential(nn.Linear(2 * d, 256), nn.ReLU(), nn.Linear(256, 1))
     radius = RadiusClassifier(radius_at) if settings.radius_weight > 0 else None
     if settings.embedder == "dfa":
         return TripletEmbedder(trace, trace, head, radius, settings.sphere, evidence)
