@@ -36,10 +36,9 @@ import torch
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.monitor_cache import monitor_shares
 from tleaf_cli.data.traces import read_traces
+from tleaf_cli.embed.evidence import EPS  # the evidence block's clip, the same naive Bayes
 from tleaf_cli.logic.monitors import MonitorBank
 from tleaf_cli.tasks.model_checking import EvalSettings, Split, _fit_mlp, pair_features
-
-EPS = 1e-3
 
 
 def log_odds(shares: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -25,7 +25,7 @@ def test_the_blocks_distance_falls_with_the_naive_bayes_score() -> None:
     rng = np.random.default_rng(0)
     f = bank.features
     shares = rng.uniform(0, 1, size=(5, 2, f)) * (rng.uniform(size=(5, 2, f)) < 0.8)
-    lengths = rng.integers(1, 7, size=40)
+    lengths = rng.integers(1, 10, size=40)  # words past max_length 6 too: the last range
     psi = np.zeros((40, f))
     in_range = np.zeros((40, f))
     for i, t in enumerate(lengths):

@@ -47,7 +47,7 @@ from tleaf_cli.embed.graphs import EDGE
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.monitors import MonitorBank
 
-EPS = 1e-3  # shares clipped to [EPS, 1 - EPS] (benchmarks/monitor_ceiling.py uses the same)
+EPS = 1e-3  # shares clipped to [EPS, 1 - EPS] (benchmarks/monitor_ceiling.py reads it too)
 DELTA = 1e-3  # the formula side's own coordinate: keeps ẑ_φ a unit vector when u = 0
 
 
@@ -70,6 +70,10 @@ class MonitorEvidence(nn.Module):
         self.features = bank.features  # R F
         self.log_scale = nn.Parameter(torch.tensor(0.5 * math.log(scale)))  # log γ
         self.trace_norm = float(bank.width + 2) ** 0.5  # M
+        # the length range of a word of t letters, t = 0..max_length (longer: the last range),
+        # read by index in `traces` instead of a Python call per trace of every batch
+        ranges = [0] + [bank.range_of(t) for t in range(1, bank.max_length + 1)]
+        self.register_buffer("range_of_length", torch.tensor(ranges), persistent=False)
 
     @property
     def dim(self) -> int:
@@ -94,7 +98,7 @@ class MonitorEvidence(nn.Module):
 
     def traces(self, monitor: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
         psi = monitor[:, : self.features]
-        ranges = torch.tensor([self.bank.range_of(int(t)) for t in lengths], device=psi.device)
+        ranges = self.range_of_length[lengths.clamp(max=self.bank.max_length)]
         v = torch.cat([psi, nn.functional.one_hot(ranges, self.bank.ranges).to(psi)], dim=1)
         v = v / self.trace_norm
         pad = (1 - v.pow(2).sum(dim=1, keepdim=True)).clamp(min=1e-8).sqrt()
