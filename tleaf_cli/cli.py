@@ -927,7 +927,7 @@ def train_meta(
     if not evidence:
         _refuse(_given(ctx, "evidence_scale"), "only with --evidence")
     if evidence and readout != "runs":
-        _refuse(["--evidence"], "only with --readout runs (it reads the rejected words' shares)")
+        _refuse([flag("evidence")], "only with --readout runs (it reads rejected words' shares)")
 
     settings = MetaSettings(
         embedder=embedder,
