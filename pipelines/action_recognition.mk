@@ -40,7 +40,7 @@ Q += $(if $(filter-out 0,$(PROBES)),--probes $(PROBES))
 # q_m as the model-checking pipeline's (issue 13, ninth and tenth sessions): temporal monitors
 # over each rule set's first MONITORS atoms (rule sets have 2-15, median 8) and their naive-Bayes
 # block in q's vectors (EVIDENCE=1). MONITORS=0 EVIDENCE=0: the q of 2026-11-25 (cheaper: a tleaf
-# epoch 2-6 s against 0.1-0.3 s; docs/results/action_recognition.md measures both)
+# epoch about 0.2 s against 1.4-3 s; docs/results/action_recognition.md measures both)
 MONITORS ?= 10
 Q += $(if $(filter-out 0,$(MONITORS)),--monitors $(MONITORS))
 EVIDENCE ?= 1
