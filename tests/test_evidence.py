@@ -82,6 +82,27 @@ def test_a_q_with_evidence_reloads_identically_and_reads_soft_traces(chain, evid
     torch.testing.assert_close(soft, crisp, atol=1e-5, rtol=1e-5)
 
 
+def test_sphere_bounds_the_learned_part_and_leaves_the_block(chain, evidence_q) -> None:
+    """`--sphere` with `--evidence` (the model-checking pipeline's q): the learned part at unit
+    length, the block unchanged at γ, for formulas and traces alike."""
+    from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
+    from tleaf_cli.embed.soft import load_embedder
+
+    q = load_embedder(evidence_q[0])
+    dfas = [dfa_from_row(r) for r in read_dfas(chain["dfas"]).rows[:4]]
+    atoms = ("a", "b", "c")
+    traces = [[{"b"}, set(), {"a"}], [{"c"}], [{"a"}, {"a"}, {"b"}, set()]]
+    free = [q.embed_dfas(dfas), q.embed_traces(traces, [atoms] * 3, one_hot=True)]
+    q.model.sphere = True
+    bounded = [q.embed_dfas(dfas), q.embed_traces(traces, [atoms] * 3, one_hot=True)]
+    gamma = float(q.model.evidence.log_scale.exp())
+    for z, z_free in zip(bounded, free, strict=True):
+        assert not torch.allclose(z_free[:, :8].norm(dim=1), torch.ones(len(z)))
+        torch.testing.assert_close(z[:, :8].norm(dim=1), torch.ones(len(z)))
+        torch.testing.assert_close(z[:, 8:], z_free[:, 8:])
+        torch.testing.assert_close(z[:, 8:].norm(dim=1), torch.full((len(z),), gamma))
+
+
 def test_the_pair_head_reads_the_whole_vector() -> None:
     """`--pair-weight` sizes its classifier for the learned part and the block together."""
     from tleaf_cli.embed.train_meta import MetaSettings, build_model
