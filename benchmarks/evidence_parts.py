@@ -25,7 +25,7 @@ import torch
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.soft import load_embedder
-from tleaf_cli.tasks.model_checking import _balanced_accuracy
+from tleaf_cli.tasks.model_checking import Split, _balanced_accuracy, _fit_threshold
 
 
 def main() -> None:
@@ -68,8 +68,14 @@ def main() -> None:
         ("evidence block", slice(learned, None)),
     ):
         d = (z_formula[:, part] - z_trace[:, part]).pow(2).sum(dim=1).numpy()
-        candidates = np.quantile(d[val], np.linspace(0, 1, 401))
-        tau = max(candidates, key=lambda c: _balanced_accuracy(d[val] < c, label[val]))
+        on_val = Split(
+            list(formula[val]),
+            z_formula[val][:, part],
+            z_trace[val][:, part],
+            torch.from_numpy(label[val]).float(),
+            [t["source"] for t, v in zip(traces, val, strict=True) if v],
+        )
+        tau = _fit_threshold(on_val)  # eval model-checking's own τ
         auc = []
         for f in np.unique(formula[test]):
             mine = test & (formula == f)

@@ -25,7 +25,8 @@ export OMP_NUM_THREADS ?= 1
 # SPHERE=1 (issue 13, tenth session): q_m's learned part scaled to unit length (--sphere), so its
 # squared distance (at most 4) no longer blurs the evidence block's (up to 4γ²): distance rule
 # +0.2 / +0.4 / +4.1 points, MLP +0.2 / +0.1 / +0.6 on data seed 0 (data seed 1: +0.8 / +0.2 /
-# +2.6, MLP -0.3 / +0.1 / +0.3; docs/results/model_checking.md, tenth session). DFA rows with the evidence block only; SPHERE=0: the ninth session's q
+# +2.6, MLP -0.3 / +0.1 / +0.3; docs/results/model_checking.md, tenth session). DFA rows with
+# the evidence block only; SPHERE=0: the ninth session's q
 SPHERE ?= 1
 sphere_flag = $(if $(filter 1,$(SPHERE)),$(if $(filter 0,$(EVIDENCE)),,--sphere))
 
