@@ -106,6 +106,22 @@ def test_bad_options_and_runs_exit_2(chain_cli, tmp_path: Path, small_pipeline: 
     assert result.exit_code == 2 and "not a finished train-task run" in result.output
 
 
+def test_lambda_defaults_to_what_the_embedder_recommends(
+    chain_cli, tmp_path: Path, small_pipeline: Path
+) -> None:
+    """Without --lambda, the tleaf loss takes the λ its q's folder recommends (train-meta wrote
+    it), the exact loss 1; the run's config.json records the λ used."""
+    act, kb, q = (small_pipeline / n for n in ("activities.parquet", "kb.ltl", "meta"))
+    recommended = json.loads((q / "config.json").read_text())["recommended_lambda"]
+    for loss, want in (("tleaf", recommended), ("exact", 1.0)):
+        out = tmp_path / loss
+        args = ["--logic-loss", loss, "--epochs", "1", "--hidden", "8", "-o", out, "-q"]
+        result = chain_cli("train-task", "action-recognition", act, "--kb", kb,
+                           *(["--embedder", q] if loss == "tleaf" else []), *args)  # fmt: skip
+        assert result.exit_code == 0, result.output
+        assert json.loads((out / "config.json").read_text())["settings"]["lam"] == want
+
+
 def _train(data: Path, kb: Path, out: Path, **settings) -> dict:
     from tleaf_cli.tasks.action_recognition.train import TaskSettings, train_action_recognition
 

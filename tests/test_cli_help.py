@@ -13,16 +13,9 @@ from typer.testing import CliRunner
 
 from tleaf_cli import cli
 from tleaf_cli.data.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
-from tleaf_cli.data.knowledge import RULE_SET_SPLITS
 from tleaf_cli.defaults import TIERS
-from tleaf_cli.embed.automaton import READOUTS
-from tleaf_cli.embed.encoders import ATOM_FEATURE_KINDS
-from tleaf_cli.embed.train_meta import EMBEDDERS
-from tleaf_cli.embed.training import SCHEDULES
-from tleaf_cli.losses.logic_loss import LOGIC_LOSSES
-from tleaf_cli.tasks.action_recognition.decoding import DECODINGS
-from tleaf_cli.tasks.action_recognition.models import MODELS
-from tleaf_cli.tasks.action_recognition.train import FORMULA_SOURCES as TASK_FORMULA_SOURCES
+from tleaf_cli.settings import options
+from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS
 from tleaf_cli.tasks.model_checking import PAIR_FEATURES
 
 runner = CliRunner()
@@ -101,21 +94,31 @@ def test_choice_types_match_the_library() -> None:
     """The CLI's Literal types name exactly the values the library accepts."""
     pairs = [
         (cli.Tier, tuple(TIERS)),
-        (cli.AtomFeatures, ATOM_FEATURE_KINDS),
-        (cli.Embedder, EMBEDDERS),
-        (cli.Readout, READOUTS),
-        (cli.Schedule, SCHEDULES),
         (cli.KbFormulaFrom, KB_FORMULA_SOURCES),
         (cli.RuleSets, RULE_SET_SPLITS),
         (cli.PairFeatures, PAIR_FEATURES),
-        (cli.TaskModel, MODELS),
-        (cli.LogicLoss, LOGIC_LOSSES),
-        (cli.TaskFormulaFrom, TASK_FORMULA_SOURCES),
         (cli.Decoding, DECODINGS),
     ]
     for literal, values in pairs:
         assert set(get_args(literal)) == set(values), (literal, values)
-    assert set(get_args(cli.DeviceName)) == {"cpu", "cuda"}
+
+
+@pytest.mark.parametrize("command", cli.SETTINGS_COMMANDS, ids=lambda c: c.name)
+def test_a_training_command_has_one_option_per_setting(command) -> None:
+    """Each setting of a trainer's settings dataclass is an option of its command, with the
+    setting's help and its values: the option is written once, in the dataclass."""
+    path = command.name.split()
+    found = {" ".join(p): c for p, c in COMMANDS}[" ".join(path)]
+    params = {p.name: p for p in found.params}
+    for f in command.fields():
+        assert f.name in params, f"{command.name} has no option for {f.name}"
+        param = params[f.name]
+        assert f.metadata["help"].split(".")[0] in _flat(param.help), (f.name, param.help)
+        if f.metadata["choices"]:
+            assert tuple(param.type_descriptor.choices) == f.metadata["choices"], f.name
+    assert {f.name for f in options(command.cls)} - {f.name for f in command.fields()} == set(
+        command.exclude
+    )
 
 
 def test_a_value_outside_the_choices_is_refused_by_the_parser(tmp_path) -> None:

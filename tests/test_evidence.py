@@ -54,8 +54,8 @@ def evidence_q(chain, tmp_path_factory):
     from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
     out = tmp_path_factory.mktemp("q") / "m"
-    settings = MetaSettings(
-        hidden=16, layers=1, out_dim=8, epochs=3, patience=3, batch_size=32, lr=3e-3,
+    settings = MetaSettings.preset(
+        "paper", hidden=16, layers=1, out_dim=8, epochs=3, patience=3, batch_size=32, lr=3e-3,
         directed=True, readout="runs", bins=2, monitors=3, monitor_ranges=2, evidence=True,
         radius_weight=1.0,
     )  # fmt: skip
@@ -104,19 +104,8 @@ def test_sphere_bounds_the_learned_part_and_leaves_the_block(chain, evidence_q) 
         torch.testing.assert_close(z[:, k:].norm(dim=1), torch.full((len(z),), gamma))
 
 
-def test_the_pair_head_reads_the_whole_vector() -> None:
-    """`--pair-weight` sizes its classifier for the learned part and the block together."""
-    from tleaf_cli.embed.train_meta import MetaSettings, build_model
-
-    settings = MetaSettings(
-        hidden=8, layers=1, out_dim=4, readout="runs", monitors=2, evidence=True, pair_weight=1
-    )
-    model = build_model(settings, edge_dim=3, atom_table=torch.eye(2))
-    assert model.pair_head[0].in_features == 2 * (4 + model.evidence.dim)
-
-
 def test_cli_refuses_evidence_without_monitors(chain, chain_cli, tmp_path) -> None:
     args = ["train-meta", chain["dfas"], chain["traces"], "--edge", chain["edge"]]
-    result = chain_cli(*args, "-o", tmp_path / "q", "--readout", "runs", "--evidence")
+    result = chain_cli(*args, "-o", tmp_path / "q", "--monitors", "0", "--evidence")
     assert result.exit_code != 0 and "--evidence: only with --monitors" in result.output
     assert not (tmp_path / "q").exists()

@@ -157,7 +157,7 @@ def untrained_embedder() -> Embedder:
     torch.manual_seed(0)
     edge = PropositionEncoder(torch.eye(len(vocabulary)), hidden=16, layers=2, out_dim=8)
     vectors = GuardVectors(edge, vocabulary)
-    settings = MetaSettings(hidden=16, layers=2, out_dim=8)
+    settings = MetaSettings.preset("paper", hidden=16, layers=2, out_dim=8)
     model = build_model(settings, vectors.dim, edge.atom_table)
     return Embedder(model, vectors, {"settings": {"embedder": "dfa"}})
 

@@ -16,7 +16,9 @@ from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 @pytest.fixture(scope="module")
 def meta_model(chain, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("mc") / "meta"
-    settings = MetaSettings(hidden=32, layers=2, out_dim=16, epochs=2, batch_size=32)
+    settings = MetaSettings.preset(
+        "paper", hidden=32, layers=2, out_dim=16, epochs=2, batch_size=32
+    )
     train_meta(chain["dfas"], chain["traces"], chain["edge"], out, settings)
     return out
 

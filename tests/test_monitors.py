@@ -123,8 +123,8 @@ def monitor_q(chain, tmp_path_factory):
     from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
     out = tmp_path_factory.mktemp("q") / "m"
-    settings = MetaSettings(
-        hidden=16, layers=1, out_dim=8, epochs=3, patience=3, batch_size=32, lr=3e-3,
+    settings = MetaSettings.preset(
+        "paper", hidden=16, layers=1, out_dim=8, epochs=3, patience=3, batch_size=32, lr=3e-3,
         directed=True, readout="runs", bins=2, monitors=3, radius_weight=1.0,
     )  # fmt: skip
     metrics = train_meta(chain["dfas"], chain["traces"], chain["edge"], out, settings)
@@ -185,5 +185,5 @@ def test_only_whole_dfa_files_keep_their_shares_on_disk(chain, monitor_q, _isola
 def test_cli_refuses_monitors_for_the_syntax_baseline(chain, chain_cli, tmp_path) -> None:
     args = ["train-meta", chain["dfas"], chain["traces"], "--edge", chain["edge"]]
     result = chain_cli(*args, "-o", tmp_path / "q", "--embedder", "syntax", "--monitors", 3)
-    assert result.exit_code != 0 and "--monitors: only with --embedder dfa" in result.output
+    assert result.exit_code != 0 and "--monitors: only with the dfa embedder" in result.output
     assert not (tmp_path / "q").exists()

@@ -15,9 +15,9 @@ from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.compile import compile_formula
 
 
-def _bank(dim: int, bins: int, max_length: int, mix: int = 0) -> ProbeBank:
+def _bank(dim: int, bins: int, max_length: int) -> ProbeBank:
     torch.manual_seed(0)
-    bank = ProbeBank(dim, probes=3, states=2, bins=bins, max_length=max_length, mix=mix)
+    bank = ProbeBank(dim, probes=3, states=2, bins=bins, max_length=max_length)
     with torch.no_grad():  # away from the near-identity start, so every letter matters
         bank.transition.weight.normal_()
         bank.start.normal_()
@@ -111,58 +111,6 @@ def test_a_trace_chain_gets_its_own_words_features() -> None:
     assert bank(batch, [batch.rejecting], batch.edge_vec).abs().max() == 0
 
 
-@pytest.mark.parametrize("formula", ["(a U b) <-> G c", "G(a -> X b)"])
-def test_the_end_state_mixture_is_g_of_each_end_states_mean_weighted_by_its_words(
-    formula,
-) -> None:
-    """`mix`: for each length, the accepted words grouped by the state they end in; g of each
-    group's mean distribution after the last letter, weighted by the group's share of the
-    accepted words; then the mean over the lengths. The first features are unchanged."""
-    dfa = compile_formula(formula)
-    graph, _ = dfa_graph(dfa)
-    dim, bins, max_length, mix = 5, 2, 4, 6
-    graph.edge_vec = torch.randn(graph.num_nodes, dim)
-    bank = _bank(dim, bins, max_length, mix)
-    batch = Batch.from_data_list([graph])
-    ours = bank(batch, [batch.flags[:, 1]], batch.edge_vec)
-    assert ours.shape == (1, bank.width) and bank.width == (bins + 1) * 3 * 2 + mix
-    plain = _bank(dim, bins, max_length)
-    plain.load_state_dict(bank.state_dict(), strict=False)
-    assert torch.allclose(ours[0, :-mix], plain(batch, [batch.flags[:, 1]], batch.edge_vec)[0])
-
-    per_length = []
-    for length in range(1, max_length + 1):
-        by_end: dict[int, list[torch.Tensor]] = {}
-        for state, nodes in _words(dfa, graph, length):
-            if dfa.accepting[state]:
-                by_end.setdefault(state, []).append(_run(bank, graph.edge_vec[nodes])[-1])
-        count = sum(len(v) for v in by_end.values())
-        if count:
-            per_length.append(
-                sum(
-                    len(v) / count * bank.g(torch.stack(v).mean(0).flatten())
-                    for v in by_end.values()
-                )
-            )
-    assert len(by_end) > 1 or formula != "(a U b) <-> G c"  # more than one end state
-    assert torch.allclose(ours[0, -mix:], torch.stack(per_length).mean(0), atol=1e-5)
-
-
-def test_a_trace_chains_mixture_is_g_of_its_final_states() -> None:
-    dim, bins, mix = 4, 2, 5
-    bank = _bank(dim, bins, max_length=2, mix=mix)
-    lengths = [3, 1]
-    batch, edge_nodes = trace_graph_batch(lengths)
-    letters = torch.randn(sum(lengths), dim)
-    batch.edge_vec = torch.zeros(batch.num_nodes, dim).index_copy(0, edge_nodes, letters)
-    ours = bank(batch, [batch.flags[:, 1]], batch.edge_vec)[:, -mix:]
-    first = 0
-    for k, length in enumerate(lengths):
-        final = _run(bank, letters[first : first + length])[-1]
-        assert torch.allclose(ours[k], bank.g(final.flatten()), atol=1e-6)
-        first += length
-
-
 def test_probes_need_a_run_readout() -> None:
     with pytest.raises(SettingError, match="probes"):
         AutomatonEncoder(4, hidden=8, layers=1, out_dim=4, readout="walk", probes=2)
@@ -178,15 +126,14 @@ def test_a_q_with_probes_trains_saves_and_reloads_identically(chain, tmp_path) -
     from tleaf_cli.embed.soft import load_embedder
     from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
-    settings = MetaSettings(
-        hidden=16, layers=1, out_dim=8, epochs=3, patience=3, batch_size=32, lr=3e-3,
-        directed=True, readout="runs", bins=2, probes=3, probe_states=2, probe_mix=4,
-        radius_weight=1.0,
+    settings = MetaSettings.preset(
+        "paper", hidden=16, layers=1, out_dim=8, epochs=3, patience=3, batch_size=32, lr=3e-3,
+        directed=True, readout="runs", bins=2, probes=3, radius_weight=1.0,
     )  # fmt: skip
     metrics = train_meta(chain["dfas"], chain["traces"], chain["edge"], tmp_path / "q", settings)
     assert metrics["history"][-1]["loss"] < metrics["history"][0]["loss"]
     state = torch.load(tmp_path / "q" / "weights.pt", weights_only=True)
-    start = ProbeBank(1, 3, 2).transition.bias  # the initial "stay put" bias
+    start = ProbeBank(1, 3, 4).transition.bias  # the initial "stay put" bias
     assert not torch.allclose(state["formula.probes.transition.bias"], start)
 
     q = load_embedder(tmp_path / "q")
@@ -205,11 +152,8 @@ def test_cli_refuses_probes_without_a_run_readout(chain, tmp_path) -> None:
 
     args = ["train-meta", chain["dfas"], chain["traces"], "--edge", chain["edge"]]
     result = CliRunner().invoke(
-        app, [str(a) for a in args] + ["-o", str(tmp_path / "q"), "--probes", "4"]
+        app,
+        [str(a) for a in args] + ["-o", str(tmp_path / "q"), "--probes", "4", "--readout", "walk"],
     )
     assert result.exit_code != 0 and "--readout accept or runs" in result.output
-    assert not (tmp_path / "q").exists()
-    runs = ["--directed", "--readout", "runs", "--probe-mix", "8"]
-    result = CliRunner().invoke(app, [str(a) for a in args] + ["-o", str(tmp_path / "q"), *runs])
-    assert result.exit_code != 0 and "--probe-mix: only with --probes" in result.output
     assert not (tmp_path / "q").exists()

@@ -109,7 +109,7 @@ def test_load_embedder_and_the_tleaf_loss_through_the_public_api(chain, tmp_path
     meta = tmp_path / "meta"
     train_meta(
         chain["dfas"], chain["traces"], chain["edge"], meta,
-        MetaSettings(hidden=16, out_dim=8, layers=2, epochs=1, steps=4),
+        MetaSettings.preset("paper", hidden=16, out_dim=8, layers=2, epochs=1, steps=4),
     )  # fmt: skip
     q = tl.load_embedder(meta)
     vocab = sorted(q.vectors.index)[:4]

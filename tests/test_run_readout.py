@@ -20,22 +20,16 @@ def _weights(batch: Batch, ends: torch.Tensor, max_length: int, bins: int) -> to
     )
 
 
-def _enumerated(
-    dfa, graph, ends: set[int], max_length: int, bins: int, ranges: int = 1, anchors: int = 0
-) -> torch.Tensor:
+def _enumerated(dfa, graph, ends: set[int], max_length: int, bins: int) -> torch.Tensor:
     """The same weights by listing every word: each length's runs ending in `ends`, uniform
-    among them, their nodes counted into parts (of the run, and of its length range: lengths
-    1..max_length cut in `ranges` equal ranges; with `anchors`, also into the parts of the k-th
-    letter from the start and from the end), each part normalised to sum to 1."""
+    among them, their nodes counted into parts of the run, each part normalised to sum to 1."""
     src, dst = graph.edge_index.tolist()
     node_of = {}  # (state, target state) -> edge node
     for s, e in zip(src, dst, strict=True):
         if graph.node_kind[e] == EDGE:
             node_of[s, dst[src.index(e)]] = e
-    parts = bins + 2 * anchors
-    out = torch.zeros(ranges * parts, graph.num_nodes, dtype=torch.float64)
+    out = torch.zeros(bins, graph.num_nodes, dtype=torch.float64)
     for length in range(1, max_length + 1):
-        first = (length - 1) * ranges // max_length * parts
         runs = []
         for word in itertools.product(range(dfa.alphabet.size), repeat=length):
             nodes, state = [dfa.initial], dfa.initial
@@ -47,12 +41,7 @@ def _enumerated(
                 runs.append(nodes)
         for nodes in runs:
             for i, v in enumerate(nodes):
-                out[first + i * bins // len(nodes), v] += 1.0 / len(runs)
-                # letter j is (state before it, its edge node): nodes 2j and 2j + 1 of the run
-                if i < 2 * length and i // 2 < anchors:  # j-th letter from the start
-                    out[first + bins + i // 2, v] += 1.0 / len(runs)
-                if i > 0 and (2 * length - i) // 2 < anchors:  # and from the end
-                    out[first + bins + anchors + (2 * length - i) // 2, v] += 1.0 / len(runs)
+                out[i * bins // len(nodes), v] += 1.0 / len(runs)
     return (out / out.sum(dim=1, keepdim=True).clamp(min=1e-12)).float()
 
 
@@ -68,64 +57,6 @@ def test_weights_are_where_accepted_and_rejected_words_go(formula: str, bins: in
     for ends, mask in ((accepting, batch.flags[:, 1]), (rejecting, batch.rejecting)):
         got = _weights(batch, mask, max_length=4, bins=bins)[:, offset:]
         assert torch.allclose(got, _enumerated(dfa, graph, ends, 4, bins), atol=1e-5), ends
-
-
-@pytest.mark.parametrize("formula", ["a U b", "G(a -> X b)"])
-def test_length_ranges_keep_runs_of_each_range_apart(formula: str) -> None:
-    dfa = compile_formula(formula)
-    graph, _ = dfa_graph(dfa)
-    batch = Batch.from_data_list([graph])
-    start = batch.ptr[:-1] + batch.initial
-    accepting = {s for s in range(dfa.num_states) if dfa.accepting[s]}
-    got = accepted_run_weights(
-        batch.edge_index, batch.share, batch.flags[:, 1], start, batch.batch, 6, 2, 3, 6
-    )
-    assert got.shape == (6, graph.num_nodes)
-    assert torch.allclose(got, _enumerated(dfa, graph, accepting, 6, 2, ranges=3), atol=1e-5)
-
-
-@pytest.mark.parametrize("formula", ["X b", "G(a -> X b)", "F(a & WX false)"])
-@pytest.mark.parametrize("ranges", [1, 2])
-def test_anchored_parts_hold_each_letter_from_either_end(formula: str, ranges: int) -> None:
-    dfa = compile_formula(formula)
-    graph, _ = dfa_graph(dfa)
-    batch = Batch.from_data_list([graph])
-    start = batch.ptr[:-1] + batch.initial
-    for ends, mask in (
-        ({s for s in range(dfa.num_states) if dfa.accepting[s]}, batch.flags[:, 1]),
-        ({s for s in range(dfa.num_states) if not dfa.accepting[s]}, batch.rejecting),
-    ):
-        got = accepted_run_weights(
-            batch.edge_index, batch.share, mask, start, batch.batch, 5, 2, ranges, 5, anchors=2
-        )
-        assert got.shape == (ranges * (2 + 2 * 2), graph.num_nodes)
-        want = _enumerated(dfa, graph, ends, 5, 2, ranges=ranges, anchors=2)
-        assert torch.allclose(got, want, atol=1e-5), (formula, ends)
-
-
-def test_anchored_parts_of_a_chain_are_its_first_and_last_letters() -> None:
-    """On a trace chain the k-th anchored part is exactly the k-th letter's edge node with the
-    state before it (from the start), or with the state after it (from the end)."""
-    encoder = AutomatonEncoder(
-        4, hidden=8, layers=1, out_dim=4, readout="accept", bins=1, anchors=2
-    )
-    weights = encoder.run_weights(trace_graph_batch([5])[0])  # nodes: states 0-5, edges 6-10
-    nonzero = [set(torch.nonzero(row).flatten().tolist()) for row in weights]
-    assert nonzero[1:] == [{0, 6}, {1, 7}, {5, 10}, {4, 9}]
-    assert torch.allclose(weights[1:].sum(dim=1), torch.ones(4))
-
-
-def test_a_trace_chain_fills_only_its_own_length_range() -> None:
-    encoder = AutomatonEncoder(4, hidden=8, layers=1, out_dim=4, readout="runs", bins=2,
-                               max_length=12, length_ranges=3)  # fmt: skip
-    batch, _ = trace_graph_batch([3, 7, 12, 15])
-    r = encoder.run_weights(batch)  # [2 (accepted, rejected) x 3 ranges x 2 bins, nodes]
-    assert r.shape[0] == 12 and not r[6:].any()  # no rejected runs
-    for k, want_range in enumerate([0, 1, 2, 2]):  # 1-4, 5-8, 9-12 letters; longer: the last
-        nodes = slice(int(batch.ptr[k]), int(batch.ptr[k + 1]))
-        filled = [g for g in range(3) if r[2 * g : 2 * g + 2, nodes].any()]
-        assert filled == [want_range]
-        assert torch.allclose(r[2 * want_range : 2 * want_range + 2, nodes].sum(1), torch.ones(2))
 
 
 def test_a_trace_chain_is_read_once_in_order_and_has_no_rejected_runs() -> None:
@@ -201,8 +132,8 @@ def test_a_small_q_separates_held_out_traces_and_reloads_identically(low_set, tm
     from tleaf_cli.embed.soft import load_embedder
     from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
-    settings = MetaSettings(
-        hidden=32, layers=2, out_dim=16, batch_size=32, lr=3e-3, directed=True,
+    settings = MetaSettings.preset(
+        "paper", hidden=32, layers=2, out_dim=16, batch_size=32, lr=3e-3, directed=True,
         readout="runs", bins=3, epochs=12, patience=12, schedule="cosine",
     )  # fmt: skip
     trained = train_meta(
@@ -256,24 +187,6 @@ def test_chain_weights_per_length_equal_the_batch_computation() -> None:
         assert torch.equal(encoder.chain_run_weights([3, 12]), torch.cat([want[-7:], want[14:39]]))
 
 
-def test_jumping_readout_reads_the_input_layer_too() -> None:
-    """With every GCN layer silenced (zero weights and biases), only `--jumping` still tells two
-    traces with different letters apart: its readout sees the edge nodes' own vectors."""
-    batch, _ = trace_graph_batch([3, 3])
-    edge = (batch.node_kind == EDGE).unsqueeze(1)
-    batch.edge_vec = torch.cat([torch.ones(7, 4), -torch.ones(7, 4)]) * edge
-    for jumping in (False, True):
-        torch.manual_seed(0)
-        encoder = AutomatonEncoder(4, hidden=8, layers=2, out_dim=5, readout="runs",
-                                   bins=2, directed=True, jumping=jumping)  # fmt: skip
-        for conv in [*encoder.convs, *encoder.back]:
-            for p in conv.parameters():
-                torch.nn.init.zeros_(p)
-        z = encoder(batch)
-        assert encoder.head.in_features == 2 * 2 * ((2 + 2 + 4) + 2 * 8 if jumping else 8)
-        assert torch.allclose(z[0], z[1]) != jumping
-
-
 def test_radius_classifier_learns_one_radius_between_the_two_sides() -> None:
     """RadiusClassifier alone: satisfying points within ~0.5 of their anchors, violating ones
     ~2 away (squared distances ~0.25 and ~4); its loss moves r between them."""
@@ -298,8 +211,8 @@ def test_radius_loss_is_trained_saved_and_loaded(low_set, tmp_path) -> None:
     from tleaf_cli.embed.soft import load_embedder
     from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
-    settings = MetaSettings(
-        hidden=32, layers=2, out_dim=16, batch_size=32, lr=3e-3, directed=True,
+    settings = MetaSettings.preset(
+        "paper", hidden=32, layers=2, out_dim=16, batch_size=32, lr=3e-3, directed=True,
         readout="runs", bins=3, epochs=2, patience=2, radius_weight=1.0,
     )  # fmt: skip
     train_meta(low_set["dfas"], low_set["traces"], low_set["edge"], tmp_path / "r", settings)
@@ -319,7 +232,7 @@ def test_chain_batch_embeds_traces_as_their_collated_graphs_do(readout: str) -> 
     lengths = [3, 1, 5, 2]
     letters = torch.randn(sum(lengths), 4)
     encoder = AutomatonEncoder(4, hidden=8, layers=2, out_dim=5, readout=readout, bins=2,
-                               directed=True, anchors=1).eval()  # fmt: skip
+                               directed=True).eval()  # fmt: skip
     graphs = []
     for i, length in enumerate(lengths):
         g = trace_graph(length)

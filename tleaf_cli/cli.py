@@ -13,8 +13,13 @@ from typing import Annotated, Literal
 import typer
 
 from tleaf_cli import __version__, ui
+from tleaf_cli.cli_options import SettingsCommand, flag, given, with_settings
 from tleaf_cli.defaults import CANDIDATE_TIMEOUT, COMPILE_TIMEOUT, MAX_LEN, MIN_LEN, TIERS
 from tleaf_cli.errors import InputError, SettingError, TleafError
+from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS, TaskSettings
+from tleaf_cli.settings.edge import EdgeSettings
+from tleaf_cli.settings.gail import GailSettings
+from tleaf_cli.settings.meta import MetaSettings
 
 # The library is imported inside each command, so `tleaf --help` and light commands start fast
 # (ltlf2dfa alone pulls in sympy).
@@ -72,33 +77,22 @@ CacheDir = Annotated[
     typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
 ]
 NoCache = Annotated[bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")]
-# Options shared by the training commands.
-Epochs = Annotated[int, typer.Option(min=1, help="Most epochs to train.")]
-Patience = Annotated[
-    int, typer.Option(min=1, help="Stop after this many epochs without a better held-out score.")
-]
-Hidden = Annotated[int, typer.Option(min=1, help="GCN width.")]
-Layers = Annotated[int, typer.Option(min=1, help="GCN layers.")]
-OutDim = Annotated[int, typer.Option(min=1, help="Embedding size.")]
-Margin = Annotated[float, typer.Option(help="Triplet loss margin.")]
-Lr = Annotated[float, typer.Option(help="Adam learning rate.")]
-BatchSize = Annotated[int, typer.Option(min=1, help="Triplets per batch.")]
+# The training commands' options come from their settings dataclasses (tleaf_cli/settings/):
+# each command here, the fields it leaves out, and its docs/cli.md table's name.
+EDGE = SettingsCommand(EdgeSettings, "train-edge")
+META = SettingsCommand(MetaSettings, "train-meta")
+TASK = SettingsCommand(TaskSettings, "train-task action-recognition")
+GAIL = SettingsCommand(GailSettings, "train-task cooking")
+SETTINGS_COMMANDS = [EDGE, META, TASK, GAIL]
+MetaPreset = Literal[tuple(MetaSettings.PRESETS)]
+DEFAULT_META_PRESET = MetaSettings.default_preset()
 # Options with a fixed set of values are typed with them, so --help lists them and a value
 # outside them is refused before any work; tests/test_cli_help.py checks each against the
 # library's tuple of the same values (TIERS, READOUTS, ...).
 Tier = Literal["low", "moderate", "high"]
-DeviceName = Literal["cpu", "cuda"]
-AtomFeatures = Literal["onehot", "random", "text"]
-Embedder = Literal["dfa", "syntax"]
-Readout = Literal["walk", "steps", "accept", "runs"]
-Schedule = Literal["constant", "cosine"]
-Conv = Literal["gcn", "graph"]
-Head = Literal["linear", "mlp"]
-PpoSchedule = Literal["constant", "linear"]
 KbFormulaFrom = Literal["labels"]
-RuleSets = Literal["video", "ingredient"]
+RuleSets = Literal[RULE_SET_SPLITS]
 PairFeatures = Literal["concat", "rich"]
-TaskModel = Literal["lstm", "tcn"]
 CompileEngine = Literal["auto", "progression", "mona"]  # logic/compile.py ENGINES
 Engine = Annotated[
     CompileEngine,
@@ -109,14 +103,8 @@ Engine = Annotated[
         "minimal DFA."
     ),
 ]
-LogicLoss = Literal["none", "tleaf", "checker", "exact"]
-TaskFormulaFrom = Literal["predictions", "labels"]
-Decoding = Literal["argmax", "constrained"]  # test-time decoding of train-task action-recognition
+Decoding = Literal[DECODINGS]  # test-time decoding of train-task action-recognition
 
-Device = Annotated[DeviceName, typer.Option(help="Where to compute.")]
-MaxMinutes = Annotated[
-    float | None, typer.Option(help="Stop after the epoch that passes this budget.")
-]
 Resume = Annotated[
     bool, typer.Option("--resume", help="Continue from the model directory's last epoch.")
 ]
@@ -141,21 +129,6 @@ def _compile_settings(
         engine=engine,
         cluster=cluster or None,
     )
-
-
-# The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
-FLAGS = {
-    "lam": "--lambda",  # `lambda` is a Python keyword
-    "n": "-n",
-    "total_steps": "--steps",  # train-task cooking
-    "n_envs": "--envs",
-    "n_steps": "--rollout",
-}
-
-
-def flag(setting: str) -> str:
-    """The flag that sets the library's `setting` (``logic_loss`` → ``--logic-loss``)."""
-    return FLAGS.get(setting, "--" + setting.replace("_", "-"))
 
 
 def _exits(func):
@@ -627,68 +600,28 @@ def kb_extract(
 
 @app.command("train-edge", cls=Command)
 @_exits
+@with_settings(EDGE)
 def train_edge(
+    ctx: typer.Context,
     dfas: Annotated[Path, typer.Argument(help="A dfas.parquet: its guards are the training data.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Model directory to write.")] = Path(
         "edge_model"
     ),
-    atom_features: Annotated[
-        AtomFeatures,
-        typer.Option(
-            help="Atom node features: onehot (over the vocabulary), random, or text (the atom's "
-            "name through a packaged sentence model; needs tleaf\\[text])."
-        ),
-    ] = "onehot",
-    per_guard: Annotated[
-        int,
-        typer.Option(
-            min=1, help="Triplets (guard, satisfying letter, violating letter) per distinct guard."
-        ),
-    ] = 4,
-    epochs: Epochs = 30,
-    patience: Patience = 5,
-    hidden: Hidden = 256,
-    layers: Layers = 2,
-    out_dim: OutDim = 100,
-    margin: Margin = 1.0,
-    lr: Lr = 1e-3,
-    batch_size: BatchSize = 128,
-    seed: Seed = 0,
-    device: Device = "cpu",
-    max_minutes: MaxMinutes = None,
     resume: Resume = False,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Train the edge embedder q_e: guards close to letters that satisfy them (triplet loss).
 
     Held-out triplet accuracy (d(guard, sat) < d(guard, unsat)) on formulas never trained on is
     reported each epoch; the best epoch's weights are kept.
     """
-    from tleaf_cli.embed.encoders import ATOM_FEATURE_KINDS
-    from tleaf_cli.embed.train_edge import EdgeSettings
     from tleaf_cli.embed.train_edge import train_edge as run
 
     _targets([dfas], folders=[out])
-    if atom_features not in ATOM_FEATURE_KINDS:
-        choices = ", ".join(ATOM_FEATURE_KINDS)
-        raise SettingError("atom_features", f"must be one of {choices}, not '{atom_features}'")
-    settings = EdgeSettings(
-        atom_features=atom_features,
-        per_guard=per_guard,
-        hidden=hidden,
-        layers=layers,
-        out_dim=out_dim,
-        margin=margin,
-        lr=lr,
-        batch_size=batch_size,
-        epochs=epochs,
-        patience=patience,
-        seed=seed,
-        device=device,
-        max_minutes=max_minutes,
-    )
+    settings = EdgeSettings(**values)
     with ui.progress("training q_e (epochs)", quiet) as update:
-        on_epoch = _epoch_printer(update, epochs, "held-out", quiet)
+        on_epoch = _epoch_printer(update, settings.epochs, "held-out", quiet)
         metrics = run(dfas, out, settings, resume=resume, on_epoch=on_epoch)
     best = metrics["best"]
     ui.summary(
@@ -700,6 +633,7 @@ def train_edge(
 
 @app.command("train-meta", cls=Command)
 @_exits
+@with_settings(META)
 def train_meta(
     ctx: typer.Context,
     dfas: Annotated[Path, typer.Argument(help="The dfas.parquet the traces were drawn from.")],
@@ -708,267 +642,45 @@ def train_meta(
     out: Annotated[Path, typer.Option("--out", "-o", help="Model directory to write.")] = Path(
         "meta_model"
     ),
-    embedder: Annotated[
-        Embedder, typer.Option(help="dfa (T-LEAF) or syntax (the paper's syntax-tree baseline).")
-    ] = "dfa",
-    epochs: Epochs = 30,
-    patience: Patience = 5,
-    hidden: Hidden = 100,
-    layers: Layers = 4,
-    out_dim: OutDim = 200,
-    steps: Annotated[int, typer.Option(min=1, help="Random-walk steps of the readout.")] = 24,
-    readout: Annotated[
-        Readout,
+    preset: Annotated[
+        MetaPreset,
         typer.Option(
-            help="walk: expected visits of the walk; steps: one projection per step; accept: "
-            "where accepted runs of 1..--max-length letters go (uniform letters); runs: accepted "
-            "and rejected runs, each with their own projections."
+            help="Settings to start from; options given on the command line override them. "
+            + "; ".join(f"{name}: {text}" for name, text in MetaSettings.PRESET_HELP.items())
+            + "."
         ),
-    ] = "walk",
-    bins: Annotated[
-        int,
-        typer.Option(
-            min=1, help="accept/runs readouts: a run cut in this many parts, one projection each."
-        ),
-    ] = 1,
-    max_length: Annotated[
-        int,
-        typer.Option(
-            min=1, help="accept/runs readouts: the longest run of a DFA counted (traces: whole)."
-        ),
-    ] = 12,
-    length_ranges: Annotated[
-        int,
-        typer.Option(
-            min=1,
-            help="accept/runs readouts: cut run lengths 1..--max-length in this many ranges, "
-            "read apart (a trace only in its own length's range); 1: all lengths together.",
-        ),
-    ] = 1,
-    anchors: Annotated[
-        int,
-        typer.Option(
-            min=0,
-            help="accept/runs readouts: also read the first and the last this-many letters of "
-            "a run apart, one projection per position from either end (0: none).",
-        ),
-    ] = 0,
-    probes: Annotated[
-        int,
-        typer.Option(
-            min=0,
-            help="accept/runs readouts: this many learned probe automata read along the runs; "
-            "a formula gets their state distributions expected over its accepted (and rejected) "
-            "words, a trace its own (0: none; docs/embedder.md).",
-        ),
-    ] = 0,
-    probe_states: Annotated[
-        int, typer.Option(min=1, help="--probes: the states of each probe automaton.")
-    ] = 4,
-    probe_mix: Annotated[
-        int,
-        typer.Option(
-            min=0,
-            help="--probes: also average, over the states a run ends in, a small network's "
-            "reading of the probes' final states given that end state, this wide (0: none; "
-            "docs/embedder.md).",
-        ),
-    ] = 0,
-    monitors: Annotated[
-        int,
-        typer.Option(
-            min=0,
-            help="Fixed temporal monitors (F p, G p, p U q, G(p -> X q), ...) over the first "
-            "this-many atoms of each formula: a formula gets the share of its accepted (and "
-            "rejected) words each monitor accepts, a trace whether each accepts it (0: none; "
-            "DFA embedder only; docs/embedder.md).",
-        ),
-    ] = 0,
-    monitor_ranges: Annotated[
-        int,
-        typer.Option(
-            min=1,
-            help="--monitors: keep this many ranges of word length apart (a formula's shares "
-            "per range, a trace in its own length's range).",
-        ),
-    ] = 1,
-    evidence: Annotated[
-        bool,
-        typer.Option(
-            "--evidence/--no-evidence",
-            help="--monitors with --readout runs: append the monitors' naive-Bayes block to "
-            "every vector, a unit-sphere block whose distance falls as the naive-Bayes score "
-            "for 'satisfies' rises (docs/embedder.md).",
-        ),
-    ] = False,
-    evidence_scale: Annotated[
-        float,
-        typer.Option(
-            min=1e-6,
-            help="--evidence: the block's squared scale γ² at the start (learned after); "
-            "larger lets the naive-Bayes evidence outweigh the learned part's distance.",
-        ),
-    ] = 32.0,
-    conv: Annotated[
-        Conv,
-        typer.Option(
-            help="Message-passing layer: gcn (GCNConv, the paper's: degree-normalised mean with "
-            "one weight) or graph (GraphConv: a node's own weight plus the sum of its "
-            "neighbours', so a state sees how many arcs leave it)."
-        ),
-    ] = "gcn",
-    head: Annotated[
-        Head,
-        typer.Option(
-            help="From the readout's parts to the vector: linear (the paper's) or mlp (one "
-            "hidden ReLU layer of twice --out-dim)."
-        ),
-    ] = "linear",
-    residual: Annotated[
-        bool,
-        typer.Option(
-            "--residual/--no-residual", help="Each layer after the first adds to its input."
-        ),
-    ] = False,
-    jumping: Annotated[
-        bool,
-        typer.Option(
-            "--jumping/--no-jumping",
-            help="Readout over every layer's node vectors side by side, the input's too "
-            "(jumping knowledge), not only the last layer's.",
-        ),
-    ] = False,
-    directed: Annotated[
-        bool,
-        typer.Option(
-            "--directed/--undirected", help="Messages along and against arcs, weights apart."
-        ),
-    ] = False,
-    norm: Annotated[
-        bool,
-        typer.Option("--norm/--no-norm", help="Standardise edge vectors; LayerNorm every layer."),
-    ] = False,
-    pair_weight: Annotated[
-        float,
-        typer.Option(
-            min=0.0, help="Weight of an auxiliary (z_formula, z_trace) classifier's loss; 0: none."
-        ),
-    ] = 0.0,
-    pull: Annotated[
-        float,
-        typer.Option(
-            min=0.0,
-            help="Weight of mean d(formula, satisfying trace): small distance then means "
-            "satisfying, which the tleaf loss reads; 0: the paper's triplet loss alone.",
-        ),
-    ] = 0.0,
-    radius_weight: Annotated[
-        float,
-        typer.Option(
-            min=0.0,
-            help="Weight of a loss that fits one radius r for all formulas: satisfying traces "
-            "within r of their formula, violating ones beyond (the distance rule the tleaf loss "
-            "reads); 0: the paper's triplet loss alone.",
-        ),
-    ] = 0.0,
-    sphere: Annotated[
-        bool,
-        typer.Option(
-            "--sphere/--no-sphere",
-            help="Scale every vector to unit length (squared distances in [0, 4]; use a margin "
-            "below 4, e.g. 0.2).",
-        ),
-    ] = False,
-    margin: Margin = 1.0,
-    lr: Lr = 1e-3,
-    schedule: Annotated[
-        Schedule,
-        typer.Option(
-            help="constant learning rate, or cosine: falls to 0 over --epochs (early stopping "
-            "on val still applies)."
-        ),
-    ] = "constant",
-    batch_size: BatchSize = 64,
-    seed: Seed = 0,
-    device: Device = "cpu",
-    max_minutes: MaxMinutes = None,
+    ] = DEFAULT_META_PRESET,
     resume: Resume = False,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Train the meta embedder q_m (or the syntax-tree baseline) with the triplet loss.
 
     Triplets (formula, satisfying trace, violating trace) from the train split; the best epoch on
     the val split is kept; the test split (formulas never trained on) gives the final figures.
+    The model folder's config.json records every setting and the tleaf loss's λ that fits q.
     """
-    from tleaf_cli.embed.train_meta import MetaSettings
     from tleaf_cli.embed.train_meta import train_meta as run
 
     _targets([dfas, traces, edge], folders=[out])
-    if readout not in ("accept", "runs"):
+    chosen = given(ctx, values)
+    settings = MetaSettings.preset(preset, **chosen)
+    if settings.readout not in ("accept", "runs"):
         _refuse(
-            _given(
-                ctx,
-                "bins",
-                "max_length",
-                "length_ranges",
-                "anchors",
-                "probes",
-                "probe_states",
-                "probe_mix",
-            ),
+            [flag(n) for n in ("bins", "probes") if n in chosen],
             "only with --readout accept or runs",
         )
-    if probes == 0:
-        _refuse(_given(ctx, "probe_states", "probe_mix"), "only with --probes")
-    if embedder != "dfa":
-        _refuse(_given(ctx, "monitors"), "only with --embedder dfa (monitors read DFAs)")
-    if monitors == 0:
-        _refuse(_given(ctx, "monitor_ranges", "evidence"), "only with --monitors")
-    if not evidence:
-        _refuse(_given(ctx, "evidence_scale"), "only with --evidence")
-    if evidence and readout != "runs":
-        _refuse([flag("evidence")], "only with --readout runs (it reads rejected words' shares)")
-
-    settings = MetaSettings(
-        embedder=embedder,
-        hidden=hidden,
-        layers=layers,
-        out_dim=out_dim,
-        steps=steps,
-        readout=readout,
-        bins=bins,
-        max_length=max_length,
-        length_ranges=length_ranges,
-        anchors=anchors,
-        probes=probes,
-        probe_states=probe_states,
-        probe_mix=probe_mix,
-        monitors=monitors,
-        monitor_ranges=monitor_ranges,
-        evidence=evidence,
-        evidence_scale=evidence_scale,
-        conv=conv,
-        head=head,
-        residual=residual,
-        jumping=jumping,
-        directed=directed,
-        norm=norm,
-        pair_weight=pair_weight,
-        pull=pull,
-        radius_weight=radius_weight,
-        sphere=sphere,
-        margin=margin,
-        lr=lr,
-        schedule=schedule,
-        batch_size=batch_size,
-        epochs=epochs,
-        patience=patience,
-        seed=seed,
-        device=device,
-        max_minutes=max_minutes,
-    )
-    with ui.progress(f"training q ({embedder})", quiet) as update:
-        on_epoch = _epoch_printer(update, epochs, "val", quiet)
+    if settings.readout not in ("walk", "steps"):
+        _refuse([flag(n) for n in ("steps",) if n in chosen], "only with --readout walk or steps")
+    if settings.monitors == 0:
+        _refuse(
+            [flag(n) for n in ("monitor_ranges", "evidence") if n in chosen and values[n]],
+            "only with --monitors",
+        )
+    if settings.evidence is False:
+        _refuse([flag(n) for n in ("evidence_scale",) if n in chosen], "only with --evidence")
+    with ui.progress(f"training q ({settings.embedder})", quiet) as update:
+        on_epoch = _epoch_printer(update, settings.epochs, "val", quiet)
         metrics = run(dfas, traces, edge, out, settings, resume=resume, on_epoch=on_epoch)
     test = metrics["test"]
     ui.summary(
@@ -1172,6 +884,7 @@ app.add_typer(train_task_app, name="train-task")
 
 @train_task_app.command("action-recognition", cls=Command)
 @_exits
+@with_settings(TASK)
 def train_task_action_recognition(
     ctx: typer.Context,
     activities: Annotated[Path, typer.Argument(help="An activities.parquet (gen-activities).")],
@@ -1180,49 +893,9 @@ def train_task_action_recognition(
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
-    model: Annotated[TaskModel, typer.Option(help="Backbone of h: lstm or tcn.")] = "lstm",
-    logic_loss: Annotated[
-        LogicLoss, typer.Option(help="none (reference), tleaf, exact, or checker (no gradient).")
-    ] = "none",
-    lam: Annotated[float, typer.Option("--lambda", help="Weight λ of the logic loss.")] = 5.0,
-    formula_from: Annotated[
-        TaskFormulaFrom,
-        typer.Option(help="Rules relevant to the predicted pairs (the paper) or to the labels."),
-    ] = "predictions",
-    rule_sets: Annotated[
-        RuleSets,
-        typer.Option(
-            help="video: one rule set φ per video (the paper); ingredient: φ split into one "
-            "conjunction per ingredient, loss summed over them (tleaf, exact)."
-        ),
-    ] = "video",
-    unlabelled: Annotated[
-        bool,
-        typer.Option(
-            help="Also apply the logic loss (tleaf, exact) to the data's unlabelled videos, "
-            "one batch of them per training batch; their labels are never read."
-        ),
-    ] = True,
-    hidden: Annotated[int, typer.Option(min=1, help="Backbone width.")] = 128,
-    batch_size: Annotated[int, typer.Option(min=1, help="Videos per batch.")] = 16,
-    epochs: Epochs = 60,
-    patience: Patience = 10,
-    lr: Lr = 1e-4,
-    seed: Seed = 0,
-    device: Device = "cpu",
     resume: Resume = False,
-    decode: Annotated[
-        Decoding,
-        typer.Option(
-            help="Test-time decoding: argmax per step, or also constrained (the most probable "
-            "sequence the knowledge base's rules accept; both are reported)."
-        ),
-    ] = "argmax",
-    decode_top_k: Annotated[
-        int,
-        typer.Option(min=1, help="Constrained decoding: candidate pairs per video (top k)."),
-    ] = 5,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Train the action recognizer h with ℓ_task + λ·ℓ_logic; best val action accuracy is kept.
 
@@ -1230,29 +903,13 @@ def train_task_action_recognition(
     val action accuracy; test: action / ingredient / pair accuracy, violation fraction, and with
     --decode constrained the same under constrained decoding, with its time per video).
     """
-    from tleaf_cli.tasks.action_recognition.train import TaskSettings, train_action_recognition
+    from tleaf_cli.tasks.action_recognition.train import train_action_recognition
 
     _targets([activities, kb, embedder], folders=[out])
-    if decode != "constrained":
+    settings = TaskSettings(**values)
+    if settings.decode != "constrained":
         _refuse(_given(ctx, "decode_top_k"), "only with --decode constrained")
-
-    settings = TaskSettings(
-        model=model,
-        logic_loss=logic_loss,
-        lam=lam,
-        formula_from=formula_from,
-        rule_sets=rule_sets,
-        unlabelled=unlabelled,
-        hidden=hidden,
-        batch_size=batch_size,
-        epochs=epochs,
-        patience=patience,
-        lr=lr,
-        seed=seed,
-        device=device,
-        decode=decode,
-        decode_top_k=decode_top_k,
-    )
+    model, logic_loss, epochs = settings.model, settings.logic_loss, settings.epochs
     with ui.progress(f"training h ({model}, {logic_loss})", quiet) as update:
 
         def on_epoch(r) -> None:
@@ -1347,55 +1004,17 @@ def demos_kb(
 
 @train_task_app.command("cooking", cls=Command)
 @_exits
+@with_settings(GAIL)
 def train_task_cooking(
     demos: Annotated[Path, typer.Argument(help="Expert demonstrations (gen-demos).")],
     embedder: Annotated[
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
-    logic_loss: Annotated[
-        LogicLoss, typer.Option(help="none (plain GAIL), tleaf, exact, or checker (no gradient).")
-    ] = "none",
-    lam: Annotated[float, typer.Option("--lambda", help="Weight λ of the logic loss.")] = 1.0,
-    shield: Annotated[
-        bool,
-        typer.Option(
-            "--shield",
-            help="Act only among the actions the knowledge base's rules still allow "
-            "(MaskablePPO; the rules, not the environment's feasibility); without a logic loss.",
-        ),
-    ] = False,
-    steps: Annotated[int, typer.Option(min=1, help="Environment steps to train.")] = 150_000,
-    envs: Annotated[int, typer.Option(min=1, help="Environments per rollout.")] = 4,
-    rollout: Annotated[int, typer.Option(min=8, help="Steps per environment per rollout.")] = 256,
-    eval_every: Annotated[
-        int, typer.Option(min=1, help="Environment steps between evaluations.")
-    ] = 4096,
-    eval_episodes: Annotated[
-        int, typer.Option(min=1, help="Seeded episodes per evaluation (true reward).")
-    ] = 8,
-    held_out: Annotated[
-        int,
-        typer.Option(
-            min=0,
-            help="Also evaluate, one episode each, on this many ingredient sets no demo shows "
-            "(a fixed, seeded pool); 0: none.",
-        ),
-    ] = 8,
-    lr: Lr = 1e-3,
-    lr_schedule: Annotated[
-        PpoSchedule,
-        typer.Option(help="PPO's learning rate: constant, or linear from --lr down to 0."),
-    ] = "constant",
-    domain: Annotated[
-        Path | None,
-        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
-    ] = None,
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
-    seed: Seed = 0,
-    device: Device = "cpu",
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """GAIL (PPO + discriminator) imitating the demos, with λ·ℓ_logic on the policy.
 
@@ -1405,26 +1024,11 @@ def train_task_cooking(
     a gradient penalty on the discriminator and 10 PPO epochs of minibatches of 64 per rollout
     (docs/cooking.md).
     """
-    from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN
-    from tleaf_cli.tasks.cooking.gail import GailSettings, train_gail
+    from tleaf_cli.tasks.cooking.gail import train_gail
 
-    _targets([demos, embedder, domain], folders=[out])
-    settings = GailSettings(
-        logic_loss=logic_loss,
-        lam=lam,
-        shield=shield,
-        total_steps=steps,
-        n_envs=envs,
-        n_steps=rollout,
-        eval_every=eval_every,
-        eval_episodes=eval_episodes,
-        held_out=held_out,
-        lr=lr,
-        lr_schedule=lr_schedule,
-        seed=seed,
-        device=device,
-        domain=domain or DEFAULT_DOMAIN,
-    )
+    settings = GailSettings(**values)
+    logic_loss = settings.logic_loss
+    _targets([demos, embedder, settings.domain], folders=[out])
     compile_settings = _compile_settings(True, COMPILE_TIMEOUT, cache_dir, no_cache, 1)
     with ui.progress(f"GAIL ({logic_loss})", quiet) as update:
         m = train_gail(demos, out, settings, embedder, compile_settings, update)

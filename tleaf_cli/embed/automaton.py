@@ -10,12 +10,6 @@
     q_m(G)  = sum_b W_b · sum_v a_b(v) h_v^L          readout "accept" (b: parts of a run), and
               + sum_b U_b · sum_v j_b(v) h_v^L        with "runs", the rejected runs' parts too
 
-With `residual`, h^{l+1} = h^l + ReLU(...) after the first layer. With `jumping`, the readouts
-read [h^0 ; h^1 ; ... ; h^L] (jumping knowledge) instead of h^L: the input layer keeps each edge
-node's own guard vector, unmixed with the branches around it. With `norm`, s_v is
-standardised with the training graphs' statistics and each layer's output passes a LayerNorm
-before the ReLU.
-
 The readout r is the paper's "aggregate node embeddings along random walks from the initial
 state", taken in expectation so that a graph always gets the same vector: a walker starts at the
 initial state and follows a uniformly chosen outgoing arc (s -> e -> t) for K steps, staying put
@@ -27,12 +21,11 @@ k steps, and each step k has its own projection W_k. On a trace chain p_k is the
 vector knows the order of the letters (the plain readout only sees it through L hops of message
 passing); on a DFA it is the expected node embedding k steps into a random run.
 
-The "accept" readout (issue 13) weights nodes by where the automaton's accepted words go, not by
+The "accept" readout weights nodes by where the automaton's accepted words go, not by
 where a walk that ignores acceptance goes: `accepted_run_weights`. a_b(v) is the share of part b
 (of B equal parts of a run) of uniformly drawn accepted runs of 1..max_length letters that lies
 on v; "runs" adds j_b(v), the same for rejected runs. A trace chain has one accepted run (its
-word, read in order) and no rejected ones. With `length_ranges` R, the runs of each of R ranges
-of length get their own parts (and projections): a trace is read in its length's range only.
+word, read in order) and no rejected ones.
 """
 
 from __future__ import annotations
@@ -41,20 +34,18 @@ import itertools
 
 import torch
 from torch import nn
-from torch_geometric.nn import GCNConv, GraphConv, JumpingKnowledge, global_add_pool
+from torch_geometric.nn import GCNConv, global_add_pool
 from torch_geometric.utils import degree, to_undirected
 
-from tleaf_cli.embed.graphs import EDGE, read_limits, trace_graph_batch
+from tleaf_cli.embed.graphs import read_limits, trace_graph_batch
 from tleaf_cli.embed.probes import ProbeBank
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.monitors import MonitorBank
+from tleaf_cli.settings.meta import READOUTS, RUN_READOUTS
 
 KINDS = 2  # state, edge node
 FLAGS = 2  # initial, accepting
-READOUTS = ("walk", "steps", "accept", "runs")
-CONVS = ("gcn", "graph")  # GCNConv (degree-normalised), GraphConv (own weight + sum of neighbours)
-HEADS = ("linear", "mlp")
-RUN_READOUTS = ("accept", "runs")  # the readouts of `accepted_run_weights`
+PROBE_STATES = 4  # states of each probe automaton
 
 
 def walk_distributions(
@@ -82,12 +73,8 @@ def accepted_run_weights(
     graph_of: torch.Tensor,
     max_length: int | torch.Tensor,
     bins: int = 1,
-    length_ranges: int = 1,
-    span: int | None = None,
-    anchors: int = 0,
 ) -> torch.Tensor:
-    """[length_ranges * (bins + 2 anchors), num_nodes]: how much of an accepted run lies at each
-    node, by part of the run (and, with `length_ranges` > 1, by range of the run's length).
+    """[bins, num_nodes]: how much of an accepted run lies at each node, by part of the run.
 
     `ends` [num_nodes] marks the states a run must end in: the accepting states (accepted runs),
     or the others (rejected runs); `start` holds each graph's initial node, `graph_of` the graph
@@ -101,21 +88,6 @@ def accepted_run_weights(
     per graph (0 where a graph has no such run). Forward-backward: a_h(v) = P(at v after h
     hops), b_h(v) = P(in `ends` h hops after v); the share of the runs of H = 2T hops at v at
     hop h is a_h(v) b_(H-h)(v) / Z_T, Z_T = b_H(start).
-
-    `length_ranges` R > 1 keeps runs of different lengths apart: lengths 1..`span` (default the
-    largest bound) are cut in R equal ranges, a run of T letters counts into range
-    min(R - 1, (T - 1) R // span) (longer runs into the last), and every (range, part) is
-    normalised on its own. A trace chain then fills only its own length's range, and a DFA every
-    range its accepted runs reach, so a trace is compared with the formula's words of about its
-    own length.
-
-    `anchors` K > 0 adds, after the B parts of each range, 2K parts anchored at the run's ends:
-    part B + k holds the k-th letter from the start (its edge node and the state before it),
-    part B + K + k the k-th letter from the end (its edge node and the state after it), for
-    k < K. The B parts are relative (a fifth of a run is 1 letter of a 5-letter word and 2 of a
-    10-letter one, so runs of different lengths blur each other's positions); LTLf's next and
-    weak-next operators and the end of the trace are about exact positions from either end,
-    which anchored parts keep apart for every length.
 
     On a trace chain (share 1, its last state accepting) the one accepted run reads every node
     once, so part k is the k-th stretch of the trace; on a DFA it is where accepted words go —
@@ -137,35 +109,26 @@ def accepted_run_weights(
         a.append(torch.zeros(n, device=share.device).index_add_(0, dst, a[-1][src] * prob))
         b.append(torch.zeros(n, device=share.device).index_add_(0, src, b[-1][dst] * prob))
     a_t, b_t = torch.stack(a), torch.stack(b)
-    span = span or max(hops // 2, 1)
-    parts = bins + 2 * anchors
-    out = torch.zeros(length_ranges * parts, n, device=share.device)
+    out = torch.zeros(bins, n, device=share.device)
     for length in range(1, hops // 2 + 1):
         h = 2 * length
         z = b_t[h, start]  # [graphs]: accepted mass at this length
         occupancy = a_t[: h + 1] * b_t[: h + 1].flip(0)  # [h + 1, n]
-        per_part = _part_matrix(h, bins, anchors, share.device) @ occupancy  # [parts, n]
+        per_part = _part_matrix(h, bins, share.device) @ occupancy  # [bins, n]
         ok = (z > 0) & (length <= limit)
-        first = min(length_ranges - 1, (length - 1) * length_ranges // span) * parts
-        out[first : first + parts] += torch.where(
-            ok[graph_of], per_part / torch.where(ok, z, 1.0)[graph_of], 0.0
-        )
+        out += torch.where(ok[graph_of], per_part / torch.where(ok, z, 1.0)[graph_of], 0.0)
     # each part sums to 1 per graph (or 0 where the graph never reaches it)
     total = torch.zeros(len(out), graphs, device=share.device).index_add_(1, graph_of, out)
     return out / total.clamp(min=1e-12)[:, graph_of]
 
 
-def _part_matrix(hops: int, bins: int, anchors: int, device: torch.device) -> torch.Tensor:
-    """[bins + 2 anchors, hops + 1]: which parts each node of a run of `hops` hops counts into
-    (`accepted_run_weights`): the i-th of its hops + 1 nodes into relative part
-    floor(bins * i / (hops + 1)), and, for the anchored parts, into letter i // 2 from the start
-    and letter (hops - i) // 2 from the end where those are below `anchors`."""
+def _part_matrix(hops: int, bins: int, device: torch.device) -> torch.Tensor:
+    """[bins, hops + 1]: which part each node of a run of `hops` hops counts into
+    (`accepted_run_weights`): the i-th of its hops + 1 nodes into part
+    floor(bins * i / (hops + 1))."""
     i = torch.arange(hops + 1, device=device)
-    m = torch.zeros(bins + 2 * anchors, hops + 1, device=device)
+    m = torch.zeros(bins, hops + 1, device=device)
     m[(i * bins) // (hops + 1), i] = 1.0
-    for part, k in ((bins, i // 2), (bins + anchors, (hops - i) // 2)):
-        near = (k < anchors) & (i < hops if part == bins else i > 0)
-        m[part + k[near], i[near]] = 1.0
     return m
 
 
@@ -176,7 +139,24 @@ def walk_weights(edge_index: torch.Tensor, start: torch.Tensor, num_nodes: int, 
 
 
 class AutomatonEncoder(nn.Module):
-    """q_m: expanded DFA graph or trace chain, with edge-node vectors, -> R^out_dim."""
+    """q_m: expanded DFA graph or trace chain, with edge-node vectors, -> R^out_dim.
+
+    Args:
+        edge_dim: width of the edge nodes' vectors (q_e's output).
+        hidden: width of every layer.
+        layers: message-passing layers.
+        out_dim: width of the output vector.
+        steps: random-walk steps of the `walk` and `steps` readouts.
+        directed: messages along and against the arcs through separate weights (else one
+            GCNConv over the arcs taken both ways, the paper's).
+        readout: `walk`, `steps`, `accept` or `runs` (module docstring).
+        bins: parts of a run, each with its own projection (`accept` / `runs`).
+        max_length: the longest run of a DFA counted (a trace chain is read whole).
+        probes: learned probe automata read along the runs (`probes.ProbeBank`); 0: none.
+        monitors: atom slots of the fixed temporal monitors (`logic.monitors.MonitorBank`)
+            whose shares the graphs carry; 0: none.
+        monitor_ranges: ranges of word length the monitors' shares are kept apart in.
+    """
 
     def __init__(
         self,
@@ -187,56 +167,29 @@ class AutomatonEncoder(nn.Module):
         steps: int = 24,
         directed: bool = False,
         readout: str = "walk",
-        norm: bool = False,
         bins: int = 1,
         max_length: int = 12,
-        residual: bool = False,
-        length_ranges: int = 1,
-        jumping: bool = False,
-        anchors: int = 0,
-        conv: str = "gcn",
-        head: str = "linear",
         probes: int = 0,
-        probe_states: int = 4,
-        probe_mix: int = 0,
         monitors: int = 0,
         monitor_ranges: int = 1,
     ) -> None:
         super().__init__()
-        for name, value, allowed in (
-            ("readout", readout, READOUTS),
-            ("conv", conv, CONVS),
-            ("head", head, HEADS),
-        ):
-            if value not in allowed:
-                raise SettingError(name, f"must be one of {allowed}, not {value!r}")
+        if readout not in READOUTS:
+            raise SettingError("readout", f"must be one of {READOUTS}, not {readout!r}")
         dims = [KINDS + FLAGS + edge_dim] + [hidden] * layers
-        layer = GCNConv if conv == "gcn" else GraphConv
-        self.convs = nn.ModuleList(layer(a, b) for a, b in itertools.pairwise(dims))
+        self.convs = nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims))
         self.back = (
-            nn.ModuleList(layer(a, b) for a, b in itertools.pairwise(dims)) if directed else None
+            nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims)) if directed else None
         )
-        # `norm`: edge-node vectors standardised with statistics of the training graphs (q_e's
-        # vectors share a large common component, so otherwise every graph starts at nearly the
-        # same point), and a LayerNorm after every layer. Both act per node, so training and
-        # inference compute the same function.
-        if norm:
-            self.register_buffer("edge_mean", torch.zeros(edge_dim))
-            self.register_buffer("edge_std", torch.ones(edge_dim))
-        self.norms = nn.ModuleList(nn.LayerNorm(hidden) for _ in range(layers)) if norm else None
-        runs = (bins + 2 * anchors) * length_ranges
-        parts = {"walk": 1, "steps": steps + 1, "accept": runs, "runs": 2 * runs}[readout]
-        # `jumping`: the readout sees every layer's node vectors side by side, the input too
-        # (PyG's JumpingKnowledge "cat"), not only the last layer's
-        self.jumping = JumpingKnowledge("cat") if jumping else None
-        width = (dims[0] + hidden * layers if jumping else hidden) * parts
+        parts = {"walk": 1, "steps": steps + 1, "accept": bins, "runs": 2 * bins}[readout]
+        width = hidden * parts
         # `probes` M > 0 (run readouts only): M probe automata read along the same runs
         # (probes.ProbeBank), their features beside the nodes' parts
         self.probes = None
         if probes > 0:
             if readout not in RUN_READOUTS:
                 raise SettingError("probes", f"need an accept/runs readout, not {readout!r}")
-            self.probes = ProbeBank(edge_dim, probes, probe_states, bins, max_length, probe_mix)
+            self.probes = ProbeBank(edge_dim, probes, PROBE_STATES, bins, max_length)
             width += self.probes.width * (2 if readout == "runs" else 1)
         # `monitors` K > 0: fixed temporal monitors over the first K atoms (logic/monitors.py);
         # the graphs carry their features (`monitor`, [graphs, 2 R F]: accepted, rejected words),
@@ -249,20 +202,11 @@ class AutomatonEncoder(nn.Module):
             ends = 2 if readout == "runs" else 1
             self.monitor_width = self.monitor_bank.features * ends
             width += self.monitor_width
-        self.head = (
-            nn.Linear(width, out_dim)
-            if head == "linear"
-            else nn.Sequential(
-                nn.Linear(width, 2 * out_dim), nn.ReLU(), nn.Linear(2 * out_dim, out_dim)
-            )
-        )
+        self.head = nn.Linear(width, out_dim)
         self.steps = steps
         self.readout = readout
         self.bins = bins
         self.max_length = max_length
-        self.length_ranges = length_ranges
-        self.anchors = anchors
-        self.residual = residual
         self._chains: dict[int, torch.Tensor] = {}  # trace length -> its chain's run weights
 
     def chain_run_weights(self, lengths: list[int]) -> torch.Tensor:
@@ -292,9 +236,6 @@ class AutomatonEncoder(nn.Module):
                     batch.batch,
                     limit,
                     self.bins,
-                    self.length_ranges,
-                    self.max_length,
-                    self.anchors,
                 )
                 for e in ends
             ]
@@ -304,33 +245,16 @@ class AutomatonEncoder(nn.Module):
         """Where the readout's runs end: accepting states, and for `runs` the rejecting ones."""
         return [batch.flags[:, 1]] + ([batch.rejecting] if self.readout == "runs" else [])
 
-    def set_edge_statistics(self, edge_vectors: torch.Tensor) -> None:
-        """Standardise edge-node vectors like these (rows: the training graphs' edge nodes)."""
-        self.edge_mean.copy_(edge_vectors.mean(dim=0))
-        self.edge_std.copy_(edge_vectors.std(dim=0).clamp(min=1e-6))
-
     def forward(self, batch) -> torch.Tensor:
         kinds = nn.functional.one_hot(batch.node_kind, KINDS).float()
-        edge_vec = batch.edge_vec
-        if self.norms is not None:
-            on_edges = (batch.node_kind == EDGE).unsqueeze(1)
-            edge_vec = torch.where(on_edges, (edge_vec - self.edge_mean) / self.edge_std, 0.0)
-        x = torch.cat([kinds, batch.flags, edge_vec], dim=1)
+        x = torch.cat([kinds, batch.flags, batch.edge_vec], dim=1)
         arcs = batch.edge_index
         both = to_undirected(arcs, num_nodes=x.shape[0]) if self.back is None else None
-        seen = [x]
         for layer, conv in enumerate(self.convs):
             if self.back is None:
-                y = conv(x, both)
+                x = torch.relu(conv(x, both))
             else:
-                y = conv(x, arcs) + self.back[layer](x, arcs.flip(0))
-            if self.norms is not None:
-                y = self.norms[layer](y)
-            y = torch.relu(y)
-            x = x + y if self.residual and layer > 0 else y
-            seen.append(x)
-        if self.jumping is not None:
-            x = self.jumping(seen)
+                x = torch.relu(conv(x, arcs) + self.back[layer](x, arcs.flip(0)))
         start = batch.ptr[:-1] + batch.initial
         graphs = int(batch.ptr.numel() - 1)
         if self.readout in RUN_READOUTS:

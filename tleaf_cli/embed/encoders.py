@@ -24,8 +24,8 @@ from torch_geometric.utils import to_undirected
 
 from tleaf_cli.embed.graphs import PROP_TYPES
 from tleaf_cli.errors import SettingError
+from tleaf_cli.settings.edge import ATOM_FEATURE_KINDS
 
-ATOM_FEATURE_KINDS = ("onehot", "random", "text")
 TEXT_EXTRA_HINT = "text needs the optional extra: pip install 'tleaf[text]'"
 
 

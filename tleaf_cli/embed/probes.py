@@ -1,5 +1,5 @@
 """Probe automata: a readout that describes a language by where its words lead small learned
-automata (issue 13).
+automata.
 
 A bank of M soft automata ("probes") with S states each reads words letter by letter:
 
@@ -30,18 +30,6 @@ On an edge node of a DFA the transition is taken on its guard's vector q_e(guard
 share(guard): the letters it reads stand in for one averaged letter. That is exact for a trace
 chain (its edge nodes carry the letters) and an approximation on DFAs (the probes read a guard as
 a letter; q_e places guards among the letters they accept).
-
-A mean of state distributions cannot tell "a and b, or neither" from "a or b, not both": both
-put probe states of a and of b at about one half (issue 13: formulas with `<->` rank worst).
-With `mix` H > 0 the bank also returns a mixture read through a small network g (shared by
-formulas and traces):
-
-    ν(A) = mean over lengths T  Σ_{u in ends} P(end at u | accepted at T) · g( E[φ_T | end at u] )
-
-the distribution after the last letter conditioned on the state the run ends in, mapped by g
-before it is averaged. The end state of a minimal DFA tells the branches of an equivalence
-apart, and g is nonlinear, so the mixture keeps what the mean loses. A trace chain has one end
-state: ν(w) = g(φ_T(w)).
 """
 
 from __future__ import annotations
@@ -63,14 +51,12 @@ class ProbeBank(nn.Module):
         states: S, the states of each.
         bins: B, equal parts of a run's positions, each averaged on its own.
         max_length: the longest run of a DFA counted (a trace chain is read to its end).
-        mix: H, the width of the end-state mixture ν read through g (a two-layer ReLU network
-            M · S → H → H); 0: none.
 
     `forward(batch, ends, edge_vec)` returns, for each set of end states in the list `ends`
     (accepting states: accepted words; rejecting ones: rejected words), [graphs, `width`] side by
-    side, `width` = (B + 1) · M · S (+ H): for each part and after the last letter, each probe's
+    side, `width` = (B + 1) · M · S: for each part and after the last letter, each probe's
     state distribution in expectation over the runs that end there, averaged over the lengths at
-    which the graph has such runs (then ν); zeros for a graph that has none.
+    which the graph has such runs; zeros for a graph that has none.
     """
 
     def __init__(
@@ -80,16 +66,9 @@ class ProbeBank(nn.Module):
         states: int = 4,
         bins: int = 5,
         max_length: int = 12,
-        mix: int = 0,
     ) -> None:
         super().__init__()
         self.probes, self.states, self.bins, self.max_length = probes, states, bins, max_length
-        self.mix = mix
-        self.g = (
-            nn.Sequential(nn.Linear(probes * states, mix), nn.ReLU(), nn.Linear(mix, mix))
-            if mix > 0
-            else None
-        )
         self.transition = nn.Linear(edge_dim, probes * states * states)
         self.start = nn.Parameter(torch.zeros(probes, states))
         with torch.no_grad():  # start near "stay put" so long words do not blur to the mean
@@ -99,7 +78,7 @@ class ProbeBank(nn.Module):
 
     @property
     def width(self) -> int:
-        return (self.bins + 1) * self.probes * self.states + self.mix
+        return (self.bins + 1) * self.probes * self.states
 
     def forward(self, batch, ends: Sequence[torch.Tensor], edge_vec: torch.Tensor) -> torch.Tensor:
         """[graphs, len(ends) · width]: the features for each set of end states in `ends`, side
@@ -162,7 +141,6 @@ class ProbeBank(nn.Module):
         parts = self.bins + 1
         total = torch.zeros(graphs, parts, m, s, device=device)
         counted = torch.zeros(graphs, device=device)
-        mixed = torch.zeros(graphs, self.mix, device=device)
         for length in range(1, letters + 1):
             z = at_start[length]  # accepted mass at this length, per graph
             ok = (z > 0) & (length <= limit)
@@ -182,16 +160,4 @@ class ProbeBank(nn.Module):
             per_part = per_part / z[graph_of[keep]].view(-1, 1, 1, 1)
             total = total.index_add(0, graph_of[keep], per_part)
             counted = counted + ok.float()
-            if self.g is not None:  # ν: per end state, g of the conditioned distribution
-                last = occ[length]  # [kept states, m, s]; nonzero on end states only
-                mass = last[:, 0].sum(dim=-1)  # each probe's row sums to the state's mass
-                end = torch.nonzero(mass > 0).flatten()
-                cond = last[end] / mass[end].view(-1, 1, 1)
-                share = mass[end] / z[graph_of[keep[end]]]
-                mixed = mixed.index_add(
-                    0, graph_of[keep[end]], share.unsqueeze(1) * self.g(cond.flatten(1))
-                )
-        out = (total / counted.clamp(min=1).view(-1, 1, 1, 1)).reshape(graphs, -1)
-        if self.g is None:
-            return out
-        return torch.cat([out, mixed / counted.clamp(min=1).unsqueeze(1)], dim=1)
+        return (total / counted.clamp(min=1).view(-1, 1, 1, 1)).reshape(graphs, -1)

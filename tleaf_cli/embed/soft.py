@@ -15,7 +15,9 @@ exactly the discrete letter's vector when P_t is one-hot, and differentiable in 
 from __future__ import annotations
 
 import itertools
+import json
 from collections.abc import Collection, Sequence
+from dataclasses import asdict
 from pathlib import Path
 
 import torch
@@ -33,12 +35,13 @@ from tleaf_cli.embed.meta_data import (
 )
 from tleaf_cli.embed.soft_monitors import monitor_classes, soft_monitor_features
 from tleaf_cli.embed.train_edge import load_edge_model
-from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, build_model
+from tleaf_cli.embed.train_meta import TripletEmbedder, build_model
 from tleaf_cli.embed.training import read_model_config
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
+from tleaf_cli.settings.meta import recommended_lambda, settings_from_config
 
 
 class Embedder:
@@ -55,6 +58,12 @@ class Embedder:
     @property
     def kind(self) -> str:
         return self.config["settings"]["embedder"]
+
+    @property
+    def recommended_lambda(self) -> float:
+        """The tleaf loss's λ that fits this q (`train_meta.recommended_lambda`): the loss term
+        is then about 1 at q's own satisfy/violate boundary."""
+        return float(self.config["recommended_lambda"])
 
     def embed_formula_rows(self, rows: Sequence[dict], batch: int = 256) -> torch.Tensor:
         """[len(rows), d] for compiled dfas.parquet rows: their DFA (q_m) or parse tree."""
@@ -255,10 +264,25 @@ def load_embedder(model_dir: str | Path) -> Embedder:
     """A trained meta embedder directory (with its edge model) as an `Embedder`."""
     model_dir = Path(model_dir)
     config = read_model_config(model_dir, "meta-embedder")
+    settings = settings_from_config(config, model_dir / "config.json")
+    if "recommended_lambda" not in config:  # written before q carried its λ: from its metrics
+        config["recommended_lambda"] = _lambda_from_metrics(model_dir)
+    config["settings"] = asdict(settings)
     edge_model, edge_config = load_edge_model(edge_model_dir(model_dir, config))
     vectors = GuardVectors(edge_model, edge_config["vocabulary"])
-    model = build_model(MetaSettings(**config["settings"]), vectors.dim, edge_model.atom_table)
+    model = build_model(settings, vectors.dim, edge_model.atom_table)
     model.load_state_dict(
         torch.load(model_dir / "weights.pt", map_location="cpu", weights_only=True)
     )
     return Embedder(model, vectors, config)
+
+
+def _lambda_from_metrics(model_dir: Path) -> float:
+    """`recommended_lambda` of a model folder written before config.json carried it, from the
+    test split's distances its metrics.json records."""
+    path = model_dir / "metrics.json"
+    try:
+        test = json.loads(path.read_text())["test"]
+        return recommended_lambda(test)
+    except (OSError, ValueError, KeyError) as e:
+        raise InputError(f"{path}: cannot read q's distances to choose its λ ({e})") from None

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -31,26 +31,8 @@ from tleaf_cli.embed.encoders import PropositionEncoder, atom_features, triplet_
 from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit, read_model_config
 from tleaf_cli.embed.triplets import SCORE, EpochReport, reporting, triplet_step
 from tleaf_cli.errors import InputError
-
-
-@dataclass(frozen=True)
-class EdgeSettings:
-    atom_features: str = "onehot"
-    feature_dim: int = 64  # for random features
-    hidden: int = 256
-    layers: int = 2
-    out_dim: int = 100
-    margin: float = 1.0
-    lr: float = 1e-3
-    batch_size: int = 128
-    epochs: int = 30
-    patience: int = 5  # epochs without a better held-out accuracy before stopping
-    per_guard: int = 4  # triplets per guard
-    random_guards: int = 2  # random CNFs per formula, besides its guards
-    holdout: float = 0.2  # share of formulas held out
-    seed: int = 0
-    device: str = "cpu"
-    max_minutes: float | None = None
+from tleaf_cli.settings import check_values
+from tleaf_cli.settings.edge import EdgeSettings
 
 
 def train_edge(
@@ -61,6 +43,7 @@ def train_edge(
     on_epoch: Callable[[EpochReport], None] | None = None,
 ) -> dict:
     out_dir = Path(out_dir)
+    check_values(settings)
     torch.manual_seed(settings.seed)
     rng = np.random.default_rng(settings.seed)
     device = device_for(settings.device)

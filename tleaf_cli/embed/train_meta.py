@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 from collections import defaultdict
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
 
 import torch
@@ -27,10 +27,10 @@ from torch_geometric.data import Batch
 from tleaf_cli.data.artifacts import describe_inputs, relative_to, write_text_atomic
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
-from tleaf_cli.embed.automaton import READOUTS, RUN_READOUTS, AutomatonEncoder
+from tleaf_cli.embed.automaton import AutomatonEncoder
 from tleaf_cli.embed.encoders import RadiusClassifier, anchor_pull, triplet_accuracy
 from tleaf_cli.embed.evidence import MonitorEvidence, chain_lengths
-from tleaf_cli.embed.graphs import EDGE, syntax_graph
+from tleaf_cli.embed.graphs import syntax_graph
 from tleaf_cli.embed.meta_data import (
     GuardVectors,
     chain_batch,
@@ -44,58 +44,20 @@ from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit
 from tleaf_cli.embed.triplets import SCORE, EpochReport, reporting, triplet_step
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.formulas import parse
+from tleaf_cli.settings import check_values
+from tleaf_cli.settings.meta import (
+    RUN_READOUTS,
+    SETTINGS_VERSION,
+    MetaSettings,
+    recommended_lambda,
+)
 
-EMBEDDERS = ("dfa", "syntax")
 GROUP = 4  # triplets of one formula that share its embedding within a batch
-
-
-@dataclass(frozen=True)
-class MetaSettings:
-    embedder: str = "dfa"
-    hidden: int = 100
-    layers: int = 4
-    out_dim: int = 200
-    steps: int = 24  # random-walk steps of the readout
-    readout: str = "walk"  # walk: expected visits; steps: one projection per walk step;
-    # accept: where accepted runs go (automaton.accepted_run_weights); runs: and rejected runs
-    bins: int = 1  # accept/runs readouts: parts of a run, each with its own projection
-    max_length: int = 12  # accept/runs readouts: longest run of a DFA counted (traces: whole)
-    length_ranges: int = 1  # accept/runs readouts: runs of this many length ranges kept apart
-    anchors: int = 0  # accept/runs readouts: parts for the first and last this-many letters
-    conv: str = "gcn"  # message-passing layer: gcn (GCNConv) or graph (GraphConv)
-    head: str = "linear"  # readout to vector: linear, or mlp (one hidden ReLU layer)
-    probes: int = 0  # accept/runs readouts: probe automata read along the runs (probes.py)
-    probe_states: int = 4  # states of each probe automaton
-    probe_mix: int = 0  # probes: width of the end-state mixture through g (probes.py; 0: none)
-    monitors: int = 0  # fixed temporal monitors over this many atom slots (logic/monitors.py)
-    monitor_ranges: int = 1  # monitors: ranges of word length kept apart
-    evidence: bool = False  # monitors: their naive-Bayes block beside the vector (evidence.py)
-    evidence_scale: float = 32.0  # evidence: the block's γ² at the start
-    jumping: bool = False  # readouts over every layer's node vectors, the input's too
-    residual: bool = False  # each layer after the first adds to its input
-    directed: bool = False  # messages forwards and backwards through separate weights
-    norm: bool = False  # standardised edge vectors and LayerNorm
-    pair_weight: float = 0.0  # weight of the auxiliary pair classifier's loss (0: none)
-    pull: float = 0.0  # weight of mean d(formula, satisfying trace) (encoders.anchor_pull)
-    radius_weight: float = 0.0  # weight of the one-radius loss (encoders.RadiusClassifier)
-    sphere: bool = False  # vectors scaled to unit length (TripletEmbedder)
-    margin: float = 1.0
-    lr: float = 1e-3
-    schedule: str = "constant"  # or "cosine" over `epochs` (training.SCHEDULES)
-    batch_size: int = 64
-    epochs: int = 30
-    patience: int = 5
-    seed: int = 0
-    device: str = "cpu"
-    max_minutes: float | None = None
 
 
 class TripletEmbedder(nn.Module):
     """A formula encoder and a trace encoder into one space (the same module for q_m).
 
-    With `pair_head`, training also fits a classifier of (z_formula, z_trace) -> satisfies
-    (binary cross-entropy on each triplet's two pairs), so the vectors must carry what decides
-    satisfaction and not only an ordering of distances; the head is kept but not used after.
     With `radius`, training also fits one radius for all formulas (`RadiusClassifier`).
 
     With `evidence` (a `MonitorEvidence`), each vector is followed by the monitors' naive-Bayes
@@ -103,15 +65,14 @@ class TripletEmbedder(nn.Module):
 
     With `sphere`, every vector is scaled to unit length, so squared distances lie in [0, 4].
     Without it the triplet loss on squared distances can be lowered by stretching the whole
-    space; on the sphere the margin has a fixed meaning. (Measured on Low: no change in
-    accuracy, docs/embedder.md.)
+    space; on the sphere the margin has a fixed meaning. With `evidence`, only the learned part
+    is scaled: its squared distance (at most 4) then cannot blur the block's boundary.
     """
 
     def __init__(
         self,
         formula: nn.Module,
         trace: nn.Module,
-        pair_head: nn.Module | None = None,
         radius: RadiusClassifier | None = None,
         sphere: bool = False,
         evidence: MonitorEvidence | None = None,
@@ -121,16 +82,7 @@ class TripletEmbedder(nn.Module):
         self.evidence = evidence
         self.formula = formula
         self.trace = trace
-        self.pair_head = pair_head
         self.radius = radius
-
-    def pair_loss(self, triplet) -> torch.Tensor:
-        anchor, pos, neg = triplet
-        logits = self.pair_head(
-            torch.cat([torch.cat([anchor, pos], dim=1), torch.cat([anchor, neg], dim=1)])
-        ).squeeze(1)
-        target = torch.cat([torch.ones(len(anchor)), torch.zeros(len(anchor))]).to(logits)
-        return nn.functional.binary_cross_entropy_with_logits(logits, target)
 
     def _out(self, z: torch.Tensor) -> torch.Tensor:
         return nn.functional.normalize(z, dim=-1) if self.sphere else z
@@ -150,46 +102,35 @@ class TripletEmbedder(nn.Module):
 
 
 def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor) -> TripletEmbedder:
+    """q_m (or the syntax baseline) for resolved `settings` (`MetaSettings.resolved`)."""
+    if settings.monitors is None or settings.evidence is None or settings.sphere is None:
+        raise SettingError("monitors", "resolve the settings first (MetaSettings.resolved)")
+    settings.check()
     trace = AutomatonEncoder(
         edge_dim,
-        settings.hidden,
-        settings.layers,
-        settings.out_dim,
-        settings.steps,
-        settings.directed,
-        settings.readout,
-        settings.norm,
-        settings.bins,
-        settings.max_length,
-        settings.residual,
-        settings.length_ranges,
-        settings.jumping,
-        settings.anchors,
-        settings.conv,
-        settings.head,
-        settings.probes,
-        settings.probe_states,
-        settings.probe_mix,
-        settings.monitors,
-        settings.monitor_ranges,
+        hidden=settings.hidden,
+        layers=settings.layers,
+        out_dim=settings.out_dim,
+        steps=settings.steps,
+        directed=settings.directed,
+        readout=settings.readout,
+        bins=settings.bins,
+        max_length=settings.max_length,
+        probes=settings.probes,
+        monitors=settings.monitors,
+        monitor_ranges=settings.monitor_ranges,
     )
     evidence = None
     radius_at = settings.margin
     if settings.evidence:
-        if trace.monitor_bank is None or settings.readout != "runs" or settings.embedder != "dfa":
-            raise SettingError("evidence", "needs the dfa embedder, monitors and the runs readout")
         evidence = MonitorEvidence(trace.monitor_bank, settings.evidence_scale)
         # the block's distances lie about 2γ² (its boundary), and Adam moves r slowly
         radius_at += evidence.boundary
-    head = None
-    if settings.pair_weight > 0:
-        d = settings.out_dim + (evidence.dim if evidence is not None else 0)
-        head = nn.Sequential(nn.Linear(2 * d, 256), nn.ReLU(), nn.Linear(256, 1))
     radius = RadiusClassifier(radius_at) if settings.radius_weight > 0 else None
     if settings.embedder == "dfa":
-        return TripletEmbedder(trace, trace, head, radius, settings.sphere, evidence)
+        return TripletEmbedder(trace, trace, radius, settings.sphere, evidence)
     formula = SyntaxEncoder(atom_table, settings.hidden, settings.layers, settings.out_dim)
-    return TripletEmbedder(formula, trace, head, radius, settings.sphere)
+    return TripletEmbedder(formula, trace, radius, settings.sphere)
 
 
 def store_run_weights(encoder: AutomatonEncoder, graphs: list, batch: int = 512) -> None:
@@ -213,13 +154,7 @@ def train_meta(
     on_epoch: Callable[[EpochReport], None] | None = None,
 ) -> dict:
     out_dir = Path(out_dir)
-    for name, value, allowed in (
-        ("embedder", settings.embedder, EMBEDDERS),
-        ("readout", settings.readout, READOUTS),
-    ):
-        if value not in allowed:
-            raise SettingError(name, f"must be one of {', '.join(allowed)}, not '{value}'")
-    loop = LoopSettings.of(settings)  # SettingError for an unknown schedule
+    check_values(settings)
     torch.manual_seed(settings.seed)
     device = device_for(settings.device)
 
@@ -229,6 +164,9 @@ def train_meta(
     vocab_index = {a: i for i, a in enumerate(edge_config["vocabulary"])}
     rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
     traces = read_traces(traces_path)
+    # the automatic choices (monitor slots, evidence, sphere) made for these formulas
+    settings = settings.resolved(max((len(r["atoms"]) for r in rows.values()), default=0))
+    loop = LoopSettings.of(settings)
     model = build_model(settings, vectors.dim, edge_model.atom_table)
     monitors = model.trace.monitor_bank
     if "split" not in traces.column_names:
@@ -273,16 +211,6 @@ def train_meta(
         raise InputError(f"{traces_path}: needs satisfying and violating traces in train and val")
 
     # ---- model and the shared triplet loop
-    if settings.norm:
-        seen = [
-            x for sides in by_split["train"].values() for (x, _), _ in sides[True] + sides[False]
-        ]
-        if settings.embedder == "dfa":
-            seen += [
-                formula_graphs[f].edge_vec[formula_graphs[f].node_kind == EDGE]
-                for f in train_formulas
-            ]
-        model.trace.set_edge_statistics(torch.cat(seen))
     if settings.readout in RUN_READOUTS and settings.embedder == "dfa":
         store_run_weights(model.trace, list(formula_graphs.values()))  # once per graph
     model = model.to(device)
@@ -341,8 +269,6 @@ def train_meta(
 
     def extra_loss(triplet) -> torch.Tensor:
         loss = anchor_pull(triplet[0], triplet[1]) * settings.pull
-        if settings.pair_weight:
-            loss = loss + settings.pair_weight * model.pair_loss(triplet)
         if settings.radius_weight:
             loss = loss + settings.radius_weight * model.radius.loss(*triplet)
         return loss
@@ -354,7 +280,7 @@ def train_meta(
         triplet_step(
             embed,
             settings.margin,
-            extra_loss if settings.pair_weight or settings.pull or settings.radius_weight else None,
+            extra_loss if settings.pull or settings.radius_weight else None,
         ),
         lambda: scores(val)["accuracy"],
         loop,
@@ -377,11 +303,20 @@ def train_meta(
             "satisfying_distance": figures["satisfying_distance"],
             "violating_distance": figures["violating_distance"],
         }
+        # q's own satisfy/violate boundary, on val: what the tleaf loss's λ is measured against
+        figures = scores(val)
+        metrics["val"] = {
+            "triplet_accuracy": figures["accuracy"],
+            "satisfying_distance": figures["satisfying_distance"],
+            "violating_distance": figures["violating_distance"],
+        }
 
     # ---- the model directory
     config = {
         "kind": "meta-embedder",
+        "settings_version": SETTINGS_VERSION,
         "settings": asdict(settings),
+        "recommended_lambda": recommended_lambda(metrics["val"]),
         # both: relative to this folder, so that moving a whole tree (out/...) keeps it loadable,
         # and absolute, so that this folder copied alone still finds its edge model
         "edge_model": str(Path(edge_dir).resolve()),

@@ -37,9 +37,10 @@ import torch
 
 from tleaf_cli.data.artifacts import atomic_path
 from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.settings import SCHEDULES
 
 B = TypeVar("B")  # a trainer's batch
-SCHEDULES = ("constant", "cosine")
+
 CHECKPOINT = "checkpoint.pt"
 WEIGHTS = "weights.pt"
 
@@ -57,7 +58,7 @@ class LoopSettings:
     """Every setting of the loop."""
 
     epochs: int  # most epochs (a resumed run counts the epochs before it)
-    patience: int  # epochs without a better score before stopping
+    patience: int | None  # epochs without a better score before stopping (None: never)
     lr: float  # Adam's learning rate
     seed: int  # the batches' order (and nothing else: the trainer seeds torch itself)
     max_minutes: float | None = None  # stop after the epoch that passes this budget
@@ -65,7 +66,7 @@ class LoopSettings:
 
     def __post_init__(self) -> None:
         for name in ("epochs", "patience"):
-            if getattr(self, name) < 1:
+            if getattr(self, name) is not None and getattr(self, name) < 1:
                 raise SettingError(name, f"must be at least 1, not {getattr(self, name)}")
         if self.schedule not in SCHEDULES:
             choices = ", ".join(SCHEDULES)
@@ -121,7 +122,7 @@ def fit(
         over_budget = settings.max_minutes is not None and (
             time.perf_counter() - start > 60 * settings.max_minutes
         )
-        if stale >= settings.patience or over_budget:
+        if (settings.patience is not None and stale >= settings.patience) or over_budget:
             break
         generator = torch.Generator().manual_seed(settings.seed * 100_003 + epoch)
         model.train()

@@ -28,12 +28,11 @@ from tleaf_cli.losses.checker import checker_loss
 from tleaf_cli.losses.exact import exact_loss
 from tleaf_cli.losses.packed import letter_log_probs, pack_rows, rules_per_sequence
 from tleaf_cli.losses.tleaf import tleaf_loss
+from tleaf_cli.settings import LOGIC_LOSSES  # noqa: F401  (re-exported: a trainer's losses)
 
 LossKind = Literal["exact", "tleaf", "checker"]
 LOSS_KINDS: tuple[LossKind, ...] = ("exact", "tleaf", "checker")
 REDUCTIONS = ("mean", "sum", "none")
-# What a task's trainer offers: the reference (no logic loss) or one of the kinds.
-LOGIC_LOSSES = ("none", "tleaf", "checker", "exact")
 
 
 def logic_loss(

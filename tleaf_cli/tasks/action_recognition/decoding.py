@@ -20,8 +20,6 @@ import torch
 from tleaf_cli.data.rule_set import KnowledgeRuleSets
 from tleaf_cli.decode import constrained_decode
 
-DECODINGS = ("argmax", "constrained")  # test-time decoding of `train-task action-recognition`
-
 
 def candidate_pairs(log_pairs: torch.Tensor, length: int, top_k: int) -> set[int]:
     """The `top_k` pair indices with the highest log-probability at some step < `length`."""

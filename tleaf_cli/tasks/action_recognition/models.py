@@ -19,8 +19,7 @@ from torch import nn
 from torch.nn.utils.rnn import pack_padded_sequence, pad_packed_sequence
 
 from tleaf_cli.errors import SettingError
-
-MODELS = ("lstm", "tcn")
+from tleaf_cli.settings.action_recognition import MODELS
 
 
 def _mask(x: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:

@@ -34,7 +34,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -43,58 +43,26 @@ from torch.nn import functional as F
 
 from tleaf_cli.data.activities import UNLABELLED, Activities, Video, read_activities
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_to, write_text_atomic
-from tleaf_cli.data.knowledge import RULE_SET_SPLITS, read_knowledge_base
+from tleaf_cli.data.knowledge import read_knowledge_base
 from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
 from tleaf_cli.embed.soft import Embedder, load_embedder
 from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.losses import (
-    LOGIC_LOSSES,
     logic_loss,
     pair_log_probs,
     pair_vocabulary,
     violates,
 )
-from tleaf_cli.tasks.action_recognition.decoding import DECODINGS, decode_pairs
-from tleaf_cli.tasks.action_recognition.models import MODELS, ActionRecognizer
+from tleaf_cli.settings.action_recognition import (  # noqa: F401  (TaskSettings re-exported)
+    EXACT_LAMBDA,
+    FORMULA_SOURCES,
+    TaskSettings,
+)
+from tleaf_cli.tasks.action_recognition.decoding import decode_pairs
+from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
 
-FORMULA_SOURCES = ("predictions", "labels")
 GRADIENT_LOSSES = ("tleaf", "exact")  # the losses unlabelled videos can teach through
-
-
-@dataclass(frozen=True)
-class TaskSettings:
-    model: str = "lstm"
-    logic_loss: str = "none"
-    lam: float = 5.0  # λ, the paper's value
-    formula_from: str = "predictions"
-    rule_sets: str = "video"
-    hidden: int = 128
-    head_hidden: int = 64
-    dropout: float = 0.2
-    lr: float = 1e-4  # the paper's
-    batch_size: int = 16
-    epochs: int = 60
-    patience: int = 10
-    seed: int = 0
-    unlabelled: bool = True
-    device: str = "cpu"
-    decode: str = "argmax"  # constrained: test videos also decoded under the KB's rules
-    decode_top_k: int = 5  # candidate pairs per video for constrained decoding (chosen on val)
-
-    def check(self) -> None:
-        """SettingError for a setting out of range."""
-        for name, value, allowed in (
-            ("model", self.model, MODELS),
-            ("logic_loss", self.logic_loss, LOGIC_LOSSES),
-            ("formula_from", self.formula_from, FORMULA_SOURCES),
-            ("rule_sets", self.rule_sets, RULE_SET_SPLITS),
-            ("decode", self.decode, DECODINGS),
-        ):
-            if value not in allowed:
-                raise SettingError(name, f"must be one of {', '.join(allowed)}, not '{value}'")
-        if self.decode_top_k < 1:
-            raise SettingError("decode_top_k", f"must be at least 1, not {self.decode_top_k}")
 
 
 @dataclass
@@ -239,6 +207,9 @@ def train_action_recognition(
         loss_rules = KnowledgeRuleSets(kb, vocabulary, set(embedder.vectors.index))
     else:
         loss_rules = checker_rules
+    if settings.lam is None:  # the λ that fits q (train-meta wrote it), or the exact loss's
+        lam = embedder.recommended_lambda if embedder is not None else EXACT_LAMBDA
+        settings = replace(settings, lam=lam)
     if settings.logic_loss != "none":
         loss_rules.prepare()  # every KB rule compiled once now: epochs only build their products
     objective = LogicObjective(settings, data, loss_rules, embedder)

@@ -27,7 +27,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import gymnasium as gym
@@ -49,8 +49,13 @@ from tleaf_cli.data.artifacts import (
     write_text_atomic,
 )
 from tleaf_cli.data.compile_dfas import CompileSettings
+from tleaf_cli.embed.training import device_for
 from tleaf_cli.errors import SettingError
-from tleaf_cli.losses import LOGIC_LOSSES
+from tleaf_cli.settings.gail import (  # noqa: F401  (GailSettings, LR_SCHEDULES: re-exported)
+    GAIL_LAMBDA,
+    LR_SCHEDULES,
+    GailSettings,
+)
 from tleaf_cli.tasks.cooking import ENV_ID
 from tleaf_cli.tasks.cooking.demo_episodes import DemoEpisode, read_demo_episodes
 from tleaf_cli.tasks.cooking.discriminator import (
@@ -67,65 +72,6 @@ from tleaf_cli.tasks.cooking.logic_term import (
 )
 from tleaf_cli.tasks.cooking.pools import expert_returns, held_out_pool
 from tleaf_cli.tasks.cooking.shield import ShieldedActions
-
-# PPO learning-rate schedules: constant, or linear from `lr` at the first update to 0 at the last
-LR_SCHEDULES = ("constant", "linear")
-
-
-@dataclass(frozen=True)
-class GailSettings:
-    """Everything a run depends on (written to config.json)."""
-
-    logic_loss: str = "none"  # none | tleaf | exact | checker
-    shield: bool = False  # act only among the actions the rules' shield allows (MaskablePPO)
-    lam: float = 1.0  # λ (the paper's value)
-    total_steps: int = 150_000  # environment steps
-    n_envs: int = 4
-    # PPO: 10 epochs of minibatches of 64 over 4 x 256 steps, no entropy bonus -- 160 gradient
-    # steps per rollout where SB3's 4 x 128 / 128 / 4 epochs gave 16 (docs/cooking.md)
-    n_steps: int = 256  # per environment per rollout
-    batch_size: int = 64
-    n_epochs: int = 10
-    target_kl: float | None = None  # SB3's: stop an update's epochs past 1.5 · target_kl
-    clip_range_vf: float | None = None  # SB3's: clip the value's change (None: unclipped)
-    lr: float = 1e-3
-    lr_schedule: str = "constant"  # constant | linear: PPO's lr falls linearly to 0 over the run
-    gamma: float = 0.99
-    ent_coef: float = 0.0
-    hidden: int = 64  # policy and value MLPs (two layers)
-    disc_hidden: int = 64
-    disc_lr: float = 1e-3
-    disc_steps: int = 4  # discriminator steps per rollout
-    disc_batch: int = 256  # expert and policy pairs per discriminator step
-    disc_gp: float = 1.0  # zero-centred gradient penalty on D's logit (discriminator.py)
-    reward: str = "log_d"  # log_d: log D(s, a); logit: log D − log(1 − D) (discriminator.py)
-    bc_steps: int = 0  # behaviour-cloning Adam steps on the demos before GAIL (0: none)
-    bc_lr: float = 1e-3
-    logic_episodes: int = 4  # rollout episodes in each minibatch's logic term
-    eval_every: int = 4096  # environment steps between evaluations
-    eval_episodes: int = 8
-    held_out: int = 8  # ingredient sets never demonstrated, evaluated too (pools.py); 0: none
-    seed: int = 0
-    device: str = "cpu"
-    threads: int = 1  # torch CPU threads
-    domain: Path = field(default=DEFAULT_DOMAIN)
-
-    def check(self) -> None:
-        if self.logic_loss not in LOGIC_LOSSES:
-            raise SettingError(
-                "logic_loss", f"must be one of {', '.join(LOGIC_LOSSES)}, not {self.logic_loss!r}"
-            )
-        if self.lr_schedule not in LR_SCHEDULES:
-            raise SettingError(
-                "lr_schedule",
-                f"must be one of {', '.join(LR_SCHEDULES)}, not {self.lr_schedule!r}",
-            )
-        if self.shield and self.logic_loss != "none":
-            raise SettingError("shield", "runs without a logic loss for now (logic_loss none)")
-        if self.device not in ("cpu", "cuda") or (
-            self.device == "cuda" and not torch.cuda.is_available()
-        ):
-            raise SettingError("device", f"{self.device!r}: expected cpu (or cuda where available)")
 
 
 def ppo_learning_rate(settings: GailSettings) -> float | Callable[[float], float]:
@@ -462,6 +408,8 @@ def train_gail(
 ) -> dict:
     """Train one GAIL run (a variant and a seed); write the run directory; return metrics."""
     settings.check()
+    device_for(settings.device)  # SettingError where cuda is asked for and absent
+    settings = replace(settings, domain=Path(settings.domain or DEFAULT_DOMAIN))
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
     if settings.logic_loss == "tleaf" and embedder_dir is None:
@@ -478,6 +426,9 @@ def train_gail(
         from tleaf_cli.embed.soft import load_embedder
 
         embedder = load_embedder(embedder_dir)
+    if settings.lam is None:  # the λ that fits q (train-meta wrote it), or the paper's
+        lam = embedder.recommended_lambda if embedder is not None else GAIL_LAMBDA
+        settings = replace(settings, lam=lam)
     knowledge = CookingKnowledge(domain, embedder, compile_settings)
     logic = LogicTerm(settings.logic_loss, knowledge) if settings.logic_loss != "none" else None
 

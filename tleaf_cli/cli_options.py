@@ -1,0 +1,193 @@
+"""Command-line options and docs rows built from settings dataclasses (`tleaf_cli.settings`).
+
+A training command declares only its own arguments (inputs, --out, --quiet, ...) and names
+the settings class it runs; `with_settings` adds one option per setting of that class, with the
+setting's help, bounds and values, its default shown as the default preset's value. The command
+then gets the values the user gave (`given`) and builds its settings from a preset plus those.
+`settings_table` writes the same options as the Markdown rows of docs/cli.md;
+`python -m tleaf_cli.cli_options docs/cli.md` rewrites every table between its markers, and a
+test checks that docs/cli.md is up to date.
+
+Only the command line knows flags: a setting's flag is `--` + its name with dashes, except where
+`FLAGS` says otherwise.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import sys
+import typing
+from dataclasses import Field, dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import typer
+
+from tleaf_cli.settings import default_of, options
+
+# The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
+FLAGS = {
+    "lam": "--lambda",  # `lambda` is a Python keyword
+    "n": "-n",
+    "total_steps": "--steps",  # train-task cooking
+    "n_envs": "--envs",
+    "n_steps": "--rollout",
+}
+
+
+def flag(setting: str) -> str:
+    """The flag that sets the library's `setting` (``logic_loss`` → ``--logic-loss``)."""
+    return FLAGS.get(setting, "--" + setting.replace("_", "-"))
+
+
+@dataclass(frozen=True)
+class SettingsCommand:
+    """Which settings a command exposes: the class, the fields it leaves out (set by the
+    command itself or not meaningful there), and the name docs/cli.md's table goes by."""
+
+    cls: type
+    name: str
+    exclude: tuple[str, ...] = ()
+
+    def fields(self) -> list[Field]:
+        return [f for f in options(self.cls) if f.name not in self.exclude]
+
+
+def _shown(value: Any) -> str:
+    if isinstance(value, bool):
+        return "on" if value else "off"
+    return str(value)
+
+
+def default_text(f: Field, cls: type) -> str:
+    """A setting's default as --help and the docs show it: the default preset's value, the
+    other presets' where they differ, and what an automatic (None) default means."""
+    value = default_of(f)
+    text = f.metadata["auto"] if value is None else _shown(value)
+    presets = getattr(cls, "PRESETS", {})
+    others = [
+        f"{name}: {_shown(values[f.name])}"
+        for name, values in list(presets.items())[1:]
+        if f.name in values and values[f.name] != value
+    ]
+    return "; ".join([text, *others])
+
+
+def _types(f: Field, cls: type) -> tuple[Any, bool]:
+    """A setting's type without None, and whether None is one of its values."""
+    kind = typing.get_type_hints(cls)[f.name]
+    args = [a for a in typing.get_args(kind) if a is not type(None)]
+    return (args[0] if args else kind), type(None) in typing.get_args(kind)
+
+
+def _annotation(f: Field, cls: type) -> Any:
+    """The typed, annotated parameter typer turns into this setting's option."""
+    base, optional = _types(f, cls)
+    meta = f.metadata
+    if meta["choices"] is not None:
+        base = Literal[meta["choices"]]
+    names = [flag(f.name)]
+    if base is bool:
+        names = [f"{flag(f.name)}/--no-{flag(f.name)[2:]}"]
+    option = typer.Option(
+        *names,
+        help=f"{meta['help']} \\[default: {default_text(f, cls)}]",
+        show_default=False,
+        min=meta["min"] if base in (int, float) else None,
+    )
+    return Annotated[base | None if optional else base, option]
+
+
+def with_settings(command: SettingsCommand):
+    """Decorate a command function that takes `**settings`: typer sees one keyword option per
+    setting of `command` (before the function's own `quiet`, if any), and the function receives
+    their values in `settings`."""
+
+    def decorate(func):
+        own = inspect.signature(func)
+        hints = typing.get_type_hints(func, include_extras=True)
+        keyword = inspect.Parameter.KEYWORD_ONLY  # click passes every parameter by name
+        params = [
+            p.replace(annotation=hints.get(p.name, p.annotation), kind=keyword)
+            for p in own.parameters.values()
+            if p.kind is not inspect.Parameter.VAR_KEYWORD
+        ]
+        added = [
+            inspect.Parameter(
+                f.name, keyword, default=default_of(f), annotation=_annotation(f, command.cls)
+            )
+            for f in command.fields()
+        ]
+        at = next((i for i, p in enumerate(params) if p.name == "quiet"), len(params))
+        params[at:at] = added
+
+        @functools.wraps(func)
+        def wrapper(*args, **kwargs):
+            return func(*args, **kwargs)
+
+        wrapper.__signature__ = own.replace(parameters=params)
+        wrapper.__annotations__ = {p.name: p.annotation for p in params} | {"return": None}
+        del wrapper.__wrapped__  # typer reads the signature above, not func's
+        return wrapper
+
+    return decorate
+
+
+def given(ctx: typer.Context, values: dict[str, Any]) -> dict[str, Any]:
+    """Of `values` (parameter name -> value), those the user gave on the command line."""
+    out = {}
+    for name, value in values.items():
+        source = ctx.get_parameter_source(name)
+        if source is not None and source.name in ("COMMANDLINE", "PROMPT", "ENVIRONMENT"):
+            out[name] = value
+    return out
+
+
+# ---- docs/cli.md's option tables
+
+
+def settings_table(command: SettingsCommand) -> str:
+    """The Markdown table of a command's settings: option, default, what it does."""
+    rows = ["| option | default | what it does |", "|---|---|---|"]
+    for f in command.fields():
+        name = flag(f.name)
+        if f.metadata["choices"] is not None:
+            name += " " + "\\|".join(f.metadata["choices"])
+        elif _types(f, command.cls)[0] is bool:
+            name = f"{flag(f.name)}/--no-{flag(f.name)[2:]}"
+        help_text = f.metadata["help"].replace("|", "\\|")
+        rows.append(f"| `{name}` | {default_text(f, command.cls)} | {help_text} |")
+    presets = getattr(command.cls, "PRESET_HELP", {})
+    if presets:
+        rows.append("")
+        rows.append("Presets (`--preset NAME`; options given on the command line override it):")
+        rows.append("")
+        rows += [f"- `{name}`: {text}" for name, text in presets.items()]
+    return "\n".join(rows)
+
+
+def commands() -> list[SettingsCommand]:
+    """The commands whose options come from settings dataclasses (the CLI registers these)."""
+    from tleaf_cli import cli
+
+    return list(cli.SETTINGS_COMMANDS)
+
+
+def render_docs(text: str) -> str:
+    """`text` (docs/cli.md) with each table between `<!-- settings: NAME -->` and
+    `<!-- /settings -->` rewritten from the settings."""
+    out = text
+    for command in commands():
+        begin, end = f"<!-- settings: {command.name} -->", "<!-- /settings -->"
+        if begin not in out:
+            raise ValueError(f"no '{begin}' marker")
+        head, rest = out.split(begin, 1)
+        _, tail = rest.split(end, 1)
+        out = f"{head}{begin}\n{settings_table(command)}\n{end}{tail}"
+    return out
+
+
+if __name__ == "__main__":  # python -m tleaf_cli.cli_options docs/cli.md
+    path = Path(sys.argv[1])
+    path.write_text(render_docs(path.read_text()))

@@ -1,0 +1,70 @@
+"""Settings of the action recogniser h (`tleaf train-task action-recognition`). Pure Python:
+the command line builds the command's options from this module."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from tleaf_cli.settings import DEVICES, LOGIC_LOSSES, check_values, setting
+
+MODELS = ("lstm", "tcn")  # h's backbone (tasks/action_recognition/models.py)
+FORMULA_SOURCES = ("predictions", "labels")  # where a video's rule set comes from
+RULE_SET_SPLITS = ("video", "ingredient")  # one rule set per video, or one per ingredient
+DECODINGS = ("argmax", "constrained")  # test-time decoding
+EXACT_LAMBDA = 1.0  # λ of the exact and checker losses when none is given (chosen on val)
+
+
+@dataclass(frozen=True)
+class TaskSettings:
+    """Every setting of h's training (saved as config.json's "settings")."""
+
+    model: str = setting("lstm", "Backbone of h: lstm or tcn.", choices=MODELS)
+    logic_loss: str = setting(
+        "none", "none (reference), tleaf, exact, or checker (no gradient).", choices=LOGIC_LOSSES
+    )
+    lam: float | None = setting(
+        None,
+        "Weight λ of the logic loss.",
+        min=0.0,
+        auto=f"auto: with tleaf, the λ the embedder's folder recommends; otherwise {EXACT_LAMBDA}",
+    )
+    formula_from: str = setting(
+        "predictions",
+        "Rules relevant to the predicted pairs (the paper) or to the labels.",
+        choices=FORMULA_SOURCES,
+    )
+    rule_sets: str = setting(
+        "video",
+        "video: one rule set φ per video (the paper); ingredient: φ split into one conjunction "
+        "per ingredient, loss summed over them (tleaf, exact).",
+        choices=RULE_SET_SPLITS,
+    )
+    unlabelled: bool = setting(
+        True,
+        "Also apply the logic loss (tleaf, exact) to the data's unlabelled videos, one batch of "
+        "them per training batch; their labels are never read.",
+    )
+    hidden: int = setting(128, "Backbone width.", min=1)
+    head_hidden: int = 64
+    dropout: float = 0.2
+    batch_size: int = setting(16, "Videos per batch.", min=1)
+    epochs: int = setting(60, "Most epochs to train.", min=1)
+    patience: int | None = setting(
+        10, "Stop after this many epochs without a better val action accuracy.", min=1
+    )
+    lr: float = setting(1e-4, "Adam learning rate (the paper's).")
+    seed: int = setting(0, "Random seed; the same seed trains the same model.")
+    device: str = setting("cpu", "Where to compute.", choices=DEVICES)
+    decode: str = setting(
+        "argmax",
+        "Test-time decoding: argmax per step, or also constrained (the most probable sequence "
+        "the knowledge base's rules accept; both are reported).",
+        choices=DECODINGS,
+    )
+    decode_top_k: int = setting(
+        5, "Constrained decoding: candidate pairs per video (top k; chosen on val).", min=1
+    )
+
+    def check(self) -> None:
+        """SettingError for a setting out of range."""
+        check_values(self)
