@@ -1,7 +1,6 @@
-# The paper's Fig. 4B (issue 6) on SYNTHETIC activities: gen-activities -> kb-extract ->
-# gen-traces --once-each -> train-edge -> train-meta --radius-weight --pull -> train-task
-# (models x losses x seeds) -> eval. Why --once-each, --radius-weight, --pull and the lambdas:
-# docs/results/action_recognition.md.
+# The paper's Fig. 4B on SYNTHETIC activities: gen-activities -> kb-extract ->
+# gen-traces --once-each -> train-edge -> train-meta -> train-task (models x losses x seeds) ->
+# eval. Why --once-each, q's options and the lambdas: docs/results/action_recognition.md.
 # Re-runs only what changed; `make -j` runs the training runs in parallel.
 #   make -f pipelines/action_recognition.mk [TLEAF=tleaf] [SMALL=1] [JOBS=2] [SEEDS="0 1"]
 # SMALL=1: the whole chain on a tiny synthetic set in about a minute (used by the tests).
@@ -10,10 +9,10 @@ JOBS ?= 2
 SMALL ?= 0
 LOSSES ?= none tleaf exact checker
 # lambda per loss (chosen on val accuracy, docs/results/action_recognition.md); none and checker
-# have no gradient, their lambda changes nothing. tleaf: 0.002 with the evidence q (mean val
-# accuracy of seeds 0-1, both models, over 0.002 / 0.006 / 0.02; its distances differ 3-9x more
-# than the earlier q's), 0.2 with EVIDENCE=0 (chosen for that q)
-LAMBDA_tleaf ?= $(if $(WITH_EVIDENCE),0.002,0.2)
+# have no gradient, their lambda changes nothing. tleaf: 0.002 (mean val accuracy of seeds 0-1,
+# both models, over 0.002 / 0.006 / 0.02); LAMBDA_tleaf= (empty) uses the λ q's folder
+# recommends (train-meta: 1 / q's satisfy/violate boundary, about 0.002 for this q)
+LAMBDA_tleaf ?= 0.002
 LAMBDA_exact ?= 1
 LAMBDA_none ?= 1
 LAMBDA_checker ?= 1
@@ -26,27 +25,12 @@ DECODE_TOP_K ?= 5
 OMP_NUM_THREADS ?= 1
 export OMP_NUM_THREADS
 
-# q_m as the model-checking pipeline trains it (docs/results/model_checking.md): messages along and
-# against the arcs, read out where accepted and rejected runs go (5 parts; rule sets' traces read
-# up to 20 letters, so runs that long are counted), cosine learning rate, one radius for all
-# formulas (--radius-weight 1, issue 13: the distance d < r then means "satisfies" for every
-# rule set, which is what the tleaf loss reads); plus --pull 0.02
-Q := --directed --readout runs --bins 5 --max-length 20 --schedule cosine --radius-weight 1 \
-	--pull 0.02
-# PROBES=16: q_m with 16 probe automata, as the model-checking pipeline's larger setting
-# (issue 13, docs/embedder.md; docs/results/action_recognition.md measures both)
-PROBES ?= 0
-Q += $(if $(filter-out 0,$(PROBES)),--probes $(PROBES))
-# q_m as the model-checking pipeline's (issue 13, ninth and tenth sessions): temporal monitors
-# over each rule set's first MONITORS atoms (rule sets have 2-15, median 8) and their naive-Bayes
-# block in q's vectors (EVIDENCE=1). MONITORS=0 EVIDENCE=0: the q of 2026-11-25 (cheaper: a tleaf
-# epoch about 0.2 s against 1.4-3 s; docs/results/action_recognition.md measures both)
-MONITORS ?= 10
-Q += $(if $(filter-out 0,$(MONITORS)),--monitors $(MONITORS))
-EVIDENCE ?= 1
-EVIDENCE_SCALE ?= 256
-WITH_EVIDENCE = $(and $(filter 1,$(EVIDENCE)),$(filter-out 0,$(MONITORS)))
-Q += $(if $(WITH_EVIDENCE),--evidence --evidence-scale $(EVIDENCE_SCALE))
+# q_m: train-meta's default (preset best: monitors over each rule set's first 10 atoms, their
+# naive-Bayes evidence, directed messages, runs readout, one radius, cosine schedule) with the
+# options this pipeline's figures were measured with: rule sets' traces read up to 20 letters
+# (--max-length 20), --pull 0.02, monitor shares over all lengths together (--monitor-ranges 1),
+# the learned part not on the sphere (--no-sphere), early stop after 5 epochs
+Q := --max-length 20 --pull 0.02 --monitor-ranges 1 --no-sphere --patience 5
 
 ifeq ($(SMALL),1)
 OUT ?= out/action-recognition-small
@@ -105,7 +89,7 @@ $(OUT)/runs/$(1)-$(2)-seed$(3)/metrics.json: $(OUT)/activities.parquet $(OUT)/kb
     $(if $(filter tleaf,$(2)),$(OUT)/meta/metrics.json)
 	$(TLEAF) train-task action-recognition $(OUT)/activities.parquet --kb $(OUT)/kb.ltl \
 	    $(if $(filter tleaf,$(2)),--embedder $(OUT)/meta --formula-from $(FORMULA_FROM)) \
-	    --model $(1) --logic-loss $(2) --lambda $(LAMBDA_$(2)) --seed $(3) $(TASK) \
+	    --model $(1) --logic-loss $(2) $(if $(LAMBDA_$(2)),--lambda $(LAMBDA_$(2))) --seed $(3) $(TASK) \
 	    --decode $(DECODE) $(if $(filter constrained,$(DECODE)),--decode-top-k $(DECODE_TOP_K)) \
 	    -o $$(@D) -q
 endef

@@ -1,4 +1,4 @@
-# The paper's Fig. 5B (issue 7) on the SYNTHETIC Creative Cooking environment:
+# The paper's Fig. 5B on the SYNTHETIC Creative Cooking environment:
 # gen-demos -> demos-kb -> compile-dfa --one-hot -> (gen-traces --one-hot -> train-edge ->
 # train-meta: q, for the tleaf variant) -> train-task cooking (variants x seeds) -> eval cooking.
 # Re-runs only what changed; `make -j` runs the GAIL runs in parallel.
@@ -14,7 +14,7 @@
 # Every variant's PPO learning rate falls linearly to 0 over the budget (LR_SCHEDULE=linear; a
 # validation pilot on seeds the table never uses: 6 of 6 plain-GAIL runs reach the expert and stay,
 # against 4 of 6 at a constant rate). LR_SCHEDULE=constant gives the first 20-seed table's settings.
-# Budget (measured 2026-11-25): a none run takes about 2.3 CPU minutes, shield 3.3, exact 6.8,
+# Budget: a none run takes about 2.3 CPU minutes, shield 3.3, exact 6.8,
 # tleaf 7.4 (the logic term is computed for each of 160 minibatches per rollout): about 4 CPU
 # hours in all, 2 h 4 min wall with -j2.
 # Each run uses one core: -j2 on 2 free cores.

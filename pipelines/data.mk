@@ -1,4 +1,4 @@
-# Synthetic model-checking data for the paper's three tiers (issue 3; see docs/data.md).
+# Synthetic model-checking data for the paper's three tiers (docs/data.md).
 #   make -f pipelines/data.mk [TIERS="low moderate high"] [N=1000] [K=20] [JOBS=2] [CLUSTER=tcp://HOST:8786] [SEED=0]
 # Each tier: out/data/<tier>/formulas.ltl -> dfas.parquet -> traces.parquet (+ stats .txt).
 TLEAF ?= tleaf

@@ -1,4 +1,4 @@
-# Issue 4's figures: q_e then q_m on the synthetic Low tier, and the syntax-tree baseline.
+# q_e then q_m (train-meta's default, preset best) on one synthetic tier, and the syntax-tree baseline.
 #   make -f pipelines/embedder.mk [TLEAF=tleaf] [DATA=out/data] [TIER=low] [SEED=0]
 # Needs $(DATA)/$(TIER)/{dfas,traces}.parquet from pipelines/data.mk.
 TLEAF ?= tleaf

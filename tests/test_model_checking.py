@@ -173,7 +173,27 @@ def test_results_table_reads_both_mlps_and_older_reports(tmp_path) -> None:
     assert rows["MLP fitted on all negatives, balanced accuracy"] == "65.00 ± 0.00 (n=1)"
     assert rows["MLP fitted on all negatives, hard negatives only"] == "75.00 ± 0.00 (n=1)"
     assert rows["distance rule, balanced accuracy"] == "55.00 ± 0.00 (n=1)"
-    assert rows["paper (MLP)"] == "83.43 ± 0.73"
+    assert rows["the paper's (MLP)"] == "83.43 ± 0.73"
+
+
+def test_the_table_has_a_row_per_preset(tmp_path) -> None:
+    """q_m of preset paper and of preset best: two DFA rows, the paper's figures once after them."""
+    from tleaf_cli.tasks.model_checking_table import results_table
+
+    paths = []
+    for preset, accuracy in (("best", 0.9), ("paper", 0.8)):
+        scores = {"accuracy": accuracy, "balanced_accuracy": accuracy, "hard_negative_accuracy": 1}
+        r = {"label": "low", "embedder": "dfa", "preset": preset, "mlp": scores, "distance": {}}
+        paths.append(tmp_path / f"{preset}.json")
+        paths[-1].write_text(json.dumps(r))
+    lines = results_table(paths, tmp_path / "t.md").splitlines()
+    titles = [line.split(" | ")[0].strip("| ") for line in lines[2:] if line.startswith("| ")]
+    assert list(dict.fromkeys(titles)) == [
+        "DFA (T-LEAF), preset paper", "DFA (T-LEAF), preset best", "DFA (T-LEAF)"
+    ]  # fmt: skip
+    balanced = [line for line in lines if "MLP 512-128, balanced accuracy" in line]
+    assert "80.00" in balanced[0] and "90.00" in balanced[1]
+    assert sum("the paper's (MLP)" in line for line in lines) == 1
 
 
 def test_balanced_accuracy_and_class_weights() -> None:

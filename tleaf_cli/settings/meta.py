@@ -151,6 +151,20 @@ class MetaSettings(Presets):
         "alone, constant learning rate, 30 epochs, early stop after 5",
     }
 
+    def preset_name(self) -> str:
+        """The preset these settings are (`custom` if none): the first whose values they have,
+        an automatic (None) value matching any choice, the length of training not compared."""
+        defaults = {f.name: default_of(f) for f in fields(self)}
+        for name, values in self.PRESETS.items():
+            want = {**defaults, **values}
+            if all(
+                want[k] is None or want[k] == getattr(self, k)
+                for k in PRESET_FIELDS
+                if k not in ("epochs", "patience")
+            ):
+                return name
+        return "custom"
+
     def resolved(self, max_atoms: int) -> MetaSettings:
         """These settings with every automatic (None) choice made for training formulas of at
         most `max_atoms` atoms; SettingError where the choices do not fit together."""
@@ -236,3 +250,7 @@ def settings_from_config(config: dict, where: str | Path) -> MetaSettings:
                 )
         saved = {**LEGACY_DEFAULTS, **saved}
     return MetaSettings(**saved)
+
+
+# the fields a preset sets: what tells one preset's q from another's
+PRESET_FIELDS = sorted({k for values in MetaSettings.PRESETS.values() for k in values})

@@ -38,6 +38,7 @@ from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.soft import load_embedder
 from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.settings.meta import MetaSettings
 
 
 @dataclass(frozen=True)
@@ -131,6 +132,7 @@ def evaluate_model_checking(
     report = {
         "label": settings.label,
         "embedder": embedder.kind,
+        "preset": MetaSettings(**embedder.config["settings"]).preset_name(),
         "seed": settings.seed,
         "settings": asdict(settings),
         "test_formulas": len(set(test.formula_ids)),

@@ -1,5 +1,6 @@
 """One results table from many model-checking reports: mean ± standard error over seeds,
-one row per embedder, one column per label (tier), next to the paper's Table I."""
+one row per embedder and preset (train-meta --preset), one column per label (tier), next to
+the paper's Table I."""
 
 from __future__ import annotations
 
@@ -53,7 +54,7 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
     for path in report_paths:
         try:
             r = json.loads(Path(path).read_text())
-            key = (r["embedder"], r["label"])
+            key = (r["embedder"], r.get("preset", ""), r["label"])
             # balanced accuracy (chance 50 %, as the paper's balanced sets) where the report
             # has it; older reports have only the plain accuracy and leave those cells blank
             scores = {
@@ -73,7 +74,9 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
                 cells[(*key, clf)].append(100 * value)
         if r["label"] not in labels:
             labels.append(r["label"])
-    embedders = [e for e in ("syntax", "dfa") if any(k[0] == e for k in cells)]
+    # rows: the syntax baseline, then the DFA embedder's presets, the paper's first
+    order = {"syntax": 0, "dfa": 1, "paper": 0, "best": 1}
+    rows = sorted({k[:2] for k in cells}, key=lambda k: (order[k[0]], order.get(k[1], 2), k[1]))
 
     def fmt(values: list[float]) -> str:
         if not values:
@@ -85,13 +88,15 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
         "| embedder | classifier | " + " | ".join(labels) + " |",
         "|---|---|" + "---|" * len(labels),
     ]
-    for e in embedders:
+    for i, (e, preset) in enumerate(rows):
+        title = ROW_NAMES[e] + (f", preset {preset}" if e == "dfa" and preset else "")
         for clf, name in CLASSIFIER_ROWS:
-            row = [fmt(cells.get((e, lab, clf), [])) for lab in labels]
-            lines.append(f"| {ROW_NAMES[e]} | {name} | " + " | ".join(row) + " |")
-        paper = [PAPER[e].get(lab) for lab in labels]
-        shown = [f"{p[0]:.2f} ± {p[1]:.2f}" if p else "–" for p in paper]
-        lines.append(f"| {ROW_NAMES[e]} | paper (MLP) | " + " | ".join(shown) + " |")
+            row = [fmt(cells.get((e, preset, lab, clf), [])) for lab in labels]
+            lines.append(f"| {title} | {name} | " + " | ".join(row) + " |")
+        if i + 1 == len(rows) or rows[i + 1][0] != e:  # the paper's figures after its kind
+            paper = [PAPER[e].get(lab) for lab in labels]
+            shown = [f"{p[0]:.2f} ± {p[1]:.2f}" if p else "–" for p in paper]
+            lines.append(f"| {ROW_NAMES[e]} | the paper's (MLP) | " + " | ".join(shown) + " |")
     text = "\n".join(lines) + "\n"
     named = ", ".join(PAIR_INPUTS.get(i, i) for i in sorted(inputs))
     text += f"\nThe MLPs' input (pair features): {named}.\n"
