@@ -5,8 +5,9 @@ What it measures, in one run (rich tables on stdout):
 1. Random 3-atom formulas (atoms a, b, c; syntax-tree size uniform in 10..20; `--seed`), the same
    list compiled
    (a) by ltlf2dfa's `LTLfParser()(text).to_dfa()`, sequentially in this process (to_dfa writes a
-       shared file in site-packages, so it cannot run in parallel; see DESIGN.md). `--peer-limit N`
-       times only the first N formulas, since to_dfa's sympy guard simplification can be slow;
+       shared file in site-packages, so it cannot run in parallel; see docs/design.md).
+       `--peer-limit N` times only the first N formulas, since to_dfa's sympy guard
+       simplification can be slow;
    (b) by `tleaf compile-dfa` as a subprocess on a `.ltl` file of the same formulas: `--jobs 2
        --no-cache`, `--jobs 1 --no-cache`, `--jobs 2 --no-cache --engine mona` (the MONA route
        for every formula; the rows must be the same), and `--jobs 2` twice on a fresh cache dir
@@ -160,7 +161,7 @@ print(seconds, len(states))
 def to_dfa_in_subprocess(text: str, limit: float) -> tuple[float | None, int | None]:
     """(seconds inside to_dfa, states) or (None, None) past `limit` wall seconds.
 
-    The child runs in its own session so that on timeout its whole group (MONA included) is
+    The child runs in its own process group so that on timeout its whole group (MONA included) is
     killed, by process-group id.
     """
     proc = subprocess.Popen(

@@ -1,4 +1,4 @@
-"""Issue 18 peer measurement: the `imitation` library's GAIL (v1.0.1) on tleaf's Creative Cooking.
+"""Peer measurement: the `imitation` library's GAIL (v1.0.1) on tleaf's Creative Cooking.
 
 Not a tleaf dependency (imitation pins gymnasium 0.29): run it in a scratch venv, with the
 repository on PYTHONPATH so tleaf's own environment, demo reader and evaluation are imported
@@ -24,7 +24,7 @@ Same as tleaf's train_gail (tleaf_cli/tasks/cooking/gail.py):
     10_000 + seed + HELD_OUT_SEEDS; at step 0 and whenever num_timesteps reaches the next multiple
     of 4096 *inside the rollout* (an SB3 callback like tleaf's GailCallback._on_step), plus a final
     point after training.
-Peer (imitation's GAIL tutorial settings, as issue 18 states them):
+Peer (imitation's GAIL tutorial settings):
   PPO MlpPolicy, 4 envs x n_steps 256, gamma 0.95, lr 4e-4, n_epochs 5, batch 64, ent_coef 0;
   GAIL with BasicRewardNet(normalize_input_layer=RunningNorm), demo_batch_size 16,
   gen_replay_buffer_capacity 512, n_disc_updates_per_round 8, allow_variable_horizon=True.

@@ -12,7 +12,7 @@ per-formula AUC (the share of satisfying-violating pairs of one formula ordered 
     python benchmarks/evidence_parts.py out/mc/low/seed0/meta-dfa out/mc/low
 
 A diagnostic, not a Table I figure: it tells whether the learned part adds to the block or
-blurs its boundary (docs/embedder.md, "--evidence").
+blurs its boundary (docs/embedder.md, "The evidence block").
 """
 
 from __future__ import annotations

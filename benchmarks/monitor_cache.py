@@ -1,5 +1,5 @@
-"""The monitor-share cache against computing the shares (issue 13): one DFA set, both ways, in
-the same run.
+"""The monitor-share cache against computing the shares: one DFA set, both ways, in the same
+run.
 
     python benchmarks/monitor_cache.py out/mc/high/dfas.parquet [--slots 6] [--ranges 3]
 

@@ -1,4 +1,4 @@
-"""How far the monitors' shares alone decide satisfaction, with no learned q (issue 13).
+"""How far the monitors' shares alone decide satisfaction, with no learned q.
 
 For every formula of a tier, its DFA's monitor shares μ_acc, μ_rej (logic/monitors.py, exact,
 per length range as the pipeline's q_m reads them) and each trace's ψ(w) (satisfying and uniform

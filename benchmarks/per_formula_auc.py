@@ -1,4 +1,4 @@
-"""Which test formulas does q rank badly? (docs/results/model_checking.md, fourth session)
+"""Which test formulas does q rank badly? (docs/results/model_checking.md, "What was tried")
 
 For each test formula of a SYNTHETIC tier: the AUC of −d(z_φ, z_w) between its satisfying traces
 and its uniform violating ones (1: every satisfying trace nearer than every violating one; 0.5:
