@@ -14,7 +14,6 @@ from typer.testing import CliRunner
 from tleaf_cli import cli
 from tleaf_cli.data.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
 from tleaf_cli.defaults import TIERS
-from tleaf_cli.settings import options
 from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS
 from tleaf_cli.tasks.model_checking import PAIR_FEATURES
 
@@ -116,9 +115,6 @@ def test_a_training_command_has_one_option_per_setting(command) -> None:
         assert f.metadata["help"].split(".")[0] in _flat(param.help), (f.name, param.help)
         if f.metadata["choices"]:
             assert tuple(param.type_descriptor.choices) == f.metadata["choices"], f.name
-    assert {f.name for f in options(command.cls)} - {f.name for f in command.fields()} == set(
-        command.exclude
-    )
 
 
 def test_a_value_outside_the_choices_is_refused_by_the_parser(tmp_path) -> None:

@@ -77,8 +77,7 @@ CacheDir = Annotated[
     typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
 ]
 NoCache = Annotated[bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")]
-# The training commands' options come from their settings dataclasses (tleaf_cli/settings/):
-# each command here, the fields it leaves out, and its docs/cli.md table's name.
+# The training commands' options come from their settings dataclasses (tleaf_cli/settings/).
 EDGE = SettingsCommand(EdgeSettings, "train-edge")
 META = SettingsCommand(MetaSettings, "train-meta")
 TASK = SettingsCommand(TaskSettings, "train-task action-recognition")
@@ -602,7 +601,6 @@ def kb_extract(
 @_exits
 @with_settings(EDGE)
 def train_edge(
-    ctx: typer.Context,
     dfas: Annotated[Path, typer.Argument(help="A dfas.parquet: its guards are the training data.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Model directory to write.")] = Path(
         "edge_model"

@@ -43,15 +43,14 @@ def flag(setting: str) -> str:
 
 @dataclass(frozen=True)
 class SettingsCommand:
-    """Which settings a command exposes: the class, the fields it leaves out (set by the
-    command itself or not meaningful there), and the name docs/cli.md's table goes by."""
+    """A command whose options are a settings class's fields, and the name docs/cli.md's
+    table of them goes by (the command's words: "train-task cooking")."""
 
     cls: type
     name: str
-    exclude: tuple[str, ...] = ()
 
     def fields(self) -> list[Field]:
-        return [f for f in options(self.cls) if f.name not in self.exclude]
+        return options(self.cls)
 
 
 def _shown(value: Any) -> str:
