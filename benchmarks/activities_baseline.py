@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 from sklearn.linear_model import LogisticRegression
 
-from tleaf_cli.data.activities import read_activities
-from tleaf_cli.data.knowledge import read_knowledge_base
+from tleaf_cli.knowledge.base import read_knowledge_base
+from tleaf_cli.tasks.action_recognition.activities import read_activities
 
 
 def afforded(data, kb) -> np.ndarray:

@@ -18,10 +18,10 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from tleaf_cli.data.activities import read_activities
-from tleaf_cli.data.knowledge import read_knowledge_base
-from tleaf_cli.data.rule_set import KnowledgeRuleSets
+from tleaf_cli.knowledge.base import read_knowledge_base
+from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.losses import pair_vocabulary
+from tleaf_cli.tasks.action_recognition.activities import read_activities
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
 from tleaf_cli.tasks.action_recognition.train import score
 

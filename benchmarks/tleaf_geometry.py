@@ -17,10 +17,10 @@ import sys
 import torch
 
 import tleaf_cli as tl
-from tleaf_cli.data.activities import read_activities
-from tleaf_cli.data.knowledge import read_knowledge_base
-from tleaf_cli.data.rule_set import KnowledgeRuleSets
+from tleaf_cli.knowledge.base import read_knowledge_base
+from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.losses import pair_log_probs, pair_vocabulary, violates
+from tleaf_cli.tasks.action_recognition.activities import read_activities
 from tleaf_cli.tasks.action_recognition.train import Batch
 
 BIG = 30.0  # logits of a certain prediction

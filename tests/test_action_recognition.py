@@ -35,6 +35,7 @@ def small_pipeline(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
     report = json.loads((small_pipeline / "report/report.json").read_text())
     assert {(r["model"], r["logic_loss"]) for r in report["runs"]} == {
@@ -61,6 +62,7 @@ def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
     assert any(k.startswith("action_out") for k in saved)
 
 
+@pytest.mark.slow
 def test_a_finished_pipeline_is_up_to_date(small_pipeline: Path) -> None:
     """`make -q` exits 0: nothing re-runs (the KB and the videos come from one command)."""
     result = make_small("action_recognition.mk", small_pipeline, "-q", "MODELS=lstm",
@@ -68,6 +70,7 @@ def test_a_finished_pipeline_is_up_to_date(small_pipeline: Path) -> None:
     assert result.returncode == 0, result.stdout[-2000:]
 
 
+@pytest.mark.slow
 def test_checker_loss_trains_exactly_like_the_reference(small_pipeline: Path) -> None:
     """No gradient, same seed: the checker run's weights equal the reference run's."""
     runs = small_pipeline / "runs"
@@ -78,6 +81,7 @@ def test_checker_loss_trains_exactly_like_the_reference(small_pipeline: Path) ->
     assert any(h["logic_loss"] > 0 for h in history)  # it did count violations
 
 
+@pytest.mark.slow
 def test_report_pairs_runs_with_their_reference(small_pipeline: Path) -> None:
     report = json.loads((small_pipeline / "report/report.json").read_text())
     by_loss = {p["logic_loss"]: p for p in report["pairs"]}
@@ -94,6 +98,7 @@ def test_report_pairs_runs_with_their_reference(small_pipeline: Path) -> None:
     assert png.startswith(b"\x89PNG")
 
 
+@pytest.mark.slow
 def test_bad_options_and_runs_exit_2(chain_cli, tmp_path: Path, small_pipeline: Path) -> None:
     act, kb = small_pipeline / "activities.parquet", small_pipeline / "kb.ltl"
     args = ("train-task", "action-recognition", act, "--kb", kb, "-o", tmp_path / "r")
@@ -106,6 +111,7 @@ def test_bad_options_and_runs_exit_2(chain_cli, tmp_path: Path, small_pipeline: 
     assert result.exit_code == 2 and "not a finished train-task run" in result.output
 
 
+@pytest.mark.slow
 def test_lambda_defaults_to_what_the_embedder_recommends(
     chain_cli, tmp_path: Path, small_pipeline: Path
 ) -> None:
@@ -206,6 +212,7 @@ def test_rule_sets_per_ingredient_change_the_gradient_losses_only(tmp_path: Path
     ]  # the checker always checks the whole rule set: the same loss values
 
 
+@pytest.mark.slow
 def test_a_run_folder_records_portable_paths_and_reads_the_same_when_moved(
     small_pipeline: Path, tmp_path: Path
 ) -> None:
@@ -230,6 +237,7 @@ def test_a_run_folder_records_portable_paths_and_reads_the_same_when_moved(
     }
 
 
+@pytest.mark.slow
 def test_demo_rules_and_traces_steps_run(tmp_path: Path) -> None:
     """The README's main job (pipelines/demo.mk), its first two steps: rules shown, traces
     checked (the model step is the action-recognition chain tested above)."""

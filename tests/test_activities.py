@@ -12,13 +12,13 @@ import pytest
 from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
-from tleaf_cli.data import activity_gen
-from tleaf_cli.data.activities import atom, name_problem, read_activities
 from tleaf_cli.data.artifacts import read_provenance, write_artifact
-from tleaf_cli.data.knowledge import read_knowledge_base, rules_for, sample_formula
 from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.base import atom, read_knowledge_base, rules_for, sample_formula
 from tleaf_cli.logic.formulas import atoms, parse
 from tleaf_cli.logic.semantics import satisfies
+from tleaf_cli.tasks.action_recognition import activity_gen
+from tleaf_cli.tasks.action_recognition.activities import name_problem, read_activities
 
 runner = CliRunner()
 SMALL = ["--actions", 8, "--ingredients", 10, "--feature-dim", 6]

@@ -12,9 +12,9 @@ import typer
 from typer.testing import CliRunner
 
 from tleaf_cli import cli
-from tleaf_cli.data.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
 from tleaf_cli.defaults import TIERS
 from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS
+from tleaf_cli.tasks.action_recognition.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
 from tleaf_cli.tasks.model_checking import PAIR_FEATURES
 
 runner = CliRunner()

@@ -1,4 +1,4 @@
-"""The held-out ingredient pool (issue 18): never demonstrated, fixed, and with expert returns."""
+"""The held-out ingredient pool: never demonstrated, fixed, and with expert returns."""
 
 from __future__ import annotations
 

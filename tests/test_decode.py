@@ -8,9 +8,9 @@ import pytest
 import torch
 
 import tleaf_cli as tl
-from tleaf_cli.data.rule_set import RuleSet
 from tleaf_cli.decode import constrained_decode
 from tleaf_cli.errors import RulesError
+from tleaf_cli.rule_set import RuleSet
 
 VOCAB = ["rinse", "cut", "cook", "serve", "wait"]
 RULES = [
@@ -95,8 +95,8 @@ def test_alive_letters_is_the_primitive() -> None:
 def test_action_recognition_decoding_meets_every_relevant_rule(tmp_path) -> None:
     """decode_pairs: rules chosen from the outputs alone; the decoded pairs break none of the
     rules relevant to them (the violation metric), for every candidate budget."""
-    from tleaf_cli.data.knowledge import read_knowledge_base
-    from tleaf_cli.data.rule_set import KnowledgeRuleSets
+    from tleaf_cli.knowledge.base import read_knowledge_base
+    from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
     from tleaf_cli.losses import pair_log_probs, pair_vocabulary, violates
     from tleaf_cli.tasks.action_recognition.decoding import decode_pairs
 

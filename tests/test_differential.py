@@ -125,6 +125,7 @@ def test_specification_patterns(name: str) -> None:
     _agree(PATTERNS[name])
 
 
+@pytest.mark.slow
 def test_random_three_atom_formulas() -> None:
     """At least 200 distinct random formulas over exactly three atoms: no mismatch anywhere."""
     formulas = _random_formulas(210)
@@ -133,6 +134,7 @@ def test_random_three_atom_formulas() -> None:
         _agree(text)
 
 
+@pytest.mark.slow
 def test_random_one_and_two_atom_formulas() -> None:
     for text in _random_formulas(30, seed=5, n_atoms=1) + _random_formulas(30, seed=6, n_atoms=2):
         _agree(text)

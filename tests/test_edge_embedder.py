@@ -1,4 +1,5 @@
-"""The edge embedder q_e: it learns, it is repeatable, its model directory follows DESIGN.md."""
+"""The edge embedder q_e: it learns, it is repeatable, and its model directory follows the layout
+in docs/design.md."""
 
 from __future__ import annotations
 

@@ -219,6 +219,7 @@ def test_exact_logic_term_sends_gradient_into_the_policy_and_checker_none(domain
     assert 0.0 <= float(loss) <= 1.0
 
 
+@pytest.mark.slow
 def test_a_short_gail_run_learns_the_easy_episode(tmp_path: Path) -> None:
     """Plain GAIL (the default settings, gradient penalty included, on shorter rollouts) on one
     fixed one-step episode: the return rises well above its start."""
@@ -235,6 +236,7 @@ def test_a_short_gail_run_learns_the_easy_episode(tmp_path: Path) -> None:
     assert "head.weight" in saved
 
 
+@pytest.mark.slow
 def test_the_ppo_update_keeps_sb3s_target_kl_and_value_clipping(tmp_path: Path) -> None:
     """SB3's PPO settings the update once dropped: target_kl stops an update's epochs early,
     clip_range_vf clips the value; approx_kl and clip_fraction are logged per rollout."""
@@ -256,6 +258,7 @@ def test_the_ppo_update_keeps_sb3s_target_kl_and_value_clipping(tmp_path: Path) 
     assert [r["value_loss"] for r in clipped["rollouts"]] != values  # the clip changed the loss
 
 
+@pytest.mark.slow
 def test_a_linear_learning_rate_schedule_falls_to_zero_and_is_logged(tmp_path: Path) -> None:
     """--lr-schedule linear: each rollout's PPO update uses lr × the share of the run still to
     go (logged per rollout); constant keeps lr; an unknown schedule is a SettingError."""
@@ -351,6 +354,7 @@ def small_pipeline(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
     report = json.loads((small_pipeline / "report/report.json").read_text())
     assert set(report["variants"]) == {"none", "tleaf", "checker"}
@@ -362,6 +366,7 @@ def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
     assert config["data"].startswith("synthetic")
 
 
+@pytest.mark.slow
 def test_checker_trains_exactly_like_plain_gail(small_pipeline: Path) -> None:
     """No gradient, same seed: the checker run's curve equals plain GAIL's."""
     runs = small_pipeline / "runs"
@@ -371,6 +376,7 @@ def test_checker_trains_exactly_like_plain_gail(small_pipeline: Path) -> None:
     assert all(r["violation_rate"] is not None for r in checker["rollouts"])
 
 
+@pytest.mark.slow
 def test_tleaf_logic_term_sends_gradient_into_the_policy(small_pipeline: Path, domain) -> None:
     from tleaf_cli.embed.soft import load_embedder
 
@@ -387,6 +393,7 @@ def test_tleaf_logic_term_sends_gradient_into_the_policy(small_pipeline: Path, d
     assert (small_pipeline / "runs/tleaf-seed0/policy.zip").stat().st_size < 5_000_000
 
 
+@pytest.mark.slow
 def test_shielded_gail_masks_with_the_rules_and_starts_above_the_unshielded(tmp_path) -> None:
     """--shield: MaskablePPO whose masks are the rules' shield (ShieldedActions); its untrained
     policy, restricted to allowed actions, already wastes fewer steps on infeasible actions."""

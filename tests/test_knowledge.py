@@ -10,10 +10,10 @@ import pytest
 from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
-from tleaf_cli.data.activities import read_activities
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.dfa_table import read_dfas
-from tleaf_cli.data.knowledge import (
+from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.base import (
     KnowledgeBase,
     Rule,
     affordance_rule,
@@ -25,11 +25,11 @@ from tleaf_cli.data.knowledge import (
     sample_formula,
     write_knowledge_base,
 )
-from tleaf_cli.errors import InputError
 from tleaf_cli.logic import mona
 from tleaf_cli.logic.checker import check
 from tleaf_cli.logic.formulas import parse
 from tleaf_cli.logic.semantics import satisfies
+from tleaf_cli.tasks.action_recognition.activities import read_activities
 
 runner = CliRunner()
 EXAMPLE = Path(__file__).parent.parent / "examples" / "kitchen.kb.ltl"

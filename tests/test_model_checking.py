@@ -104,6 +104,7 @@ def test_a_formula_in_train_and_test_is_refused(chain, chain_cli, meta_model, tm
     assert "both train and test" in result.output
 
 
+@pytest.mark.slow
 def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
     """pipelines/model_checking.mk SMALL=1: gen-formulas to the results table."""
     result = make_small("model_checking.mk", tmp_path / "mc")

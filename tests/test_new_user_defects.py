@@ -1,6 +1,6 @@
-"""Defects a new user hits (issue 15, part 2), each for its whole class: formulas nested too
-deeply, an output that is an input, stages that refuse their call after writing something,
-options combined and silently ignored, generated names that break the `.ltl` format."""
+"""Defects a new user hits, each for its whole class: formulas nested too deeply, an output that
+is an input, stages that refuse their call after writing something, options combined and silently
+ignored, generated names that break the `.ltl` format."""
 
 from __future__ import annotations
 

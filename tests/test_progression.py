@@ -1,4 +1,4 @@
-"""The in-process compile path (issue 17): progression against MONA, and what makes it fast.
+"""The in-process compile path: progression against MONA, and what makes it fast.
 
 Both routes end in the canonical minimal DFA (`DFA.minimize` numbers the states of one language
 the same way), so equal tables mean equal languages on non-empty traces: every comparison here is
@@ -47,6 +47,7 @@ def test_every_operator_and_pattern_equals_mona(text: str) -> None:
     _same_as_mona(text)
 
 
+@pytest.mark.slow
 def test_thousands_of_random_formulas_equal_mona() -> None:
     """1,200 random formulas over 1-3 atoms (sizes up to 20, both alphabets) and 150 over 5-6
     atoms, whose top-level & and | take the product route."""

@@ -1,5 +1,5 @@
-"""The public API of DESIGN.md ("Python API"): `import tleaf_cli as tl`, a test per name, and the
-README's own-model example run as written."""
+"""The public API of docs/design.md ("Python API"): `import tleaf_cli as tl`, a test per name,
+and the README's own-model example run as written."""
 
 from __future__ import annotations
 

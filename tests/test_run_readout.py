@@ -125,6 +125,7 @@ def low_set(tmp_path_factory, chain_cli) -> dict:
     return p
 
 
+@pytest.mark.slow
 def test_a_small_q_separates_held_out_traces_and_reloads_identically(low_set, tmp_path) -> None:
     """q trained on the tiny chain ranks satisfying traces of formulas it never saw nearer than
     violating ones, well above an untrained q of the same shape; reloaded from its folder it

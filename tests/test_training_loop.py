@@ -222,7 +222,7 @@ def test_the_unlabelled_stream_read_from_a_batch_on_is_the_tail_of_the_whole_str
     """An epoch reads the unlabelled stream from where the epochs before it left it."""
     from itertools import islice
 
-    from tleaf_cli.data.activities import read_activities
+    from tleaf_cli.tasks.action_recognition.activities import read_activities
     from tleaf_cli.tasks.action_recognition.train import TaskSettings, unlabelled_batches
 
     data = read_activities(activities[0])

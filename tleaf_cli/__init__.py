@@ -1,6 +1,6 @@
 """tleaf: temporal knowledge in LTLf, compiled to automata and embedded for deep sequence models.
 
-The public Python API (DESIGN.md, "Python API"), for ``import tleaf_cli as tl``:
+The public Python API (docs/design.md, "Python API"), for ``import tleaf_cli as tl``:
 
 * ``tl.compile_formula(text, alphabet="powerset" | "one-hot") -> tl.DFA``  minimal
 * ``tl.check(dfa, traces) -> np.ndarray[bool]``                           exact, batched
@@ -24,15 +24,14 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 from tleaf_cli import deferred_imports  # noqa: F401  (first: it keeps sympy from loading)
-
-__version__ = "0.1.0"
+from tleaf_cli.version import __version__ as __version__  # re-exported
 
 # public name -> the module that defines it
 _PUBLIC = {
     "compile_formula": "tleaf_cli.logic.compile",
     "DFA": "tleaf_cli.logic.dfa",
     "check": "tleaf_cli.logic.checker",
-    "RuleSet": "tleaf_cli.data.rule_set",
+    "RuleSet": "tleaf_cli.rule_set",
     "logic_loss": "tleaf_cli.losses.logic_loss",
     "constrained_decode": "tleaf_cli.decode",
     "Shield": "tleaf_cli.shield",
@@ -52,7 +51,6 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` loads them
-    from tleaf_cli.data.rule_set import RuleSet
     from tleaf_cli.decode import constrained_decode
     from tleaf_cli.embed.soft import load_embedder
     from tleaf_cli.errors import TleafError
@@ -60,6 +58,7 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` lo
     from tleaf_cli.logic.compile import compile_formula
     from tleaf_cli.logic.dfa import DFA
     from tleaf_cli.losses.logic_loss import logic_loss
+    from tleaf_cli.rule_set import RuleSet
     from tleaf_cli.shield import Shield
 
 

@@ -498,7 +498,10 @@ def gen_activities(
     A hidden process (affordances, recipe-stage orderings) yields labelled (action, ingredient)
     steps; features are class-conditional Gaussians with confusable class pairs.
     """
-    from tleaf_cli.data.activity_gen import ActivitySettings, generate_activities
+    from tleaf_cli.tasks.action_recognition.activity_gen import (
+        ActivitySettings,
+        generate_activities,
+    )
 
     _targets([], [out, kb_out])
     settings = ActivitySettings(
@@ -572,7 +575,7 @@ def kb_extract(
 
     Writes OUT/samples.parquet (video -> rule set) and OUT/dfas.parquet (one row per rule set).
     """
-    from tleaf_cli.data.kb_extract import extract_knowledge
+    from tleaf_cli.tasks.action_recognition.kb_extract import extract_knowledge
 
     if not 1 <= len(inputs) <= 2:
         raise InputError("give [KB.ltl] ACTIVITIES.parquet: one or two files")

@@ -26,9 +26,9 @@ from collections.abc import Sequence
 
 import torch
 
-from tleaf_cli.data.rule_set import RuleSet
 from tleaf_cli.errors import RulesError
 from tleaf_cli.losses.packed import PackedRuleSets, pack_rows, rules_per_sequence
+from tleaf_cli.rule_set import RuleSet
 
 
 def constrained_decode(

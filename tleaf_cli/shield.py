@@ -19,8 +19,8 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
-from tleaf_cli.data.rule_set import RuleSet
 from tleaf_cli.errors import InputError, RulesError
+from tleaf_cli.rule_set import RuleSet
 
 
 class Shield:

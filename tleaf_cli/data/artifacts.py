@@ -20,8 +20,8 @@ from typing import Any
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from tleaf_cli import __version__
 from tleaf_cli.errors import InputError
+from tleaf_cli.version import __version__
 
 PREFIX = "tleaf."
 

@@ -22,7 +22,6 @@ from pathlib import Path
 from joblib import Memory
 from ltlf2dfa.ltlf import LTLfFormula
 
-from tleaf_cli import __version__
 from tleaf_cli.data.artifacts import check_targets, describe_inputs, write_artifact
 from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, read_formulas
@@ -41,6 +40,7 @@ from tleaf_cli.logic.compile import Engine, by_mona, by_progression
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 from tleaf_cli.logic.mona import MonaError, mona_binary, mona_version
 from tleaf_cli.logic.progression import TooLarge
+from tleaf_cli.version import __version__
 
 
 def default_cache_dir() -> Path:

@@ -1,4 +1,7 @@
-"""`dfas.parquet`: one row per input formula, the DFA as states and guarded edges (DESIGN.md)."""
+"""`dfas.parquet`: one row per input formula, the DFA as states and guarded edges.
+
+The format is described in docs/design.md.
+"""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """Formula inputs: `.ltl` text files and Parquet tables with `formula_id, formula`.
 
-`.ltl` (DESIGN.md): UTF-8, one formula per line, `#` starts a comment, blank lines skipped, an
+`.ltl` (docs/design.md): UTF-8, one formula per line, `#` starts a comment, blank lines skipped, an
 optional `name:` prefix (`[A-Za-z0-9_.-]+`) names the formula, otherwise its id is `L<line>`.
 A line that is wrong in itself (bad name, repeated name) still yields an entry, with `problem`
 set, so the stage reports it in its row and carries on with the others.

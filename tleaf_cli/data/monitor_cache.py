@@ -1,4 +1,4 @@
-"""The monitor shares of a set of DFAs, kept on disk between processes (issue 13).
+"""The monitor shares of a set of DFAs, kept on disk between processes.
 
 `MonitorBank.of_dfa` is exact and costs about 33 ms per High-tier DFA: the model-checking
 pipeline asked for the same 1,000 DFAs' shares six times per tier (q_m's training and its

@@ -24,7 +24,6 @@ import torch
 from torch_geometric.data import Batch
 
 from tleaf_cli.data.dfa_table import dfa_from_row
-from tleaf_cli.data.rule_set import RuleSet
 from tleaf_cli.embed.graphs import letter_cnf, syntax_graph
 from tleaf_cli.embed.meta_data import (
     GuardVectors,
@@ -41,6 +40,7 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
+from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.settings.meta import recommended_lambda, settings_from_config
 
 

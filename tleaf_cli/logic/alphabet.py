@@ -1,6 +1,6 @@
 """Alphabets: which letters a DFA reads, and how a letter (a set of atoms) becomes a column index.
 
-Two kinds, as in DESIGN.md:
+Two kinds, as in docs/design.md:
 
 * `powerset` — every subset of the atoms is a letter; letter i has atom k true iff bit k of i is
   set (atoms in sorted order). 2**n letters, so it is limited to MAX_POWERSET_ATOMS atoms.

@@ -1,8 +1,9 @@
 """Running MONA safely and reading its automaton.
 
 ltlf2dfa's `to_dfa()` writes one shared file inside site-packages and hides MONA's failures (see
-DESIGN.md), so tleaf only borrows its MONA encoding (`MonaProgram`) and runs `mona -q -u -w` itself
-in a private temporary directory, with a timeout and the exit status checked.
+docs/design.md), so tleaf only borrows its MONA encoding (`MonaProgram`) and runs
+`mona -q -u -w` itself in a private temporary directory, with a timeout and the exit status
+checked.
 
 MONA's automaton reads one extra letter first (its state 0 steps to the real start on any letter);
 each `State i: <cube> -> state j` line is a transition on every letter matching the cube, one

@@ -1,5 +1,5 @@
 """Temporal monitors: small fixed automata over one or two literals, and the share of a DFA's
-words that each one accepts (issue 13).
+words that each one accepts.
 
 A monitor reads a word through two Boolean inputs per letter, p = atom i holds and q = atom j
 holds (i, j are positions in the formula's sorted atoms; i = j for the one-atom monitors), and

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import torch
 
-from tleaf_cli.data.activities import atom
+from tleaf_cli.knowledge.base import atom
 
 
 def pair_log_probs(action_logits: torch.Tensor, ingredient_logits: torch.Tensor) -> torch.Tensor:
@@ -27,5 +27,5 @@ def pair_log_probs(action_logits: torch.Tensor, ingredient_logits: torch.Tensor)
 
 def pair_vocabulary(actions: Sequence[str], ingredients: Sequence[str]) -> list[str]:
     """The pair atoms in `pair_log_probs` order: `action_ingredient` (the knowledge bases'
-    atoms, `data.activities.atom`) of actions[a] and ingredients[i] at position a·I + i."""
+    atoms, `knowledge.base.atom`) of actions[a] and ingredients[i] at position a·I + i."""
     return [atom(a, i) for a in actions for i in ingredients]

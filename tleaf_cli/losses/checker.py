@@ -12,8 +12,8 @@ from collections.abc import Sequence
 import numpy as np
 import torch
 
-from tleaf_cli.data.rule_set import RuleSet
 from tleaf_cli.logic.checker import PackedDFAs
+from tleaf_cli.rule_set import RuleSet
 
 
 def violates(rule_sets: Sequence[RuleSet], sequences: Sequence[np.ndarray]) -> np.ndarray:

@@ -21,13 +21,13 @@ from typing import Literal
 
 import torch
 
-from tleaf_cli.data.rule_set import RuleSet
 from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.losses.checker import checker_loss
 from tleaf_cli.losses.exact import exact_loss
 from tleaf_cli.losses.packed import letter_log_probs, pack_rows, rules_per_sequence
 from tleaf_cli.losses.tleaf import tleaf_loss
+from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.settings import LOGIC_LOSSES  # noqa: F401  (re-exported: a trainer's losses)
 
 LossKind = Literal["exact", "tleaf", "checker"]

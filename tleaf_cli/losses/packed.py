@@ -1,9 +1,9 @@
 """Rule sets as padded tensors, and a model's per-step letter log-probabilities under them.
 
-Several rule sets (each a DFA over the one-hot alphabet of its atoms, `data.rule_set.RuleSet`)
-are padded to K atoms, L = K + 1 letters and S states so that one tensor operation serves every
-(sequence, rule set) row of a batch. A row's letter distribution at step t, from the model's
-log-probabilities over the vocabulary `log_probs[t]` [V]:
+Several rule sets (each a DFA over the one-hot alphabet of its atoms, a
+`tleaf_cli.rule_set.RuleSet`) are padded to K atoms, L = K + 1 letters and S states so that one
+tensor operation serves every (sequence, rule set) row of a batch. A row's letter distribution
+at step t, from the model's log-probabilities over the vocabulary `log_probs[t]` [V]:
 
     log P_t(letter k+1) = log_probs[t, index[k]]
     log P_t(letter 0)   = log Σ_{v ∉ index} exp(log_probs[t, v])
@@ -21,8 +21,8 @@ from functools import lru_cache
 import numpy as np
 import torch
 
-from tleaf_cli.data.rule_set import RuleSet
 from tleaf_cli.errors import InputError
+from tleaf_cli.rule_set import RuleSet
 
 NEG = -1e30  # log of "impossible": finite, so logsumexp and its gradient stay defined
 

@@ -11,8 +11,8 @@ Both are fitted on satisfying and uniform violating traces, the paper's data for
 the two classes weighted equally (our sets hold about twice as many satisfying traces as uniform
 violating ones, so a constant "satisfies" is right 2/3 of the time; the paper's sets are
 balanced: its syntax row reads 50.00 ± 0.00 on High), and chosen on val by balanced accuracy. A
-second MLP, fitted with the hard negatives as well (issue 5's protocol, a harder task whose
-decision boundary also has to separate near misses), is reported beside it as
+second MLP, fitted with the hard negatives as well (a harder task, whose decision boundary also
+has to separate near misses), is reported beside it as
 `mlp_all_negatives`: it recognises hard negatives, and pays for it on uniform ones.
 
 They are scored on the test split, whose formulas were never trained on (checked):

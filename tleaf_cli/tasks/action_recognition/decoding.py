@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import torch
 
-from tleaf_cli.data.rule_set import KnowledgeRuleSets
 from tleaf_cli.decode import constrained_decode
+from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 
 
 def candidate_pairs(log_pairs: torch.Tensor, length: int, top_k: int) -> set[int]:

@@ -25,7 +25,7 @@ Same seed, same run: h's initial weights, batch order and dropout masks depend o
 only, so runs that differ only in the logic loss start from the same point (and the checker
 loss, which has no gradient, reproduces the reference run).
 
-Model directory (DESIGN.md): `config.json`, `weights.pt` (best epoch), `metrics.json`, and
+Model directory (docs/design.md): `config.json`, `weights.pt` (best epoch), `metrics.json`, and
 `checkpoint.pt` (last epoch, for `resume`: `embed.training.fit`).
 """
 
@@ -41,23 +41,29 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from tleaf_cli.data.activities import UNLABELLED, Activities, Video, read_activities
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_to, write_text_atomic
-from tleaf_cli.data.knowledge import read_knowledge_base
-from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
 from tleaf_cli.embed.soft import Embedder, load_embedder
 from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.knowledge.base import read_knowledge_base
+from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.losses import (
     logic_loss,
     pair_log_probs,
     pair_vocabulary,
     violates,
 )
+from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.settings.action_recognition import (  # noqa: F401  (TaskSettings re-exported)
     EXACT_LAMBDA,
     FORMULA_SOURCES,
     TaskSettings,
+)
+from tleaf_cli.tasks.action_recognition.activities import (
+    UNLABELLED,
+    Activities,
+    Video,
+    read_activities,
 )
 from tleaf_cli.tasks.action_recognition.decoding import decode_pairs
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer

@@ -91,7 +91,7 @@ def write_cooking_kb(
 
 
 def format_knowledge_base(rules: Iterable[Rule], header: str = "") -> str:
-    """The rules as a `.ltl` file (DESIGN.md): `<kind>.<name>: <formula>` per line."""
+    """The rules as a `.ltl` file (docs/design.md): `<kind>.<name>: <formula>` per line."""
     rules = list(rules)
     check_names((r.name for r in rules), "rule name")
     lines = [f"# {line}" for line in header.splitlines()]

@@ -35,13 +35,14 @@ import numpy as np
 import torch
 
 from tleaf_cli.data.compile_dfas import CompileSettings
-from tleaf_cli.data.knowledge import KnowledgeBase
-from tleaf_cli.data.knowledge import Rule as KbRule
-from tleaf_cli.data.rule_set import KnowledgeRuleSets, RuleSet
 from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.errors import SettingError
+from tleaf_cli.knowledge.base import KnowledgeBase
+from tleaf_cli.knowledge.base import Rule as KbRule
+from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.logic.formulas import atoms, parse
 from tleaf_cli.losses import logic_loss, violates
+from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.tasks.cooking.domain import Domain
 from tleaf_cli.tasks.cooking.knowledge import knowledge_base
 from tleaf_cli.tasks.cooking.rules import NUM_SLOTS, ActionCodec, EpisodeRules

@@ -21,7 +21,7 @@ import gymnasium as gym
 import numpy as np
 
 from tleaf_cli.data.compile_dfas import CompileSettings
-from tleaf_cli.data.rule_set import RuleSet, compile_rules
+from tleaf_cli.rule_set import RuleSet, compile_rules
 from tleaf_cli.shield import Shield
 from tleaf_cli.tasks.cooking.domain import Domain
 from tleaf_cli.tasks.cooking.knowledge import knowledge_base

@@ -29,6 +29,7 @@ import pyarrow.parquet as pq
 from tleaf_cli.data.artifacts import PREFIX, read_artifact
 from tleaf_cli.data.traces import SPLITS, assign_splits
 from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.base import atom
 
 KIND = "activities"
 SCHEMA_VERSION = 1
@@ -42,11 +43,6 @@ DEFAULT_FRACTIONS = (0.6, 0.2, 0.2)
 _ACTION = re.compile(r"[a-z][a-z0-9]*")
 _INGREDIENT = re.compile(r"[a-z0-9_]+")
 _RESERVED = ("true", "false", "last")  # ltlf2dfa reads these prefixes as constants
-
-
-def atom(action: str, ingredient: str) -> str:
-    """The knowledge base's atom for a step: `action_ingredient` (e.g. `rinse_cabbage`)."""
-    return f"{action}_{ingredient}"
 
 
 def name_problem(name: str, role: str) -> str | None:

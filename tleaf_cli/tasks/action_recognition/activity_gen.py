@@ -25,16 +25,16 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from tleaf_cli.data.activities import KIND, SCHEMA_VERSION, activities_table
 from tleaf_cli.data.artifacts import check_writable, write_artifact
 from tleaf_cli.data.formula_files import check_names
-from tleaf_cli.data.knowledge import (
+from tleaf_cli.errors import SettingError
+from tleaf_cli.knowledge.base import (
     KnowledgeBase,
     affordance_rule,
     ordering_rule,
     write_knowledge_base,
 )
-from tleaf_cli.errors import SettingError
+from tleaf_cli.tasks.action_recognition.activities import KIND, SCHEMA_VERSION, activities_table
 
 # The paper's Tasty Videos vocabulary: 64 actions, 155 ingredients.
 MAX_ACTIONS = 64

@@ -4,9 +4,9 @@ compiled once (one-hot DFAs), optionally a knowledge base mined from the train s
 Writes OUT/samples.parquet (kind `kb-samples`: video_id, split, formula_id = the rule set's id,
 num_rules, rules, ingredients) and OUT/dfas.parquet (one row per distinct rule set), and
 OUT/kb.ltl when mining. With `rule_sets="ingredient"` a video's rule set is split per ingredient
-(`knowledge.by_ingredient`): one samples row per (video, ingredient), the training formulas of
-a q for `train-task --rule-sets ingredient`. The knowledge-base model itself (rules,
-extraction, mining) is in `knowledge.py`.
+(`knowledge.base.by_ingredient`): one samples row per (video, ingredient), the training formulas
+of a q for `train-task --rule-sets ingredient`. The knowledge-base model itself (rules,
+extraction, mining) is in `tleaf_cli/knowledge/base.py`.
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ from pathlib import Path
 
 import pyarrow as pa
 
-from tleaf_cli.data.activities import UNLABELLED, Activities, read_activities
 from tleaf_cli.data.artifacts import (
     check_writable,
     describe_inputs,
@@ -30,7 +29,8 @@ from tleaf_cli.data.dfa_table import KIND as DFA_KIND
 from tleaf_cli.data.dfa_table import SCHEMA_VERSION as DFA_SCHEMA
 from tleaf_cli.data.dfa_table import rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, check_names
-from tleaf_cli.data.knowledge import (
+from tleaf_cli.errors import InputError, SettingError, TleafError
+from tleaf_cli.knowledge.base import (
     RULE_SET_SPLITS,
     KnowledgeBase,
     Rule,
@@ -43,8 +43,8 @@ from tleaf_cli.data.knowledge import (
     sample_formula,
     write_knowledge_base,
 )
-from tleaf_cli.errors import InputError, SettingError, TleafError
 from tleaf_cli.logic.mona import MonaError, mona_binary
+from tleaf_cli.tasks.action_recognition.activities import UNLABELLED, Activities, read_activities
 
 # Where the per-video formulas come from; train-time extraction from predictions is the loss's job.
 FORMULA_SOURCES = ("labels",)

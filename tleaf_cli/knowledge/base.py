@@ -7,8 +7,10 @@ atoms `action_ingredient`.
 
 The paper (Sec. VI) gives each video the conjunction of the rules whose atoms ALL occur in it
 (`rules_for`, `sample_formula`); a rule set is named by a hash of its rule names (`rule_set_id`),
-so every video with the same rules shares one DFA. The `kb-extract` stage (`kb_extract.py`) does
-this for the LABELLED pairs of every video and compiles each distinct rule set once.
+so every video with the same rules shares one DFA. The `kb-extract` stage
+(`tasks/action_recognition/kb_extract.py`) does this for the LABELLED pairs of every video and
+compiles each distinct rule set once; `rule_sets.KnowledgeRuleSets` does it for a model's
+sequences.
 """
 
 from __future__ import annotations
@@ -20,16 +22,19 @@ from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
-from tleaf_cli.data.activities import atom
-from tleaf_cli.data.artifacts import (
-    write_text_atomic,
-)
+from tleaf_cli.data.artifacts import write_text_atomic
 from tleaf_cli.data.formula_files import check_names, read_formulas
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 
 RuleKind = Literal["affordance", "ordering"]
 RULE_KINDS: tuple[RuleKind, ...] = ("affordance", "ordering")
+
+
+def atom(action: str, ingredient: str) -> str:
+    """The knowledge base's atom for an (action, ingredient) pair: `action_ingredient` (e.g.
+    `rinse_cabbage`); `ingredient_of` reads the ingredient back."""
+    return f"{action}_{ingredient}"
 
 
 @dataclass(frozen=True)
