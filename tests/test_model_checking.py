@@ -110,7 +110,7 @@ def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
     result = make_small("model_checking.mk", tmp_path / "mc")
     assert result.returncode == 0, result.stderr[-2000:]
     table = (tmp_path / "mc" / "results.md").read_text()
-    for row in ("Syntax tree", "DFA (T-LEAF)"):
+    for row in ("Syntax tree", "DFA (T-LEAF), preset paper", "DFA (T-LEAF), preset best"):
         assert f"| {row} | MLP 512-128, balanced accuracy | " in table
     assert (tmp_path / "mc" / "tsne-low-seed0.png").read_bytes()[:4] == b"\x89PNG"
     for embedder in ("syntax", "dfa"):

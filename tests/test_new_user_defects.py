@@ -222,7 +222,10 @@ def test_inspect_dot_and_draw_together_do_both(dfas: Path, tmp_path: Path) -> No
         (["gen-formulas", "--tier", "low", "--atoms", "4"], "--atoms: set by --tier"),
         (["gen-traces", "{dfas}", "--once-each", "--max-len", "5"], "--max-len: ignored"),
         (["gen-traces", "{dfas}", "--max-none", "1"], "--max-none: only with --once-each"),
-        (["train-meta", "{dfas}", "t.parquet", "--edge", "e", "--bins", "2"], "--bins: only"),
+        (
+            ["train-meta", "{dfas}", "t", "--edge", "e", "--readout", "walk", "--bins", "2"],
+            "--bins: only",
+        ),
         (
             ["train-task", "action-recognition", "{dfas}", "--kb", "k.ltl", "--decode-top-k", "3"],
             "--decode-top-k: only with --decode constrained",

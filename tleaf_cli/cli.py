@@ -1,6 +1,6 @@
 """The `tleaf` command line: one thin function per stage; the work is in the library.
 
-Exit status (DESIGN.md): 0 all good; 1 some inputs failed (the rest was written, each failure
+Exit status (docs/design.md): 0 all good; 1 some inputs failed (the rest was written, each failure
 recorded with its reason); 2 the call itself is unusable.
 """
 

@@ -7,7 +7,7 @@ satisfying letter and pushes it from the violating one, and held-out triplet acc
 (d(G, sat) < d(G, unsat)) on formulas never trained on is measured after every epoch. The best
 epoch's weights are kept. CPU training is repeatable for a seed.
 
-Model directory (DESIGN.md): `config.json` (architecture, settings, vocabulary, input hashes),
+Model directory (docs/design.md): `config.json` (architecture, settings, vocabulary, input hashes),
 `weights.pt` (state_dict of the best epoch, loadable with `torch.load(weights_only=True)`),
 `metrics.json` (curve and final figures), and `checkpoint.pt` (last epoch, for `resume`:
 `training.fit`).

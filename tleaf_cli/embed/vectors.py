@@ -1,6 +1,6 @@
 """The `embed` stage: vectors for the DFAs of a dfas.parquet or the traces of a traces.parquet.
 
-Output (DESIGN.md): Parquet of kind `embeddings` with `id` (a formula_id, or
+Output (docs/design.md): Parquet of kind `embeddings` with `id` (a formula_id, or
 `formula_id:trace_id`), `kind` (`dfa`, `formula` for the syntax baseline, or `trace`) and
 `vector` fixed_size_list<float32>. Embedding is deterministic: the readout takes the expected
 random walk, so the same model and input always give the same file.

@@ -103,10 +103,6 @@ def rules_for(kb: KnowledgeBase, present_atoms: Iterable[str]) -> list[Rule]:
     return [kb.rules[k] for k in sorted(candidates) if present.issuperset(kb.rules[k].atoms)]
 
 
-# How a video's rules form rule sets: one per video (the paper), or one per ingredient.
-RULE_SET_SPLITS = ("video", "ingredient")
-
-
 def ingredient_of(atom: str) -> str:
     """The ingredient of a pair atom `action_ingredient` (actions have no `_`)."""
     return atom.split("_", 1)[-1]

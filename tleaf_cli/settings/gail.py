@@ -43,7 +43,8 @@ class GailSettings:
     clip_range_vf: float | None = None  # SB3's: clip the value's change (None: unclipped)
     lr: float = setting(1e-3, "PPO's learning rate.")
     lr_schedule: str = setting(
-        "constant", "PPO's learning rate: constant, or linear from --lr down to 0.",
+        "constant",
+        "PPO's learning rate: constant, or linear from --lr down to 0.",
         choices=LR_SCHEDULES,
     )
     gamma: float = 0.99
@@ -69,9 +70,7 @@ class GailSettings:
     seed: int = setting(0, "Random seed; the same seed trains the same policy.")
     device: str = setting("cpu", "Where to compute.", choices=DEVICES)
     threads: int = 1  # torch CPU threads
-    domain: Path | None = setting(
-        None, "Domain TOML.", auto="examples/creative_cooking.toml"
-    )
+    domain: Path | None = setting(None, "Domain TOML.", auto="examples/creative_cooking.toml")
 
     def check(self) -> None:
         """SettingError for a setting out of range or settings that do not fit together."""

@@ -21,7 +21,7 @@ import numpy as np
 
 from tleaf_cli.data.artifacts import check_writable, write_text_atomic
 from tleaf_cli.errors import InputError, SettingError
-from tleaf_cli.tasks.action_recognition.decoding import DECODINGS
+from tleaf_cli.settings.action_recognition import DECODINGS
 from tleaf_cli.tasks.figures import pyplot, save_png
 
 LOSS_ORDER = ("tleaf", "exact", "checker")

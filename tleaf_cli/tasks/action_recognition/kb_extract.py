@@ -31,7 +31,6 @@ from tleaf_cli.data.dfa_table import rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, check_names
 from tleaf_cli.errors import InputError, SettingError, TleafError
 from tleaf_cli.knowledge.base import (
-    RULE_SET_SPLITS,
     KnowledgeBase,
     Rule,
     by_ingredient,
@@ -44,6 +43,7 @@ from tleaf_cli.knowledge.base import (
     write_knowledge_base,
 )
 from tleaf_cli.logic.mona import MonaError, mona_binary
+from tleaf_cli.settings.action_recognition import RULE_SET_SPLITS
 from tleaf_cli.tasks.action_recognition.activities import UNLABELLED, Activities, read_activities
 
 # Where the per-video formulas come from; train-time extraction from predictions is the loss's job.
