@@ -13,7 +13,7 @@ from tleaf_cli.embed.encoders import PropositionEncoder
 from tleaf_cli.embed.meta_data import GuardVectors
 from tleaf_cli.embed.soft import Embedder
 from tleaf_cli.embed.train_meta import MetaSettings, build_model
-from tleaf_cli.errors import InputError, SettingError, TleafError
+from tleaf_cli.errors import ArgumentError, InputError, SettingError, TleafError
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.logic.compile import compile_formula
@@ -146,7 +146,7 @@ def test_rule_set_errors_name_what_is_wrong() -> None:
         logic_loss("fuzzy", lp, RuleSet("F cut_egg", VOCAB))  # type: ignore[arg-type]
     with pytest.raises(SettingError, match="embedder"):
         logic_loss("tleaf", lp, RuleSet("F cut_egg", VOCAB))
-    with pytest.raises(InputError, match="3 rule sets for a batch of 2"):
+    with pytest.raises(ArgumentError, match="3 rule sets for a batch of 2"):
         logic_loss("exact", lp, [RuleSet("F cut_egg", VOCAB)] * 3)
     with pytest.raises(TleafError, match="vocabulary of 2 items"):
         logic_loss("exact", lp, RuleSet("F cut_egg", ["cut_egg", "fry_egg"]))

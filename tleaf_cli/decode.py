@@ -47,7 +47,7 @@ def constrained_decode(
     Raises RulesError naming the sequence when no sequence of its length meets its rules, and
     InputError for shapes or rule sets that do not fit `log_probs`.
     """
-    per_sequence, lengths = rules_per_sequence(log_probs, rules, lengths)
+    log_probs, per_sequence, lengths = rules_per_sequence(log_probs, rules, lengths)
     _, steps, vocabulary = log_probs.shape
     device = log_probs.device
     with torch.no_grad():

@@ -7,6 +7,8 @@ kinds say what went wrong, not how the CLI reports it:
                   what was expected, rules whose atoms are not in the vocabulary;
 * `SettingError`  a setting's value is out of range; `setting` is its name as the library spells
                   it (a field of a settings object or a keyword argument, e.g. ``logic_loss``);
+* `ArgumentError` a public function's argument cannot be used (`ArgumentTypeError`: of the wrong
+                  type); `argument` is its name in the signature (tleaf_cli/arguments.py);
 * `RulesError`    rules that cannot do what was asked (no sequence of the given length meets them);
 * `TleafError` itself: the machine cannot do it (MONA or Graphviz missing or failing).
 
@@ -36,6 +38,22 @@ class SettingError(TleafError):
 
     def __str__(self) -> str:
         return f"{self.setting}: {self.args[0]}"
+
+
+class ArgumentError(TleafError, ValueError):
+    """A public function's argument cannot be used (a shape, a range, a NaN, a repeated item):
+    `argument` names it as the function's signature does (a ValueError too, as in PyTorch)."""
+
+    def __init__(self, argument: str, message: str) -> None:
+        super().__init__(message)
+        self.argument = argument
+
+    def __str__(self) -> str:
+        return f"{self.argument}: {self.args[0]}"
+
+
+class ArgumentTypeError(ArgumentError, TypeError):
+    """A public function's argument is of the wrong type (a TypeError too, as in PyTorch)."""
 
 
 class RulesError(TleafError):

@@ -25,10 +25,11 @@ from dataclasses import replace
 
 import numpy as np
 
+from tleaf_cli import arguments
 from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.formula_files import FormulaSource
-from tleaf_cli.errors import InputError
+from tleaf_cli.errors import ArgumentError, InputError
 from tleaf_cli.logic.dfa import DFA
 
 _COMPILED: dict[tuple[str, float], DFA] = {}  # (formula text, timeout) -> one-hot DFA
@@ -68,7 +69,8 @@ class RuleSet:
     accepted), `formula` (the conjunction as one text, for embedders that read formulas).
 
     Raises InputError for a formula that does not compile or names an atom outside the
-    vocabulary.
+    vocabulary; ArgumentError (ArgumentTypeError) for formulas that are not strs and for a
+    vocabulary with a repeated item or an item that can never be an atom.
     """
 
     def __init__(
@@ -78,10 +80,14 @@ class RuleSet:
         name: str | None = None,
         compile_settings: CompileSettings | None = None,
     ) -> None:
-        self.formulas = (formulas,) if isinstance(formulas, str) else tuple(formulas)
+        if isinstance(formulas, str):
+            formulas = [formulas]
+        self.formulas = tuple(arguments.sequence(formulas, "formulas", "LTLf formulas (str)"))
+        for i, f in enumerate(self.formulas):
+            arguments.text(f, f"formulas[{i}]")
         if not self.formulas:
-            raise InputError("a rule set needs at least one formula")
-        self.vocabulary = tuple(vocabulary)
+            raise ArgumentError("formulas", "is empty: a rule set needs at least one formula")
+        self.vocabulary = arguments.vocabulary(vocabulary)
         self.name = name or "rs-" + _digest(sorted(self.formulas))
         self.formula = " & ".join(f"({f})" for f in self.formulas)
         compile_rules(self.formulas, compile_settings)

@@ -14,12 +14,14 @@ length; an episode cut short may still end unsatisfied (a rule like `F serve` un
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 
 import numpy as np
 import torch
 
-from tleaf_cli.errors import InputError, RulesError
+from tleaf_cli import arguments
+from tleaf_cli.errors import ArgumentError, ArgumentTypeError, RulesError
 from tleaf_cli.rule_set import RuleSet
 
 
@@ -37,15 +39,17 @@ class Shield:
     """
 
     def __init__(self, rules: RuleSet | Sequence[RuleSet]) -> None:
-        self.rule_sets = [rules] if isinstance(rules, RuleSet) else list(rules)
-        if not self.rule_sets:
-            raise InputError("a shield needs at least one rule set")
-        size = len(self.rule_sets[0].vocabulary)
+        self.rule_sets = arguments.rule_sets(rules, None, RuleSet)
+        self.vocabulary = self.rule_sets[0].vocabulary
+        size = len(self.vocabulary)
         for r in self.rule_sets:
             if not r.satisfiable:
                 raise RulesError(f"rule set {r.name}: no sequence satisfies it; nothing to allow")
-            if len(r.vocabulary) != size:
-                raise InputError(f"rule set {r.name}: not over the same vocabulary as the others")
+            if r.vocabulary != self.vocabulary:
+                raise ArgumentError(
+                    "rules", f"rule set {r.name} is not over the same vocabulary as the first"
+                )
+        self._position = {item: i for i, item in enumerate(self.vocabulary)}
         states = max(r.dfa.num_states for r in self.rule_sets)
         n = len(self.rule_sets)
         self._next = torch.zeros((n, states, size), dtype=torch.long)  # state after each action
@@ -73,13 +77,37 @@ class Shield:
         """BoolTensor [V]: the actions after which the rules can still be met."""
         return self._allowed[self._rows, self.state].all(dim=0)
 
-    def step(self, index: int) -> bool:
-        """Advance on the chosen action (a vocabulary index); True while the rules can still
-        be met (False once an action outside `allowed()` was taken)."""
-        if not 0 <= int(index) < self._next.shape[2]:
-            raise InputError(f"action {index} is outside the vocabulary of {self._next.shape[2]}")
-        self.state = self._next[self._rows, self.state, int(index)]
+    def step(self, action: int | str) -> bool:
+        """Advance on the chosen action: its vocabulary index (an int, a numpy integer or a
+        one-element tensor) or its item name. True while the rules can still be met (False once
+        an action outside `allowed()` was taken)."""
+        index = self._index(action)
+        self.state = self._next[self._rows, self.state, index]
         return bool(self._live[self._rows, self.state].all())
+
+    def _index(self, action: int | str) -> int:
+        """The vocabulary index of `action` (ArgumentError / ArgumentTypeError otherwise)."""
+        if isinstance(action, str):
+            if action not in self._position:
+                raise ArgumentError(
+                    "action",
+                    f"{action!r} is not an item of the vocabulary ({len(self.vocabulary)} items)",
+                )
+            return self._position[action]
+        try:
+            if isinstance(action, bool):
+                raise TypeError
+            index = operator.index(action)  # int, numpy integer, one-element integer tensor
+        except TypeError:
+            raise ArgumentTypeError(
+                "action",
+                f"must be a vocabulary index or an item name, not {arguments.given(action)}",
+            ) from None
+        if not 0 <= index < len(self.vocabulary):
+            raise ArgumentError(
+                "action", f"{index} is outside the vocabulary of {len(self.vocabulary)} items"
+            )
+        return index
 
     @property
     def accepting(self) -> bool:

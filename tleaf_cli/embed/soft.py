@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import os
 from collections.abc import Collection, Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -23,6 +24,8 @@ from pathlib import Path
 import torch
 from torch_geometric.data import Batch
 
+from tleaf_cli import arguments
+from tleaf_cli.arguments import given
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.embed.graphs import letter_cnf, syntax_graph
 from tleaf_cli.embed.meta_data import (
@@ -36,8 +39,8 @@ from tleaf_cli.embed.soft_monitors import monitor_classes, soft_monitor_features
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import TripletEmbedder, build_model
 from tleaf_cli.embed.training import read_model_config
-from tleaf_cli.errors import InputError, SettingError
-from tleaf_cli.logic.alphabet import Alphabet
+from tleaf_cli.errors import ArgumentError, ArgumentTypeError, InputError, SettingError
+from tleaf_cli.logic.alphabet import ALPHABET_KINDS, Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
 from tleaf_cli.rule_set import RuleSet
@@ -96,6 +99,10 @@ class Embedder:
         """[len(traces), d] for discrete traces, trace i read over the atoms `atoms[i]` of a
         one-hot alphabet where `one_hot` (one bool for all, or one per trace; default:
         powerset)."""
+        traces = arguments.traces(traces)
+        atoms = arguments.sequence(atoms, "atoms", "atom tuples, one per trace")
+        if len(atoms) != len(traces):
+            raise ArgumentError("atoms", f"{len(atoms)} atom tuples for {len(traces)} traces")
         kinds = [one_hot] * len(traces) if isinstance(one_hot, bool) else one_hot
         letters = [
             trace_letter_vectors(t, a, self.vectors, h)
@@ -215,8 +222,18 @@ class Embedder:
         columns: Sequence[str] | None = None,
         domain: str = "one-hot",
     ) -> torch.Tensor:
-        """[B, d] vectors of soft traces, each [T_b, len(columns)], over a formula's atoms."""
-        columns = list(atoms) if columns is None else list(columns)
+        """[B, d] vectors of soft traces, each [T_b, len(columns)] (per-step probabilities of the
+        items `columns`, default `atoms`), over a formula's atoms."""
+        atoms = tuple(arguments.sequence(atoms, "atoms", "atom names (str)"))
+        columns = list(atoms) if columns is None else arguments.sequence(columns, "columns", "str")
+        missing = [a for a in atoms if a not in columns]
+        if missing:
+            raise ArgumentError("columns", f"has no column for atom {missing[0]!r}")
+        if domain not in ALPHABET_KINDS:
+            raise ArgumentError(
+                "domain", f"must be one of {', '.join(ALPHABET_KINDS)}, not {domain!r}"
+            )
+        traces = arguments.soft_traces(traces, len(columns))
         _, table = self.letter_vectors(atoms, domain)
         probs = torch.nn.utils.rnn.pad_sequence(
             [self.letter_probabilities(p, columns, atoms, domain) for p in traces],
@@ -262,6 +279,10 @@ def edge_model_dir(model_dir: Path, config: dict) -> Path:
 
 def load_embedder(model_dir: str | Path) -> Embedder:
     """A trained meta embedder directory (with its edge model) as an `Embedder`."""
+    if not isinstance(model_dir, str | os.PathLike):
+        raise ArgumentTypeError(
+            "model_dir", f"must be a path (str or Path), not {given(model_dir)}"
+        )
     model_dir = Path(model_dir)
     config = read_model_config(model_dir, "meta-embedder")
     settings = settings_from_config(config, model_dir / "config.json")

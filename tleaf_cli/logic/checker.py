@@ -13,7 +13,9 @@ from collections.abc import Collection, Sequence
 
 import numpy as np
 
-from tleaf_cli.errors import InputError
+from tleaf_cli import arguments
+from tleaf_cli.arguments import given
+from tleaf_cli.errors import ArgumentTypeError, InputError
 from tleaf_cli.logic.dfa import DFA
 
 
@@ -74,5 +76,10 @@ class PackedDFAs:
 
 
 def check(dfa: DFA, traces: Sequence[Sequence[Collection[str]]]) -> np.ndarray:
-    """Accept (bool per trace) for each non-empty trace against one DFA."""
+    """Accept (bool per trace) for each non-empty trace against one DFA: a trace is a sequence
+    of letters, a letter the set of atoms true at that step. ArgumentTypeError / ArgumentError
+    for a `dfa` that is not a DFA and traces that are not so (a str is never a trace)."""
+    if not isinstance(dfa, DFA):
+        raise ArgumentTypeError("dfa", f"must be a tl.DFA (tl.compile_formula), not {given(dfa)}")
+    traces = arguments.traces(traces)
     return PackedDFAs([dfa]).check_traces(np.zeros(len(traces), dtype=np.int64), traces)

@@ -13,6 +13,7 @@ from typing import Literal
 
 from ltlf2dfa.ltlf import LTLfFormula
 
+from tleaf_cli import arguments
 from tleaf_cli.defaults import COMPILE_TIMEOUT
 from tleaf_cli.errors import SettingError
 from tleaf_cli.logic import mona
@@ -37,10 +38,10 @@ def compile_formula(
 ) -> DFA:
     """The minimal DFA accepting exactly the non-empty traces that satisfy `text`.
 
-    Raises FormulaSyntaxError, LetterError (too many atoms for a powerset alphabet), MonaError, or
-    TooLarge (engine "progression" only).
+    Raises ArgumentTypeError for a `text` that is not a str, FormulaSyntaxError, LetterError (too
+    many atoms for a powerset alphabet), MonaError, or TooLarge (engine "progression" only).
     """
-    return compile_parsed(parse(text), alphabet, timeout, engine)
+    return compile_parsed(parse(arguments.text(text, "text")), alphabet, timeout, engine)
 
 
 def compile_parsed(

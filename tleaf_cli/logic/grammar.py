@@ -50,6 +50,18 @@ _TOKEN = re.compile(
 )
 _CONSTANTS = {"true": LTLfTrue, "false": LTLfFalse, "last": LTLfLast}
 _AMBIGUOUS = ("true", "false", "last")  # lark reads these as a prefix of a longer word
+ATOM = re.compile(r"[a-z][a-z0-9_]*")
+
+
+def atom_problem(name: str) -> str | None:
+    """Why `name` can never be an atom of a formula (so a rule can never name it), or None."""
+    if not ATOM.fullmatch(name):
+        return "atoms are lower-case ASCII letters, digits and _, starting with a letter"
+    if name.startswith(_AMBIGUOUS):
+        return f"a word starting with {', '.join(_AMBIGUOUS)} is read as a constant"
+    return None
+
+
 _UNARY = {"!": LTLfNot, "~": LTLfNot, "X": LTLfNext, "WX": LTLfWeakNext}
 _UNARY.update({"F": LTLfEventually, "G": LTLfAlways})
 _LEVELS = (  # loosest first: the operator tokens of each binary level and the class it builds

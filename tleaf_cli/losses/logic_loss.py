@@ -22,7 +22,7 @@ from typing import Literal
 import torch
 
 from tleaf_cli.embed.soft import Embedder
-from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.errors import ArgumentError, SettingError
 from tleaf_cli.losses.checker import checker_loss
 from tleaf_cli.losses.exact import exact_loss
 from tleaf_cli.losses.packed import letter_log_probs, pack_rows, rules_per_sequence
@@ -66,9 +66,10 @@ def logic_loss(
         )
     if kind == "tleaf" and embedder is None:
         raise SettingError("embedder", "the tleaf loss needs an embedder (load_embedder(dir))")
-    per_sequence, lengths = rules_per_sequence(log_probs, rules, lengths)
+    given = getattr(log_probs, "dtype", None)  # float16 / bfloat16 come back as float32
+    log_probs, per_sequence, lengths = rules_per_sequence(log_probs, rules, lengths)
     batch, _, vocabulary = log_probs.shape
-    _check_normalised(log_probs, lengths)
+    _check_normalised(log_probs, lengths, torch.finfo(given).eps)
 
     out = log_probs.new_zeros(batch)
     rows = [
@@ -94,9 +95,9 @@ def logic_loss(
     return out.sum() if reduction == "sum" else out.mean()
 
 
-def _check_normalised(log_probs: torch.Tensor, lengths: torch.Tensor) -> None:
-    """InputError unless every read step's probabilities sum to 1 (logits passed by mistake
-    would give wrong losses silently)."""
+def _check_normalised(log_probs: torch.Tensor, lengths: torch.Tensor, eps: float) -> None:
+    """ArgumentError unless every read step's probabilities sum to 1, to the precision `eps` of
+    the dtype they came in (logits passed by mistake would give wrong losses silently)."""
     with torch.no_grad():
         steps = torch.arange(log_probs.shape[1], device=log_probs.device)
         read = steps[None, :] < lengths[:, None]
@@ -104,8 +105,9 @@ def _check_normalised(log_probs: torch.Tensor, lengths: torch.Tensor) -> None:
         if not total.numel():
             return
         worst = total[total.abs().argmax()]
-    if abs(float(worst)) > 1e-3:
-        raise InputError(
-            f"log_probs are not normalised over the vocabulary (a step's probabilities sum to "
-            f"{float(worst.exp()):.4g}): pass log_softmax(logits, -1), not logits"
+    if abs(float(worst)) > max(1e-3, 16 * eps):
+        raise ArgumentError(
+            "log_probs",
+            f"not normalised over the vocabulary (a step's probabilities sum to "
+            f"{float(worst.exp()):.4g}): pass log_softmax(logits, -1), not logits",
         )

@@ -21,7 +21,8 @@ from functools import lru_cache
 import numpy as np
 import torch
 
-from tleaf_cli.errors import InputError
+from tleaf_cli import arguments
+from tleaf_cli.errors import ArgumentError
 from tleaf_cli.rule_set import RuleSet
 
 NEG = -1e30  # log of "impossible": finite, so logsumexp and its gradient stay defined
@@ -54,26 +55,24 @@ class PackedRuleSets:
 def rules_per_sequence(
     log_probs: torch.Tensor,
     rules: RuleSet | Sequence[RuleSet | None],
-    lengths: torch.Tensor | None,
-) -> tuple[list[RuleSet | None], torch.Tensor]:
-    """One rule set (or None) per sequence of `log_probs` [B, T, V] — `rules` is one for all or
-    one per sequence — and the lengths [B] (default: all T steps), on log_probs' device.
-    InputError where the shapes or the rule sets' vocabularies do not fit."""
-    if log_probs.dim() != 3:
-        raise InputError(f"log_probs must be [B, T, V], not {list(log_probs.shape)}")
+    lengths: torch.Tensor | Sequence[int] | None,
+) -> tuple[torch.Tensor, list[RuleSet | None], torch.Tensor]:
+    """The public losses' and decoder's arguments, checked once per call (tleaf_cli/arguments.py):
+    `log_probs` [B, T, V] as float32 where it was float16 / bfloat16, one rule set (or None) per
+    sequence — `rules` is one for all or one per sequence — and the lengths [B] (default: all T
+    steps) on log_probs' device. ArgumentError (or ArgumentTypeError) for what does not fit."""
+    log_probs = arguments.log_probs(log_probs)
     batch, steps, vocabulary = log_probs.shape
-    per_sequence = [rules] * batch if isinstance(rules, RuleSet) else list(rules)
-    if len(per_sequence) != batch:
-        raise InputError(f"{len(per_sequence)} rule sets for a batch of {batch} sequences")
+    per_sequence = arguments.rule_sets(rules, batch, RuleSet)
     for r in {id(r): r for r in per_sequence if r is not None}.values():
         if len(r.vocabulary) != vocabulary:
-            raise InputError(
-                f"rule set {r.name}: a vocabulary of {len(r.vocabulary)} items, but log_probs "
-                f"has {vocabulary}"
+            raise ArgumentError(
+                "rules",
+                f"rule set {r.name} has a vocabulary of {len(r.vocabulary)} items, but log_probs "
+                f"has V = {vocabulary}",
             )
-    if lengths is None:
-        lengths = torch.full((batch,), steps, dtype=torch.long)
-    return per_sequence, lengths.long().to(log_probs.device)
+    lengths = arguments.lengths(lengths, batch, steps, log_probs.device)
+    return log_probs, per_sequence, lengths
 
 
 def pack_rows(
