@@ -35,10 +35,23 @@ def progress(description: str, quiet: bool = False) -> Iterator[Callable[[int, i
         yield lambda done, total: bar.update(task, completed=done, total=total)
 
 
+def visible(text: str) -> str:
+    """`text` with every character that does not show escaped as Python's repr writes it:
+    controls (`\\x00`, `\\n`), format characters (a byte-order mark `\\ufeff`, a zero-width
+    space `\\u200b`), separators other than the space (`\\xa0`), surrogates; letters in any
+    script (`γ`, `é`) and symbols stay as they are. So an error line shows what is wrong with a
+    name that looks right, and stays one line."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def failures(items: list[tuple[str, str]]) -> None:
     """One stderr line per failure (`path: message`), at most MAX_FAILURE_LINES of them."""
     for path, message in items[:MAX_FAILURE_LINES]:
-        err.print(f"[red]error[/]: {escape(path)}: {escape(message)}", soft_wrap=True)
+        err.print(
+            f"[red]error[/]: {escape(visible(path))}: {escape(visible(message))}", soft_wrap=True
+        )
     if len(items) > MAX_FAILURE_LINES:
         err.print(f"... and {len(items) - MAX_FAILURE_LINES} more (see the error column)")
 
@@ -49,7 +62,8 @@ def summary(line: str, quiet: bool = False) -> None:
 
 
 def fatal(message: str) -> None:
-    err.print(f"[red]error[/]: {escape(message)}", soft_wrap=True)
+    """The one stderr line of a refused call; invisible characters shown escaped (`visible`)."""
+    err.print(f"[red]error[/]: {escape(visible(message))}", soft_wrap=True)
 
 
 def table(title: str, columns: list[str], rows: list[list[str]]) -> None:

@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import json
 from collections import Counter
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
+import pyarrow as pa
 import pyarrow.parquet as pq
 
 from tleaf_cli import ui
@@ -13,6 +16,7 @@ from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.dfa_table import KIND as DFA_KIND
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.graphs import render_dot, row_to_dot
+from tleaf_cli.errors import InputError
 
 CELL_CHARS = 60
 
@@ -20,31 +24,35 @@ CELL_CHARS = 60
 def show_artifact(path: Path, limit: int = 10) -> None:
     """Kind, schema, version, params, inputs, columns and the first `limit` rows."""
     prov = read_provenance(path)
-    parquet = pq.ParquetFile(path)
-    n_rows = parquet.metadata.num_rows
+    with _reading(path):  # all of it before printing: a damaged file prints only its error
+        parquet = pq.ParquetFile(path)
+        n_rows = parquet.metadata.num_rows
+        schema = parquet.schema_arrow
+        head = next(parquet.iter_batches(batch_size=max(limit, 1)), None)
+        rows = head.to_pylist()[:limit] if head is not None else []
+        compiled = None
+        if prov.kind == DFA_KIND and n_rows:
+            compiled = pq.read_table(path, columns=["error"]).column("error").null_count
     ui.text(f"{path}: {prov.kind} artifact, schema {prov.schema}, tleaf {prov.version}")
     ui.text(f"rows: {n_rows}")
     ui.text(f"params: {json.dumps(prov.params, sort_keys=True)}")
     for item in prov.inputs:
         ui.text(f"input: {item.get('path')} (sha256 {str(item.get('sha256'))[:12]}…)")
-    schema = parquet.schema_arrow
     ui.text("columns: " + ", ".join(f"{f.name} {f.type}" for f in schema))
-    head = next(parquet.iter_batches(batch_size=max(limit, 1)), None)
-    rows = head.to_pylist()[:limit] if head is not None else []
     if prov.kind == DFA_KIND:
         rows = [_dfa_brief(r) for r in rows]
     if rows:
         columns = list(rows[0])
         ui.table(f"first {len(rows)} rows", columns, [[_cell(r[c]) for c in columns] for r in rows])
-    if prov.kind == DFA_KIND and n_rows:
-        compiled = pq.read_table(path, columns=["error"]).column("error").null_count
+    if compiled is not None:
         ui.text(f"compiled: {compiled} of {n_rows}; failed: {n_rows - compiled}")
 
 
 def show_stats(path: Path) -> None:
     """Distributions: DFA sizes for a dfas.parquet; labels, sources, splits, lengths for traces."""
     prov = read_provenance(path)
-    table = pq.read_table(path)
+    with _reading(path):
+        table = pq.read_table(path)
     ui.text(f"{path}: {prov.kind} artifact, {table.num_rows} rows")
     if prov.kind == DFA_KIND:
         rows = [r for r in table.select(["num_states", "edges", "error"]).to_pylist()]
@@ -106,6 +114,17 @@ def show_dfa(path: Path, formula_id: str, dot: bool = False, draw: Path | None =
     ui.table(f"{row['num_states']} states", ["state", "initial", "accepting"], states)
     edges = [[str(e["src"]), str(e["dst"]), e["guard"], json.dumps(e["cnf"])] for e in row["edges"]]
     ui.table(f"{len(edges)} edges", ["src", "dst", "guard", "cnf"], edges)
+
+
+@contextmanager
+def _reading(path: Path) -> Iterator[None]:
+    """InputError naming the file, on one line, when its data cannot be read: a damaged or cut
+    file whose footer still reads fails only here, and Arrow's message names no file."""
+    try:
+        yield
+    except (pa.ArrowException, OSError) as e:
+        detail = (str(e).strip().splitlines() or [e.__class__.__name__])[0]
+        raise InputError(f"{path}: unreadable ({detail})") from None
 
 
 def _dfa_brief(row: dict) -> dict:

@@ -1,7 +1,8 @@
 """Formula inputs: `.ltl` text files and Parquet tables with `formula_id, formula`.
 
-`.ltl` (docs/design.md): UTF-8, one formula per line, `#` starts a comment, blank lines skipped, an
-optional `name:` prefix (`[A-Za-z0-9_.-]+`) names the formula, otherwise its id is `L<line>`.
+`.ltl` (docs/design.md): UTF-8 (a byte-order mark at the start is skipped), one formula per line,
+`#` starts a comment, blank lines skipped, an optional `name:` prefix (`[A-Za-z0-9_.-]+`) names
+the formula, otherwise its id is `L<line>`.
 A line that is wrong in itself (bad name, repeated name) still yields an entry, with `problem`
 set, so the stage reports it in its row and carries on with the others.
 """
@@ -69,11 +70,16 @@ def read_formulas(path: str | Path) -> list[FormulaSource]:
     if path.suffix == ".parquet":
         return _read_parquet(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not UTF-8 text (byte {e.start})") from None
+        data = path.read_bytes()
     except OSError as e:
         raise InputError(f"{path}: cannot read ({e.strerror})") from None
+    try:
+        # utf-8-sig: a byte-order mark at the start (Notepad writes one) is not text; read as
+        # UTF-8 it would join the first line's name and make it invalid.
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:  # e.object is the data after the mark
+        byte = e.start + len(data) - len(e.object)
+        raise InputError(f"{path}: not UTF-8 text (byte {byte})") from None
     return parse_ltl_text(text, str(path))
 
 

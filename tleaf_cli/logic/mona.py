@@ -17,6 +17,7 @@ import os
 import re
 import resource
 import shutil
+import signal
 import subprocess
 import tempfile
 from dataclasses import dataclass
@@ -105,7 +106,12 @@ def mona_program(formula: LTLfFormula) -> str:
             f"formula too large for MONA: its encoding has about {nodes:,} nodes "
             f"(at most {MAX_ENCODING_NODES:,}; each nested G, R, or <-> doubles it)"
         )
-    return MonaProgram(formula).mona_program()
+    program = MonaProgram(formula).mona_program()
+    # ltlf2dfa's first line repeats the formula as a `#` comment. MONA reads a comment as one
+    # token, and no token may pass its reader's buffer (YYLMAX: 8,190 characters measured), so a
+    # formula over 8 KB failed on its own comment ("token too large"). The comment is dropped.
+    first, _, rest = program.partition("\n")
+    return rest if first.startswith("#") else program
 
 
 def encoding_nodes(formula: LTLfFormula, negated: bool = False, nnf: bool = False) -> int:
@@ -177,10 +183,47 @@ def run_mona(program: str, timeout: float, memory_mb: int = DEFAULT_MEMORY_MB) -
                 proc.communicate()
                 raise MonaTimeout(f"MONA did not finish within {timeout:g} s") from None
     if proc.returncode != 0:
-        detail = (err or out).strip().splitlines()
-        reason = detail[-1] if detail else f"exit status {proc.returncode}"
-        raise MonaError(f"MONA failed ({reason}; memory limit {memory_mb} MB)")
+        raise MonaError(failure_reason(proc.returncode, out, err, memory_mb))
     return out
+
+
+# What MONA's failures mean, and what to do about each; one line, for a row's error.
+TOO_MANY_STATES = (
+    "the formula has too many states for MONA; split it into smaller formulas (a conjunction "
+    "into one formula per conjunct) or give each fewer eventualities (F, U)"
+)
+
+
+def failure_reason(returncode: int, out: str, err: str, memory_mb: int) -> str:
+    """A failed MONA run's cause, read from its exit status and what it printed, with what to do.
+
+    - "token too large, exceeds YYLMAX": MONA's reader takes no word longer than its buffer
+      (8,190 characters measured); with ltlf2dfa's comment dropped, only an atom name can be.
+    - "*** out of memory, execution aborted ***" (stdout, exit status 255): the address-space
+      cap set on the child was reached.
+    - killed by SIGABRT with nothing printed: MONA aborts when an automaton outgrows its BDD
+      table (`bdd_new_manager` prints "BDD too large" and calls abort(), so its buffered stdout
+      is lost): 20 eventualities `F a1 & ... & F a20` (2^20 states) do it within seconds.
+    """
+    text = f"{out}\n{err}"
+    if "token too large" in text:
+        return (
+            "MONA cannot read the formula: a word of it (an atom name) is longer than the "
+            "8,190 characters MONA reads ('token too large'); shorten its atom names (the "
+            "progression engine reads names of any length)"
+        )
+    if "out of memory" in text:
+        return f"MONA ran out of memory (limit {memory_mb} MB): {TOO_MANY_STATES}"
+    if returncode == -signal.SIGABRT:
+        return (
+            f"MONA aborted, as it does when its automaton outgrows its BDD table: {TOO_MANY_STATES}"
+        )
+    if returncode < 0:
+        number = -returncode
+        known = number in signal.Signals.__members__.values()
+        return f"MONA was killed by {signal.Signals(number).name if known else f'signal {number}'}"
+    detail = [line.strip() for line in text.splitlines() if line.strip()]
+    return f"MONA failed (exit status {returncode}" + (f": {detail[-1]})" if detail else ")")
 
 
 _FREE = re.compile(r"^DFA for formula with free variables:(.*)$", re.M)
