@@ -3,11 +3,11 @@
     TLEAF_TIMES=$PWD/times.tsv make -f pipelines/model_checking.mk TLEAF=$PWD/pipelines/timed-tleaf
     python benchmarks/stage_times.py times.tsv
 
-Prints a markdown table: one row per stage (the tleaf subcommand, with `--embedder` for
-train-meta and eval, and the variant for train-task runs written to `runs/<variant>-seed<s>`, as
-pipelines/cooking.mk does), the number of calls, and one column pair per tier (the path component
-after the pipeline's out directory: low, moderate, high), wall and CPU (user + system) seconds
-summed over the calls.
+Prints a markdown table: one row per stage (the tleaf subcommand; for train-meta and eval,
+with the row of q's `meta-<row>` folder: dfa, paper, syntax; for train-task runs written to
+`runs/<variant>-seed<s>`, as pipelines/cooking.mk does, with the variant), the number of calls,
+and one column pair per tier (the path component after the pipeline's out directory: low,
+moderate, high), wall and CPU (user + system) seconds summed over the calls.
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ TIERS = ("low", "moderate", "high")
 def stage_of(command: str) -> tuple[str, str]:
     words = command.split()
     stage = words[1] if words[1] != "eval" else f"eval {words[2]}"
-    kind = re.search(r"--embedder \S*?(syntax|dfa)\b", command)
+    # the row of the model-checking pipeline: its q's folder, meta-<row> (eval reads it)
+    kind = re.search(r"/meta-(\w+)", command)
     if kind and stage in ("train-meta", "eval model-checking"):
         stage += f" ({kind.group(1)})"
     variant = re.search(r"/runs/([\w.]+)-seed\d+", command)
