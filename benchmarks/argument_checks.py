@@ -1,11 +1,14 @@
 """What the public API's argument checks cost: the exact loss (forward and backward) on a batch
-of 64 sequences × 50 steps, this tree's code against a baseline tree's, in one run.
+of 64 sequences × 50 steps, this tree's code against a baseline tree's, in one run; and the
+call's boundary alone (`losses.packed.rules_per_sequence`, where the checks run), whose
+difference is the checks' own cost.
 
     python benchmarks/argument_checks.py BASELINE_TREE [--repeats 200] [--rounds 5]
 
 BASELINE_TREE is a checkout of the code to compare with (e.g. `git worktree add /tmp/base
-REV`); each round times both trees, one after the other, in fresh subprocesses on one CPU
-thread, and the table gives the median per call and the ratio (this / baseline).
+REV`); each round times both trees, one after the other (the order alternating), in fresh
+subprocesses on one CPU thread, and the table gives the median per call over the rounds'
+medians and the ratio (this / baseline).
 """
 
 from __future__ import annotations
@@ -41,11 +44,20 @@ for _ in range(repeats):
     loss = tl.logic_loss("exact", torch.log_softmax(logits, -1), rules, lengths)
     loss.backward()
     times.append(time.perf_counter() - start)
-print(json.dumps(times))
+# the boundary alone: the arguments' checks (and, in both trees, the rule sets' broadcast)
+from tleaf_cli.losses.packed import rules_per_sequence
+
+log_probs = torch.log_softmax(logits, -1).detach()
+boundary = []
+for _ in range(repeats):
+    start = time.perf_counter()
+    rules_per_sequence(log_probs, rules, lengths)
+    boundary.append(time.perf_counter() - start)
+print(json.dumps([times, boundary]))
 """
 
 
-def time_tree(tree: Path, repeats: int) -> list[float]:
+def time_tree(tree: Path, repeats: int) -> list[list[float]]:
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
     out = subprocess.run(
         [sys.executable, "-c", TIMED, str(repeats)],
@@ -65,15 +77,22 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5, help="rounds, each timing both trees")
     args = parser.parse_args()
     medians: dict[str, list[float]] = {"this": [], "baseline": []}
-    for _ in range(args.rounds):
-        for name, tree in (("baseline", args.baseline.resolve()), ("this", HERE)):
-            medians[name].append(statistics.median(time_tree(tree, args.repeats)))
+    boundary: dict[str, list[float]] = {"this": [], "baseline": []}
+    trees = [("baseline", args.baseline.resolve()), ("this", HERE)]
+    for r in range(args.rounds):  # the order alternates, so neither tree always runs first
+        for name, tree in trees if r % 2 == 0 else trees[::-1]:
+            loss, checks = time_tree(tree, args.repeats)
+            medians[name].append(statistics.median(loss))
+            boundary[name].append(statistics.median(checks))
     this, base = statistics.median(medians["this"]), statistics.median(medians["baseline"])
-    print("| code | exact loss, 64 × 50 steps, forward + backward (median ms) |")
-    print("|---|---|")
-    print(f"| baseline ({args.baseline}) | {1000 * base:.2f} |")
-    print(f"| this tree | {1000 * this:.2f} |")
+    at = {k: 1000 * statistics.median(v) for k, v in boundary.items()}
+    print("| code | exact loss, 64 × 50 steps, forward + backward (ms) | its boundary (ms) |")
+    print("|---|---|---|")
+    print(f"| baseline ({args.baseline}) | {1000 * base:.2f} | {at['baseline']:.3f} |")
+    print(f"| this tree | {1000 * this:.2f} | {at['this']:.3f} |")
     print(f"\nratio this / baseline: {this / base:.3f} (rounds: {args.rounds} × {args.repeats})")
+    extra = at["this"] - at["baseline"]
+    print(f"the checks' own cost: {extra:.3f} ms, {100 * extra / (1000 * base):.1f} % of a call")
 
 
 if __name__ == "__main__":
