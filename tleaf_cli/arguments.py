@@ -70,24 +70,33 @@ def vocabulary(items: Any, argument: str = "vocabulary") -> tuple[str, ...]:
     return tuple(items)
 
 
-def traces(value: Any, argument: str = "traces") -> list[list[Collection[str]]]:
+def traces(value: Any, argument: str = "traces") -> list[Sequence[Collection[str]]]:
     """Traces: a sequence of traces, each a non-empty sequence of letters, each a collection
     (set, list, ...) of atom names; a str at any level is refused (it would be read letter by
-    letter)."""
+    letter). Lists and tuples of sets pass on a fast path: the checker's batches are large."""
     out = sequence(value, argument, "traces (each a sequence of sets of atoms)")
     for i, trace in enumerate(out):
-        trace = sequence(trace, f"{argument}[{i}]", "letters (sets of atoms)")
-        if not trace:
-            raise ArgumentError(f"{argument}[{i}]", "is empty: traces have at least one letter")
-        for t, letter in enumerate(trace):
-            if isinstance(letter, str) or not isinstance(letter, Collection):
-                raise ArgumentTypeError(
-                    f"{argument}[{i}][{t}]",
-                    f"must be a set of atom names (e.g. {{'a'}}; set() for none), not "
-                    f"{given(letter)}",
-                )
-        out[i] = trace
+        if not (type(trace) in _TRACES and trace and {type(x) for x in trace} <= _LETTERS):
+            _trace(trace, f"{argument}[{i}]")  # the slow look, which says what is wrong
     return out
+
+
+_TRACES = {list, tuple}
+_LETTERS = {set, frozenset}
+
+
+def _trace(trace: Any, argument: str) -> None:
+    """ArgumentError / ArgumentTypeError for a trace that is not a non-empty sequence of
+    collections of atom names."""
+    trace = sequence(trace, argument, "letters (sets of atoms)")
+    if not trace:
+        raise ArgumentError(argument, "is empty: traces have at least one letter")
+    for t, letter in enumerate(trace):
+        if isinstance(letter, str) or not isinstance(letter, Collection):
+            raise ArgumentTypeError(
+                f"{argument}[{t}]",
+                f"must be a set of atom names (e.g. {{'a'}}; set() for none), not {given(letter)}",
+            )
 
 
 def log_probs(value: Any, argument: str = "log_probs") -> torch.Tensor:
