@@ -1016,6 +1016,70 @@ def eval_action_recognition(
     )
 
 
+@eval_app.command("learning-curve", cls=Command)
+@_exits
+def eval_learning_curve(
+    runs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="train-task action-recognition run dirs (--train-videos, --decode "
+            "constrained), every size, with the reference (--logic-loss none)."
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder.")] = Path("curve"),
+    sweep: Annotated[
+        list[Path] | None,
+        typer.Option(
+            help="A run of the λ sweep (repeat): each model, loss and size's λ choice "
+            "on val is shown."
+        ),
+    ] = None,
+    quiet: Quiet = False,
+) -> None:
+    """Action accuracy against training videos per variant (loss x decoding): the gain over the
+    same-seed reference, and the training videos the reference needs to match each variant.
+
+    Writes curve.md, curve.json and curve.png (accuracy vs videos, log scale, mean ± s.e.).
+    """
+    from tleaf_cli.tasks.action_recognition.learning_curve import learning_curve
+
+    sweep = sweep or []
+    _targets([*runs, *sweep], [out / f"curve.{ext}" for ext in ("json", "md", "png")], [out])
+    result = learning_curve(runs, out, sweep)
+    ui.summary(
+        f"{out}/curve.md: {len(result['runs'])} runs, {len(result['curve'])} (model, size, "
+        f"variant) cells, {len(result['lambda_choices'])} λ choices",
+        quiet,
+    )
+
+
+@eval_app.command("choose-lambda", cls=Command)
+@_exits
+def eval_choose_lambda(
+    runs: Annotated[
+        list[Path],
+        typer.Argument(
+            help="train-task action-recognition run dirs of one model, loss and "
+            "size that differ only in λ and seed."
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Text file for the chosen λ.")] = Path(
+        "lambda.txt"
+    ),
+    quiet: Quiet = False,
+) -> None:
+    """The λ with the best mean val action accuracy (best epoch) over the runs' seeds; ties go
+    to the smaller λ. Writes it to a text file, as %g prints it."""
+    from tleaf_cli.tasks.action_recognition.learning_curve import choose_lambda_file
+
+    _targets(runs, [out])
+    choice = choose_lambda_file(runs, out)
+    table = ", ".join(
+        f"{v['lambda']:g}: {100 * v['val_action_accuracy']:.2f}%" for v in choice["val"]
+    )
+    ui.summary(f"{out}: λ {choice['lambda']:g} (mean val action accuracy {table})", quiet)
+
+
 @app.command("demos-kb", cls=Command)
 @_exits
 def demos_kb(

@@ -44,6 +44,13 @@ class TaskSettings:
         "Also apply the logic loss (tleaf, exact) to the data's unlabelled videos, one batch of "
         "them per training batch; their labels are never read.",
     )
+    train_videos: int | None = setting(
+        None,
+        "Train on the first N videos of the train split (in file order), so that a larger N "
+        "holds every smaller one: a learning curve over one data set.",
+        min=1,
+        auto="all: every video of the train split",
+    )
     hidden: int = setting(128, "Backbone width.", min=1)
     head_hidden: int = 64
     dropout: float = 0.2

@@ -1,0 +1,391 @@
+"""`tleaf eval learning-curve` and `tleaf eval choose-lambda`: what the knowledge is worth as the
+training set grows (pipelines/learning_curve.mk).
+
+The runs (`train-task action-recognition --train-videos N --decode constrained`) share one data
+set: a run at N training videos read the first N of its train split, and every size is scored on
+the same val and test videos. A **variant** is a logic loss with a decoding: the loss's runs
+decoded by argmax, or under the knowledge base's rules (constrained decoding). The
+**reference** is the runs without a logic loss decoded by argmax. Per model, size and variant:
+
+- action accuracy and the share of test videos that break a rule, mean ± s.e. over seeds;
+- the gain, Δ = (accuracy − reference accuracy) / reference accuracy in %, each run against
+  the reference run of the same model, size and seed, mean ± s.e. over seeds;
+- what the knowledge is worth in data: the number of training videos the reference needs to
+  reach the variant's mean accuracy — read off the reference's curve of mean accuracies,
+  linear between sizes on a log scale of videos, its first crossing — divided by the variant's
+  own number (`data_worth`). Beyond the largest size it is a lower bound ("> 320/N"), and at
+  or below the reference's first point an upper bound ("≤ 10/N").
+
+Writes curve.md (the table), curve.json (every figure, every run) and curve.png (action
+accuracy against training videos, log scale, mean ± s.e. per variant, one panel per model).
+
+`choose_lambda` picks a logic loss's λ from runs that differ only in λ and seed: the λ with the
+best mean val action accuracy (best epoch), ties to the smaller λ.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from tleaf_cli.data.artifacts import check_writable, write_text_atomic
+from tleaf_cli.errors import InputError
+from tleaf_cli.tasks.action_recognition.evaluate import read_run
+from tleaf_cli.tasks.figures import pyplot, save_png
+from tleaf_cli.tasks.model_checking_table import mean_se
+
+REFERENCE = ("none", "argmax")
+LOSS_ORDER = ("none", "exact", "tleaf", "checker")
+DECODE_ORDER = ("argmax", "constrained")
+
+
+@dataclass(frozen=True)
+class Worth:
+    """Training videos the reference needs to match a variant, over the variant's own.
+
+    `bound`: "=" (read off the reference's curve), ">" (the reference never gets there: the
+    largest size over the variant's, a lower bound) or "≤" (the reference's smallest size
+    already does: that size over the variant's, an upper bound). `videos`: the reference's
+    videos at the match (interpolated), or the bound's size."""
+
+    ratio: float
+    bound: str
+    videos: float
+
+    def text(self) -> str:
+        if self.bound == "=":
+            return f"{self.ratio:.2f}×"
+        return f"{self.bound} {self.ratio:.3g}×"
+
+
+def reference_videos(sizes: Sequence[int], accuracies: Sequence[float], target: float) -> Worth:
+    """Where the reference's curve (mean accuracy per size, sizes increasing) first reaches
+    `target`: linear between neighbouring sizes on log(videos). The Worth's ratio is left at 1
+    (`data_worth` sets it)."""
+    if len(sizes) != len(accuracies) or not sizes:
+        raise InputError("the reference's curve needs one accuracy per size, and a size")
+    if any(b <= a for a, b in itertools.pairwise(sizes)):
+        raise InputError(f"sizes must increase: {list(sizes)}")
+    if accuracies[0] >= target:
+        return Worth(1.0, "≤", float(sizes[0]))
+    for i in range(1, len(sizes)):
+        if accuracies[i] >= target:
+            low, high = accuracies[i - 1], accuracies[i]
+            share = (target - low) / (high - low)
+            log_n = math.log(sizes[i - 1]) + share * (math.log(sizes[i]) - math.log(sizes[i - 1]))
+            return Worth(1.0, "=", math.exp(log_n))
+    return Worth(1.0, ">", float(sizes[-1]))
+
+
+def data_worth(
+    sizes: Sequence[int], accuracies: Sequence[float], target: float, videos: int
+) -> Worth:
+    """What a variant trained on `videos` with mean accuracy `target` is worth in data: the
+    reference's videos to match it (`reference_videos`) over `videos`."""
+    at = reference_videos(sizes, accuracies, target)
+    return Worth(at.videos / videos, at.bound, at.videos)
+
+
+def read_curve_run(run_dir: str | Path, both_decodings: bool = True) -> dict:
+    """One finished run: `evaluate.read_run`'s row with its training videos and its best val
+    action accuracy; InputError when `both_decodings` and it lacks constrained decoding's."""
+    run_dir = Path(run_dir)
+    row = read_run(run_dir)
+    if both_decodings and "decodings" not in row:
+        raise InputError(f"{run_dir}: no constrained-decoding figures (train with --decode "
+                         "constrained)")  # fmt: skip
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    config = json.loads((run_dir / "config.json").read_text())
+    videos = metrics.get("train_videos", config["settings"].get("train_videos"))
+    if videos is None:
+        raise InputError(f"{run_dir}: its number of training videos is not recorded")
+    row["train_videos"] = int(videos)
+    row["val_action_accuracy"] = float(metrics["best"]["val_action_accuracy"])
+    return row
+
+
+def choose_lambda(runs: Sequence[dict]) -> dict:
+    """The λ with the best mean val action accuracy among runs of one model, loss and size that
+    differ only in λ and seed (ties: the smaller λ); InputError when they differ otherwise or
+    the λs were not run at the same seeds."""
+    if not runs:
+        raise InputError("give at least one run")
+    cells = {(r["model"], r["logic_loss"], r["train_videos"]) for r in runs}
+    if len(cells) > 1:
+        raise InputError(f"the runs differ in more than λ and seed: {sorted(cells)}")
+    by_lambda: dict[float, dict[int, float]] = {}
+    for r in runs:
+        if r["lambda"] is None:
+            raise InputError(f"{r['run']}: no λ recorded")
+        seeds = by_lambda.setdefault(float(r["lambda"]), {})
+        if r["seed"] in seeds:
+            raise InputError(f"{r['run']}: λ {r['lambda']:g} at seed {r['seed']} twice")
+        seeds[r["seed"]] = r["val_action_accuracy"]
+    seed_sets = {tuple(sorted(s)) for s in by_lambda.values()}
+    if len(seed_sets) > 1:
+        raise InputError(f"the λs were run at different seeds: {sorted(seed_sets)}")
+    table = [
+        {"lambda": lam, "val_action_accuracy": float(np.mean(list(s.values()))), "seeds": len(s)}
+        for lam, s in sorted(by_lambda.items())
+    ]
+    best = max(table, key=lambda row: (row["val_action_accuracy"], -row["lambda"]))
+    model, loss, videos = cells.pop()
+    return {
+        "model": model,
+        "logic_loss": loss,
+        "train_videos": videos,
+        "lambda": best["lambda"],
+        "val": table,
+    }
+
+
+def variant_name(loss: str, decode: str) -> str:
+    return f"{loss}, {'rules' if decode == 'constrained' else 'argmax'}"
+
+
+def _variant_order(variant: tuple[str, str]) -> tuple:
+    loss, decode = variant
+    return (LOSS_ORDER.index(loss) if loss in LOSS_ORDER else 9, loss, DECODE_ORDER.index(decode))
+
+
+def curve(runs: Sequence[dict]) -> list[dict]:
+    """One row per model, size and variant: accuracy, violations, the gain against the same-seed
+    reference (mean ± s.e.), and the data-worth against the model's reference curve."""
+    rows = []
+    for model in sorted({r["model"] for r in runs}):
+        mine = [r for r in runs if r["model"] == model]
+        refs = {
+            (r["train_videos"], r["seed"]): r["decodings"]["argmax"]["action_accuracy"]
+            for r in mine
+            if r["logic_loss"] == "none"
+        }
+        ref_sizes = sorted({n for n, _ in refs})
+        ref_curve = [float(np.mean([a for (m, _), a in refs.items() if m == n])) for n in ref_sizes]
+        variants = sorted(
+            {(r["logic_loss"], d) for r in mine for d in DECODE_ORDER}, key=_variant_order
+        )
+        for n in sorted({r["train_videos"] for r in mine}):
+            for loss, decode in variants:
+                group = sorted(
+                    (r for r in mine if r["train_videos"] == n and r["logic_loss"] == loss),
+                    key=lambda r: r["seed"],
+                )
+                if not group:
+                    continue
+                figures = [r["decodings"][decode] for r in group]
+                accuracy = [f["action_accuracy"] for f in figures]
+                mean, se = mean_se(accuracy)
+                row = {
+                    "model": model,
+                    "train_videos": n,
+                    "logic_loss": loss,
+                    "decode": decode,
+                    "variant": variant_name(loss, decode),
+                    "reference": (loss, decode) == REFERENCE,
+                    "lambda": sorted({r["lambda"] for r in group if r["lambda"] is not None}),
+                    "seeds": [r["seed"] for r in group],
+                    "action_accuracy": accuracy,
+                    "action_accuracy_mean": mean,
+                    "action_accuracy_se": se,
+                    "violation_fraction_mean": float(
+                        np.mean([f["violation_fraction"] for f in figures])
+                    ),
+                }
+                gains = [
+                    100 * (a - refs[(n, r["seed"])]) / max(refs[(n, r["seed"])], 1e-12)
+                    for a, r in zip(accuracy, group, strict=True)
+                    if (n, r["seed"]) in refs
+                ]
+                if gains and not row["reference"]:
+                    row["gain_pct"] = gains
+                    row["gain_pct_mean"], row["gain_pct_se"] = mean_se(gains)
+                    row["improved"] = int(sum(g > 0 for g in gains))
+                if ref_sizes:
+                    row["data_worth"] = asdict(data_worth(ref_sizes, ref_curve, mean, n))
+                rows.append(row)
+    return rows
+
+
+def _pm(mean: float, se: float, scale: float = 100.0, sign: bool = False) -> str:
+    return f"{scale * mean:{'+' if sign else ''}.2f} ± {scale * se:.2f}"
+
+
+def markdown(rows: Sequence[dict], choices: Sequence[dict], data: Sequence[str]) -> str:
+    """curve.md: per model, a table of mean accuracies per size and variant, then every figure."""
+    lines = [
+        "# Action recognition: the learning curve",
+        "",
+        f"Data: {'; '.join(data)}. Test action accuracy (%), mean ± s.e. over seeds, against "
+        "the number of training videos (a larger set holds every smaller one; the same val "
+        "and test videos at every size). A variant is a logic loss with a decoding: argmax, or "
+        "rules (constrained decoding under the knowledge base's rules). The reference: no "
+        "logic loss, argmax. Δ: relative change of action accuracy against the reference run "
+        "of the same size and seed, mean ± s.e. Data worth: the training videos the reference "
+        "needs to reach the variant's mean accuracy (its curve of mean accuracies, linear "
+        "between sizes on a log scale of videos) over the variant's own; '> x': the reference "
+        "never reaches it (x = largest size / videos); '≤ x': its smallest size already does.",
+    ]
+    for model in sorted({r["model"] for r in rows}):
+        mine = [r for r in rows if r["model"] == model]
+        variants = sorted({(r["logic_loss"], r["decode"]) for r in mine}, key=_variant_order)
+        sizes = sorted({r["train_videos"] for r in mine})
+        at = {(r["train_videos"], r["logic_loss"], r["decode"]): r for r in mine}
+        lines += [
+            "",
+            f"## {model.upper()}: action accuracy (%)",
+            "",
+            "| videos | " + " | ".join(variant_name(*v) for v in variants) + " |",
+            "|---|" + "---|" * len(variants),
+        ]
+        for n in sizes:
+            cells = []
+            for v in variants:
+                r = at.get((n, *v))
+                cells.append(
+                    "–" if r is None else _pm(r["action_accuracy_mean"], r["action_accuracy_se"])
+                )
+            lines.append(f"| {n} | " + " | ".join(cells) + " |")
+        lines += [
+            "",
+            f"## {model.upper()}: every variant against the reference",
+            "",
+            "| videos | variant | λ | seeds | action acc (%) | Δ action (%) | improved | "
+            "data worth | violations |",
+            "|---|---|---|---|---|---|---|---|---|",
+        ]
+        for n in sizes:
+            for v in variants:
+                r = at.get((n, *v))
+                if r is None:
+                    continue
+                gain = (
+                    "reference"
+                    if r["reference"]
+                    else "–"
+                    if "gain_pct_mean" not in r
+                    else _pm(r["gain_pct_mean"], r["gain_pct_se"], 1.0, sign=True)
+                )
+                improved = f"{r['improved']}/{len(r['gain_pct'])}" if "improved" in r else "–"
+                worth = (
+                    "–"
+                    if r["reference"] or "data_worth" not in r
+                    else Worth(**r["data_worth"]).text()
+                )
+                lam = ", ".join(f"{x:g}" for x in r["lambda"]) if r["logic_loss"] != "none" else "–"
+                lines.append(
+                    f"| {n} | {r['variant']} | {lam} | {len(r['seeds'])} | "
+                    f"{_pm(r['action_accuracy_mean'], r['action_accuracy_se'])} | {gain} | "
+                    f"{improved} | {worth} | {100 * r['violation_fraction_mean']:.1f}% |"
+                )
+    if choices:
+        lines += [
+            "",
+            "## λ chosen on validation",
+            "",
+            "Mean best val action accuracy (%) per λ over the sweep's seeds; the chosen λ in bold.",
+            "",
+            "| model | loss | videos | seeds | val accuracy per λ |",
+            "|---|---|---|---|---|",
+        ]
+        for c in choices:
+            cells = ", ".join(
+                (f"**{v['lambda']:g}: {100 * v['val_action_accuracy']:.2f}**"
+                 if v["lambda"] == c["lambda"]
+                 else f"{v['lambda']:g}: {100 * v['val_action_accuracy']:.2f}")
+                for v in c["val"]
+            )  # fmt: skip
+            lines.append(
+                f"| {c['model']} | {c['logic_loss']} | {c['train_videos']} | "
+                f"{c['val'][0]['seeds']} | {cells} |"
+            )
+    return "\n".join(lines) + "\n"
+
+
+def figure(rows: Sequence[dict], path: Path) -> None:
+    """Action accuracy against training videos (log x), mean ± s.e. per variant, one panel per
+    model: colour = logic loss, solid = argmax, dashed = constrained decoding."""
+    plt = pyplot()
+    models = sorted({r["model"] for r in rows}) or ["(no runs)"]
+    fig, axes = plt.subplots(
+        1, len(models), figsize=(5.2 * len(models), 4.2), squeeze=False, sharey=True
+    )
+    colours = {loss: f"C{k}" for k, loss in enumerate(LOSS_ORDER)}
+    for ax, model in zip(axes[0], models, strict=True):
+        mine = [r for r in rows if r["model"] == model]
+        variants = sorted({(r["logic_loss"], r["decode"]) for r in mine}, key=_variant_order)
+        for k, (loss, decode) in enumerate(variants):
+            points = sorted(
+                (r for r in mine if (r["logic_loss"], r["decode"]) == (loss, decode)),
+                key=lambda r: r["train_videos"],
+            )
+            shift = 1 + 0.012 * (k - (len(variants) - 1) / 2)  # side by side on the log axis
+            ax.errorbar(
+                [r["train_videos"] * shift for r in points],
+                [100 * r["action_accuracy_mean"] for r in points],
+                yerr=[100 * r["action_accuracy_se"] for r in points],
+                label=variant_name(loss, decode),
+                color=colours.get(loss, "C9"),
+                linestyle="-" if decode == "argmax" else "--",
+                marker="o" if decode == "argmax" else "s",
+                markersize=4,
+                capsize=3,
+            )
+        ax.set_xscale("log")
+        sizes = sorted({r["train_videos"] for r in mine})
+        ax.set_xticks(sizes, [str(n) for n in sizes])
+        ax.minorticks_off()
+        ax.set_xlabel("training videos (log scale)")
+        ax.set_title(model.upper())
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("test action accuracy (%)")
+    axes[0][-1].legend(fontsize="small", title="loss, decoding")
+    fig.suptitle("Learning curve, mean ± s.e. over seeds (synthetic data)")
+    fig.tight_layout()
+    save_png(fig, path)
+
+
+def learning_curve(
+    run_dirs: Sequence[str | Path],
+    out_dir: str | Path,
+    sweep_dirs: Sequence[str | Path] = (),
+) -> dict:
+    """Read the runs (and the λ sweep's), write curve.json, curve.md and curve.png; return the
+    curve. `sweep_dirs`: runs that differ in λ, grouped by model, loss and size, each group's
+    choice shown (`choose_lambda`)."""
+    out_dir = Path(out_dir)
+    for name in ("curve.json", "curve.md", "curve.png"):
+        check_writable(out_dir / name)
+    if not run_dirs:
+        raise InputError("give at least one train-task run directory")
+    runs = [read_curve_run(d) for d in run_dirs]
+    if not any(r["logic_loss"] == "none" for r in runs):
+        raise InputError("no reference run (--logic-loss none) among the runs")
+    rows = curve(runs)
+    sweep = [read_curve_run(d, both_decodings=False) for d in sweep_dirs]
+    cells = sorted({(r["model"], r["logic_loss"], r["train_videos"]) for r in sweep})
+    choices = [
+        choose_lambda([r for r in sweep if (r["model"], r["logic_loss"], r["train_videos"]) == c])
+        for c in cells
+    ]
+    data = sorted({r["data"] for r in runs})
+    result = {"data": data, "curve": rows, "lambda_choices": choices, "runs": runs}
+    write_text_atomic(out_dir / "curve.json", json.dumps(result, indent=2))
+    write_text_atomic(out_dir / "curve.md", markdown(rows, choices, data))
+    figure(rows, out_dir / "curve.png")
+    return result
+
+
+def choose_lambda_file(run_dirs: Sequence[str | Path], out: str | Path) -> dict:
+    """`choose_lambda` over the runs; writes the chosen λ (as %g prints it) to `out`."""
+    check_writable(out)
+    if not run_dirs:
+        raise InputError("give at least one train-task run directory")
+    choice = choose_lambda([read_curve_run(d, both_decodings=False) for d in run_dirs])
+    write_text_atomic(out, f"{choice['lambda']:g}\n")
+    return choice
