@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
@@ -240,3 +241,125 @@ def test_rule_sets_per_ingredient_split_the_conjunction(kb) -> None:
     lp = log_probs(1, 4, seed=3)
     split = logic_loss("exact", lp.expand(2, -1, -1), parts, reduction="sum")
     assert logic_loss("exact", lp, whole).item() >= split.item() - 1e-5
+
+
+def monitored_embedder(atoms: Sequence[str] = VOCAB) -> Embedder:
+    """q with random weights over `atoms` and the default preset's parts: temporal monitors
+    over 3 atom slots in 3 length ranges, the runs readout, the naive-Bayes evidence block."""
+    vocabulary = sorted(atoms)
+    torch.manual_seed(0)
+    edge = PropositionEncoder(torch.eye(len(vocabulary)), hidden=16, layers=2, out_dim=8)
+    vectors = GuardVectors(edge, vocabulary)
+    settings = MetaSettings.preset(
+        "best", hidden=16, layers=2, out_dim=8, monitors=3, max_length=6
+    ).resolved(3)
+    model = build_model(settings, vectors.dim, edge.atom_table)
+    return Embedder(model, vectors, {"settings": {"embedder": "dfa"}})
+
+
+def tleaf_one_by_one(q: Embedder, lp: torch.Tensor, r: RuleSet, length: int) -> torch.Tensor:
+    """The T-LEAF loss of one sequence, computed step by step with nothing batched or kept:
+    the letter distribution from the vocabulary's probabilities, the monitors' state
+    distributions moved by the dense transition tensors `bank.steps`, q_m on one chain."""
+    from tleaf_cli.embed.meta_data import chain_batch
+    from tleaf_cli.logic.alphabet import Alphabet
+
+    p = lp[:length].exp()
+    outside = torch.ones(len(VOCAB), dtype=torch.bool)
+    outside[torch.as_tensor(r.index)] = False
+    none = p[:, outside].sum(dim=1, keepdim=True)  # the other items' mass (the real path's)
+    letters = torch.cat([none, p[:, torch.as_tensor(r.index)]], dim=1)  # none, atoms
+    expected = letters @ q.letter_vectors(r.atoms, "one-hot")[1]
+    bank = q.model.trace.monitor_bank
+    classes, present = bank.classes(Alphabet(r.atoms, "one-hot").truth())
+    steps = torch.as_tensor(bank.steps, dtype=torch.float32)  # [M, 4, S, S]
+    state = torch.zeros(bank.width, steps.shape[-1])
+    state[:, 0] = 1.0
+    for t in range(length):
+        # [M, 4]: the probability of each class, per monitor (a letter's class is per monitor)
+        per_class = torch.stack(
+            [(letters[t] * torch.as_tensor(classes == c)).sum(dim=1) for c in range(4)], dim=1
+        )
+        state = torch.einsum("ms,mc,mcsu->mu", state, per_class, steps)
+    accepted = (state * torch.tensor(bank.accepting)).sum(dim=1) * torch.tensor(present)
+    placed = torch.zeros(bank.ranges, bank.width)
+    placed[bank.range_of(length)] = accepted
+    monitor = torch.cat([placed.flatten(), torch.zeros(bank.features)])[None]
+    z_trace = q.model.embed_traces(chain_batch(q.model.trace, expected, [length], monitor))
+    return (z_trace[0] - q.embed_dfas([r.dfa])[0]).pow(2).sum()
+
+
+def test_tleaf_loss_and_gradient_equal_the_one_by_one_computation(kb) -> None:
+    """Batched rows of rule sets of 1 to 5 atoms (more than q's 3 monitor slots), of several
+    lengths, and a row without rules: the loss and its gradient are the step-by-step
+    reference's, to float tolerance."""
+    q = monitored_embedder()
+    rules = KnowledgeRuleSets(kb, VOCAB, set(q.vectors.index))
+    atoms = [
+        {"fry_onion", "cut_onion", "cut_egg"},
+        {"rinse_egg", "fry_egg"},
+        {"cut_egg"},
+        {"fry_onion", "cut_onion", "cut_egg", "rinse_egg", "fry_egg"},
+        set(),
+        {"rinse_egg", "fry_egg"},
+    ]
+    sets = rules.one_each(atoms)
+    assert sets[4] is None and len({len(r.atoms) for r in sets if r is not None}) == 4
+    lengths = torch.tensor([5, 4, 1, 6, 3, 2])
+    lp = log_probs(len(atoms), 6, seed=5)
+    got = logic_loss("tleaf", lp, sets, lengths, q, reduction="none")
+    (grad,) = torch.autograd.grad(got.sum(), lp)
+    lp_ref = lp.detach().clone().requires_grad_()
+    want = torch.stack(
+        [
+            torch.zeros(()) if r is None else tleaf_one_by_one(q, lp_ref[b], r, int(lengths[b]))
+            for b, r in enumerate(sets)
+        ]
+    )
+    (grad_ref,) = torch.autograd.grad(want.sum(), lp_ref)
+    assert got[4] == 0 and (want[[0, 1, 2, 3, 5]] > 0).all()
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-4)
+    torch.testing.assert_close(grad, grad_ref, rtol=1e-3, atol=1e-5)
+    # again, every rule set now kept by q: the same values
+    torch.testing.assert_close(logic_loss("tleaf", lp, sets, lengths, q, reduction="none"), got)
+
+
+def test_rule_set_dfa_is_the_chained_product_of_its_formulas() -> None:
+    """Formulas grouped by shared atoms, each group's product kept: the same DFA as the
+    product of all formulas in order (minimal, canonical), for groups joined by a later
+    formula and for formulas without atoms."""
+    from tleaf_cli.rule_set import _COMPILED
+
+    formulas = [
+        "G !cut_egg",
+        "(!fry_egg U rinse_egg) | G !fry_egg",
+        "F fry_onion",
+        "true",
+        "G(cut_onion -> X rinse_onion)",
+        "(!fry_onion U cut_onion) | G !fry_onion",
+        "F rinse_egg -> F cut_onion",  # joins the egg and onion groups
+    ]
+    for count in range(1, len(formulas) + 1):
+        for chosen in itertools.islice(itertools.combinations(formulas, count), 12):
+            got = RuleSet(list(chosen), VOCAB).dfa
+            timeout = next(t for f, t in _COMPILED if f == chosen[0])
+            want = _COMPILED[(chosen[0], timeout)]
+            for f in chosen[1:]:
+                want = want.intersect(_COMPILED[(f, timeout)])
+            assert got == want.minimize_nonempty(), chosen
+
+
+def test_knowledge_rule_sets_are_kept_per_atom_set(kb) -> None:
+    """The same atoms give the same RuleSet objects and the same count of rules left out,
+    whether the sets are derived again or read from what was kept."""
+    known = set(VOCAB) - {"cut_egg"}
+    rules = KnowledgeRuleSets(kb, VOCAB, known)
+    videos = [{"cut_egg", "rinse_egg", "fry_egg"}, {"cut_egg"}, {"fry_onion", "cut_onion"}]
+    first = rules.one_each(videos)
+    skipped = rules.skipped_rules
+    assert skipped == 2  # the affordance rule on cut_egg, in the first two videos
+    again = rules.one_each([*videos, videos[0]])
+    assert [a is b for a, b in zip(again, first, strict=False)] == [True] * 3
+    assert again[3] is first[0] and rules.skipped_rules == skipped + 3
+    assert [r.name for r in rules.rules(videos[0])] == ["ordering.egg"]
+    assert rules.skipped_rules == skipped + 4

@@ -160,7 +160,7 @@ def lengths(value: Any, batch: int, steps: int, device: Any, argument: str = "le
             argument, f"must be a tensor or a sequence of B ints, not {given(value)}"
         )
     try:
-        out = torch.as_tensor(value)
+        out = torch.as_tensor(value, device=device)
     except (TypeError, ValueError, RuntimeError):
         raise ArgumentTypeError(
             argument, f"must be a tensor or a sequence of B ints, not {given(value)}"

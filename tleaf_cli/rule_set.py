@@ -10,6 +10,10 @@ compiles each formula over the one-hot alphabet of its atoms, conjoins them as a
 
 Each formula is compiled by MONA once per process (and once per machine, through compile-dfa's
 disk cache); a rule set is then a product of small DFAs, without a MONA call per conjunction.
+Formulas that share no atoms with the rest form their own groups (a knowledge base's rules about
+one ingredient), and each group's product is kept: rule sets derived from a model's predictions
+every batch differ in a group or two, and rebuild only the product of the groups. The result is
+the same DFA whatever the order of the products (minimal and canonically numbered).
 `tleaf_cli.knowledge.rule_sets.KnowledgeRuleSets` picks, from a knowledge base, the rule set of a
 video (the rules whose atoms all occur in it, the paper's extraction) and builds each distinct
 set once.
@@ -19,6 +23,7 @@ No torch here: the losses (tleaf_cli/losses/) turn rule sets into tensors.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 from collections.abc import Iterable, Sequence
 from dataclasses import replace
@@ -92,10 +97,7 @@ class RuleSet:
         self.formula = " & ".join(f"({f})" for f in self.formulas)
         compile_rules(self.formulas, compile_settings)
         timeout = (compile_settings or CompileSettings()).timeout
-        dfa = _COMPILED[(self.formulas[0], timeout)]
-        for formula in self.formulas[1:]:
-            dfa = dfa.intersect(_COMPILED[(formula, timeout)])
-        self.dfa = dfa.minimize_nonempty()
+        self.dfa = _conjunction(self.formulas, timeout)
         position = {item: i for i, item in enumerate(self.vocabulary)}
         missing = [a for a in self.dfa.atoms if a not in position]
         if missing:
@@ -121,6 +123,49 @@ class RuleSet:
             f"RuleSet({self.name}, {len(self.formulas)} formula(s), {self.dfa.num_states} states, "
             f"atoms {list(self.atoms)})"
         )
+
+
+def _conjunction(formulas: Sequence[str], timeout: float) -> DFA:
+    """The minimal DFA (for non-empty traces) of the conjunction of compiled `formulas`: the
+    product of the groups of formulas connected by shared atoms, each group's DFA kept."""
+    group_of: dict[str, int] = {}  # atom -> its group (union-find over the formulas' atoms)
+    groups: list[set[str]] = []  # formulas per group
+    atomless: set[str] = set()
+    for formula in dict.fromkeys(formulas):
+        atoms = _COMPILED[(formula, timeout)].atoms
+        joined = sorted({group_of[a] for a in atoms if a in group_of})
+        if not atoms:
+            atomless.add(formula)
+            continue
+        if not joined:
+            groups.append(set())
+            joined = [len(groups) - 1]
+        keep = joined[0]
+        for other in joined[1:]:
+            groups[keep] |= groups[other]
+            for a, g in group_of.items():
+                if g == other:
+                    group_of[a] = keep
+            groups[other] = set()
+        groups[keep].add(formula)
+        for a in atoms:
+            group_of[a] = keep
+    parts = [frozenset(g) for g in groups if g] + ([frozenset(atomless)] if atomless else [])
+    dfa = None
+    for part in sorted(parts, key=sorted):
+        group = _group(part, timeout)
+        dfa = group if dfa is None else dfa.product(group, canonical=False)
+    return dfa.minimize_nonempty()
+
+
+@functools.lru_cache(maxsize=8192)
+def _group(formulas: frozenset[str], timeout: float) -> DFA:
+    """The minimal DFA of the conjunction of compiled `formulas` (the empty word included)."""
+    ordered = sorted(formulas)
+    dfa = _COMPILED[(ordered[0], timeout)]
+    for formula in ordered[1:]:
+        dfa = dfa.product(_COMPILED[(formula, timeout)], canonical=False)
+    return dfa.minimize()
 
 
 def _digest(texts: Iterable[str]) -> str:

@@ -34,11 +34,15 @@ class Shield:
             of their conjunction whenever each stays satisfiable on its own, as for safety rules
             (never taking an action always meets them), without building the product automaton;
             all of them advance together, in one tensor operation per step.
+        device: where its tensors live (the policy's device; default the CPU): `allowed()`
+            is a mask there.
 
     Raises RulesError when a rule set has no satisfying sequence (nothing could be allowed).
     """
 
-    def __init__(self, rules: RuleSet | Sequence[RuleSet]) -> None:
+    def __init__(
+        self, rules: RuleSet | Sequence[RuleSet], device: torch.device | str = "cpu"
+    ) -> None:
         self.rule_sets = arguments.rule_sets(rules, None, RuleSet)
         self.vocabulary = self.rule_sets[0].vocabulary
         size = len(self.vocabulary)
@@ -52,21 +56,25 @@ class Shield:
         self._position = {item: i for i, item in enumerate(self.vocabulary)}
         states = max(r.dfa.num_states for r in self.rule_sets)
         n = len(self.rule_sets)
-        self._next = torch.zeros((n, states, size), dtype=torch.long)  # state after each action
-        self._live = torch.zeros((n, states), dtype=torch.bool)  # acceptance still reachable
-        self._accepting = torch.zeros((n, states), dtype=torch.bool)
+        # built in numpy, moved to `device` once
+        following = np.zeros((n, states, size), dtype=np.int64)  # state after each action
+        live = np.zeros((n, states), dtype=bool)  # acceptance still reachable
+        accepting = np.zeros((n, states), dtype=bool)
         for k, r in enumerate(self.rule_sets):
             s = r.dfa.num_states
-            table = torch.as_tensor(r.dfa.table, dtype=torch.long)  # [S, L]
-            letter_of = torch.as_tensor(r.letters(np.arange(size)))  # [V]
-            self._next[k, :s] = table[:, letter_of]
-            self._live[k, :s] = torch.as_tensor(r.dfa.live())
-            self._accepting[k, :s] = torch.as_tensor(r.dfa.accepting)
-        self._rows = torch.arange(n)
+            following[k, :s] = r.dfa.table[:, r.letters(np.arange(size))]
+            live[k, :s] = r.dfa.live()
+            accepting[k, :s] = r.dfa.accepting
+        self.device = torch.device(device)
+        self._next = torch.as_tensor(following, device=self.device)
+        self._live = torch.as_tensor(live, device=self.device)
+        self._accepting = torch.as_tensor(accepting, device=self.device)
+        self._rows = torch.arange(n, device=self.device)
         self._allowed = torch.gather(  # [R, S, V]: the action leads to a live state
             self._live[:, None, :].expand(-1, states, -1), 2, self._next
         )
-        self._initial = torch.tensor([r.dfa.initial for r in self.rule_sets])
+        initial = [r.dfa.initial for r in self.rule_sets]
+        self._initial = torch.tensor(initial, dtype=torch.long, device=self.device)
         self.state = self._initial.clone()  # [R]
 
     def reset(self) -> None:

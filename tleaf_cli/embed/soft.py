@@ -14,6 +14,7 @@ exactly the discrete letter's vector when P_t is one-hot, and differentiable in 
 
 from __future__ import annotations
 
+import functools
 import itertools
 import json
 import os
@@ -21,6 +22,7 @@ from collections.abc import Collection, Sequence
 from dataclasses import asdict
 from pathlib import Path
 
+import numpy as np
 import torch
 from torch_geometric.data import Batch
 
@@ -35,7 +37,11 @@ from tleaf_cli.embed.meta_data import (
     trace_letter_vectors,
     trace_monitor_features,
 )
-from tleaf_cli.embed.soft_monitors import monitor_classes, soft_monitor_features
+from tleaf_cli.embed.soft_monitors import (
+    class_weights,
+    monitor_classes,
+    soft_monitor_features,
+)
 from tleaf_cli.embed.train_edge import load_edge_model
 from tleaf_cli.embed.train_meta import TripletEmbedder, build_model
 from tleaf_cli.embed.training import read_model_config
@@ -56,7 +62,18 @@ class Embedder:
         self.config = config
         for p in self.model.parameters():
             p.requires_grad_(False)
-        self._rule_sets: dict[str, tuple[torch.Tensor, torch.Tensor]] = {}  # formula -> vectors
+        # formula -> (q(A_φ) [d], q_e of its one-hot letters [L, d_e]), on q's device: q is
+        # frozen, so a rule set's vectors never change once computed
+        self._rule_sets: dict[str, tuple[torch.Tensor, torch.Tensor]] = {}
+        # (atoms k, letters L, device) -> the monitors' class weights of a one-hot alphabet of
+        # k atoms padded to L letters [L, M·4], and which monitors its atoms fill [M]: they
+        # depend on the number of atoms only (monitors read atoms by position)
+        self._monitor_tables: dict[tuple[int, int, str], tuple[torch.Tensor, torch.Tensor]] = {}
+
+    @property
+    def device(self) -> torch.device:
+        """Where q's weights are (`Embedder.model.to(device)` moves them): q's inputs go there."""
+        return next(self.model.parameters()).device
 
     @property
     def kind(self) -> str:
@@ -104,8 +121,9 @@ class Embedder:
         if len(atoms) != len(traces):
             raise ArgumentError("atoms", f"{len(atoms)} atom tuples for {len(traces)} traces")
         kinds = [one_hot] * len(traces) if isinstance(one_hot, bool) else one_hot
+        device = self.device
         letters = [
-            trace_letter_vectors(t, a, self.vectors, h)
+            trace_letter_vectors(t, a, self.vectors, h).to(device)
             for t, a, h in zip(traces, atoms, kinds, strict=True)
         ]
         bank = self.model.trace.monitor_bank
@@ -126,12 +144,12 @@ class Embedder:
                         self.model.trace,
                         torch.cat(letters[i : i + batch]),
                         [len(x) for x in letters[i : i + batch]],
-                        None if monitors is None else monitors[i : i + batch],
+                        None if monitors is None else monitors[i : i + batch].to(device),
                     )
                 )
                 for i in range(0, len(letters), batch)
             ]
-        return torch.cat(parts) if parts else torch.zeros((0, 0))
+        return torch.cat(parts) if parts else torch.zeros((0, 0), device=device)
 
     def rule_set_vectors(self, rule_sets: Sequence[RuleSet]) -> tuple[torch.Tensor, torch.Tensor]:
         """q(A_φ) [R, d] and q_e of each rule set's one-hot letters (none, atoms[0], ...), padded
@@ -149,37 +167,64 @@ class Embedder:
             else:  # the syntax-tree baseline reads the formula's text
                 rows = [{"formula": r.formula, "atoms": r.atoms} for r in fresh]
                 vectors = self.embed_formula_rows(rows)
+            device = self.device
             for r, vector in zip(fresh, vectors, strict=True):
-                self._rule_sets[r.formula] = (vector, self.letter_vectors(r.atoms, "one-hot")[1])
+                table = self.letter_vectors(r.atoms, "one-hot")[1].to(device)
+                self._rule_sets[r.formula] = (vector.to(device), table)
         embedded = [self._rule_sets[r.formula] for r in rule_sets]
         letters = max(len(table) for _, table in embedded)
-        tables = embedded[0][1].new_zeros((len(embedded), letters, embedded[0][1].shape[1]))
-        for j, (_, table) in enumerate(embedded):
-            tables[j, : len(table)] = table
+        tables = torch.stack(
+            [
+                torch.nn.functional.pad(table, (0, 0, 0, letters - len(table)))
+                for _, table in embedded
+            ]
+        )
         return torch.stack([vector for vector, _ in embedded]), tables
 
     def monitor_classes(
         self, rule_sets: Sequence[RuleSet], letters: int
     ) -> tuple[torch.Tensor, torch.Tensor] | None:
         """Each rule set's monitor classes of its one-hot letters, padded to `letters` [R, M,
-        letters], and which monitors its atoms fill [R, M]; None for a q without monitors."""
+        letters] (padded letters class 0), and which monitors its atoms fill [R, M]; None for a q
+        without monitors."""
         bank = self.model.trace.monitor_bank
         if bank is None:
             return None
-        tables = [monitor_classes(bank, Alphabet(r.atoms, "one-hot").truth()) for r in rule_sets]
-        classes = torch.zeros(len(tables), bank.width, letters, dtype=torch.long)
+        tables = [monitor_classes(bank, _one_hot_truth(len(r.atoms))) for r in rule_sets]
+        classes = torch.zeros((len(tables), bank.width, letters), dtype=torch.long, device="cpu")
         for j, (c, _) in enumerate(tables):
             classes[j, :, : c.shape[1]] = c
         return classes, torch.stack([p for _, p in tables])
 
-    @staticmethod
-    def _encode(encode, graphs, batch: int) -> torch.Tensor:
+    def monitor_weights(
+        self, rule_sets: Sequence[RuleSet], letters: int
+    ) -> tuple[torch.Tensor, torch.Tensor] | None:
+        """`monitor_classes` as the class weights `soft_monitor_features_weighted` reads: [R,
+        letters, M·4] (padded letters 0) and [R, M], on q's device; built once per number of
+        atoms and kept. None for a q without monitors."""
+        bank = self.model.trace.monitor_bank
+        if bank is None:
+            return None
+        device = self.device
+        parts = []
+        for r in rule_sets:
+            key = (len(r.atoms), letters, str(device))
+            if key not in self._monitor_tables:
+                classes, present = monitor_classes(bank, _one_hot_truth(len(r.atoms)))
+                weights = class_weights(classes, torch.float32)  # [k + 1, M·4]
+                weights = torch.nn.functional.pad(weights, (0, 0, 0, letters - len(weights)))
+                self._monitor_tables[key] = (weights.to(device), present.to(device))
+            parts.append(self._monitor_tables[key])
+        return torch.stack([w for w, _ in parts]), torch.stack([p for _, p in parts])
+
+    def _encode(self, encode, graphs, batch: int) -> torch.Tensor:
+        device = self.device
         with torch.no_grad():
             parts = [
-                encode(Batch.from_data_list(graphs[i : i + batch]))
+                encode(Batch.from_data_list(graphs[i : i + batch]).to(device))
                 for i in range(0, len(graphs), batch)
             ]
-        return torch.cat(parts) if parts else torch.zeros((0, 0))
+        return torch.cat(parts) if parts else torch.zeros((0, 0), device=device)
 
     def letter_keys(self, atoms: tuple[str, ...], domain: str) -> tuple[list, list]:
         """The letters over `atoms` (one-hot: none, then each atom; powerset: every subset, bit
@@ -211,7 +256,7 @@ class Embedder:
         out = []
         for bits in itertools.product((0, 1), repeat=len(atoms)):
             # letter index i has atom k iff bit k of i is set: product() varies the last fastest
-            chosen = torch.tensor(bits[::-1], dtype=torch.bool)
+            chosen = torch.tensor(bits[::-1], dtype=torch.bool, device=probs.device)
             out.append(torch.where(chosen, p, 1 - p).prod(dim=1))
         return torch.stack(out, dim=1)
 
@@ -234,12 +279,14 @@ class Embedder:
                 "domain", f"must be one of {', '.join(ALPHABET_KINDS)}, not {domain!r}"
             )
         traces = arguments.soft_traces(traces, len(columns))
-        _, table = self.letter_vectors(atoms, domain)
         probs = torch.nn.utils.rnn.pad_sequence(
             [self.letter_probabilities(p, columns, atoms, domain) for p in traces],
             batch_first=True,
         )
-        lengths = torch.tensor([p.shape[0] for p in traces])
+        device = probs.device
+        _, table = self.letter_vectors(atoms, domain)
+        table = table.to(device)
+        lengths = torch.tensor([p.shape[0] for p in traces], device=device)
         bank = self.model.trace.monitor_bank
         monitor = None
         if bank is not None:
@@ -307,3 +354,12 @@ def _lambda_from_metrics(model_dir: Path) -> float:
         return recommended_lambda(test)
     except (OSError, ValueError, KeyError) as e:
         raise InputError(f"{path}: cannot read q's distances to choose its λ ({e})") from None
+
+
+@functools.lru_cache(maxsize=64)
+def _one_hot_truth(atoms: int) -> np.ndarray:
+    """The atom truth table of a one-hot alphabet of `atoms` atoms (letter 0 none, letter k + 1
+    atom k): monitors read atoms by position, so their classes depend on the count alone."""
+    truth = Alphabet(tuple(f"x{k:04d}" for k in range(atoms)), "one-hot").truth()
+    truth.setflags(write=False)
+    return truth

@@ -2,7 +2,9 @@
 
 A sequence's rule set is the conjunction of the knowledge-base rules whose atoms all occur among
 its atoms (the paper's extraction, `base.rules_for`); sequences with the same rules share one
-`RuleSet`, named by `base.rule_set_id`. No torch here.
+`RuleSet`, named by `base.rule_set_id`. The rules (and rule sets) of a set of atoms are
+kept by that set: a trainer that derives them from a model's predictions every batch sees the
+same atom sets again and again. No torch here.
 """
 
 from __future__ import annotations
@@ -45,6 +47,10 @@ class KnowledgeRuleSets:
         self.settings = compile_settings or CompileSettings(alphabet="one-hot")
         self.by_id: dict[str, RuleSet] = {}
         self.skipped_rules = 0
+        # atoms -> (the rules, how many were left out as unknown to q): `rules` is a function
+        # of the atom set, and skipped_rules counts every call as if it were recomputed
+        self._rules: dict[frozenset[str], tuple[list[Rule], int]] = {}
+        self._sets: dict[tuple[frozenset[str], bool], list[RuleSet]] = {}  # atoms -> rule sets
 
     @property
     def compiled(self) -> int:
@@ -57,26 +63,36 @@ class KnowledgeRuleSets:
 
     def rules(self, present_atoms: Collection[str]) -> list[Rule]:
         """The KB rules whose atoms all occur in `present_atoms` (and that q can read)."""
-        rules = rules_for(self.kb, present_atoms)
-        if self.known is None:
-            return rules
-        kept = [r for r in rules if set(r.atoms) <= self.known]
-        self.skipped_rules += len(rules) - len(kept)
-        return kept
+        kept, skipped = self._rules_of(frozenset(present_atoms))
+        self.skipped_rules += skipped
+        return list(kept)
+
+    def _rules_of(self, present: frozenset[str]) -> tuple[list[Rule], int]:
+        """`rules` of an atom set, and how many rules q could not read; computed once."""
+        if present not in self._rules:
+            rules = rules_for(self.kb, present)
+            kept = rules if self.known is None else [r for r in rules if set(r.atoms) <= self.known]
+            self._rules[present] = (kept, len(rules) - len(kept))
+        return self._rules[present]
 
     def for_atoms(
         self, atoms_per_sequence: Sequence[Collection[str]], per_ingredient: bool = False
     ) -> list[list[RuleSet]]:
         """Each sequence's rule sets: one (the whole set) or one per ingredient; [] where no rule
-        applies."""
+        applies. Kept per (atom set, per_ingredient): the same atoms give the same sets."""
+        keys = [(frozenset(present), per_ingredient) for present in atoms_per_sequence]
+        new = list(dict.fromkeys(k for k in keys if k not in self._sets))
         groups = []
-        for present in atoms_per_sequence:
-            rules = self.rules(present)
+        for present, _ in new:
+            rules = self._rules_of(present)[0]
             groups.append([g for g in (by_ingredient(rules) if per_ingredient else [rules]) if g])
         keyed = [[(rule_set_id(g), g) for g in gs] for gs in groups]
         fresh = [r.formula for ks in keyed for rid, g in ks if rid not in self.by_id for r in g]
         compile_rules(fresh, self.settings)  # one batch for every rule of the new sets
-        return [[self._named(rid, g) for rid, g in ks] for ks in keyed]
+        for key, ks in zip(new, keyed, strict=True):
+            self._sets[key] = [self._named(rid, g) for rid, g in ks]
+        self.skipped_rules += sum(self._rules[present][1] for present, _ in keys)
+        return [list(self._sets[k]) for k in keys]
 
     def one_each(self, atoms_per_sequence: Sequence[Collection[str]]) -> list[RuleSet | None]:
         """Each sequence's whole rule set (None where no rule applies)."""

@@ -5,6 +5,11 @@ its formula, for the syntax baseline); w̃ is the soft trace of the model's outp
 whose step-t edge node carries the expected letter vector Σ_l P_t(l) q_e(l) over φ's one-hot
 letters — exactly the discrete letter's vector when P_t is one-hot, and differentiable in P_t
 throughout. Gradients reach the model through P_t only; q's weights never change.
+
+What does not depend on the outputs is computed once per rule set and kept by the embedder:
+q(A_φ), the letters' q_e vectors, the monitors' class weights (the same for every rule set with
+as many atoms). A batch is then a few batched products (expected letters, monitor classes), the
+monitors' steps, and one q_m call on all the rows' chains together.
 """
 
 from __future__ import annotations
@@ -12,7 +17,7 @@ from __future__ import annotations
 import torch
 
 from tleaf_cli.embed.soft import Embedder, soft_trace_vectors
-from tleaf_cli.embed.soft_monitors import soft_monitor_features
+from tleaf_cli.embed.soft_monitors import soft_monitor_features_weighted
 from tleaf_cli.losses.packed import PackedRuleSets
 
 
@@ -26,15 +31,20 @@ def tleaf_loss(
     """‖q(A_φ) − q(w̃)‖² [N] for letter log-probabilities [N, T, L] (`packed.letter_log_probs`);
     every row's soft trace through q_m in one graph batch. Each rule set is embedded once per
     embedder (cached by the embedder)."""
-    formula_vectors, letter_table = embedder.rule_set_vectors(packed.rule_sets)
     device = letters.device
+    width = letters.shape[-1]
+    formula_vectors, letter_table = embedder.rule_set_vectors(packed.rule_sets)
     # [N, T, d_e]: padded letters have probability 0 and a zero vector
     probs = letters.exp()
-    expected = probs @ letter_table.to(device)[rows]
-    classes = embedder.monitor_classes(packed.rule_sets, letters.shape[-1])
+    table = letter_table.to(device)[rows]
+    if table.shape[1] < width:  # the packed rule sets' padding is the letters' width
+        table = torch.nn.functional.pad(table, (0, 0, 0, width - table.shape[1]))
+    expected = torch.bmm(probs, table[:, :width])
     monitor = None
-    if classes is not None:  # a q with monitors reads the soft trace's monitor features too
+    weights = embedder.monitor_weights(packed.rule_sets, width)
+    if weights is not None:  # a q with monitors reads the soft trace's monitor features too
         bank = embedder.model.trace.monitor_bank
-        monitor = soft_monitor_features(bank, probs, lengths, classes[0][rows], classes[1][rows])
+        class_weights, present = (w.to(device)[rows] for w in weights)
+        monitor = soft_monitor_features_weighted(bank, probs, lengths, class_weights, present)
     z_trace = soft_trace_vectors(embedder.model, expected, lengths, monitor)
     return (z_trace - formula_vectors.to(device)[rows]).pow(2).sum(dim=1)
