@@ -35,9 +35,9 @@ import itertools
 import torch
 from torch import nn
 from torch_geometric.nn import GCNConv, global_add_pool
-from torch_geometric.utils import degree, to_undirected
+from torch_geometric.utils import degree, to_dense_batch, to_undirected
 
-from tleaf_cli.embed.graphs import read_limits, trace_graph_batch
+from tleaf_cli.embed.graphs import gcn_adjacency, read_limits, trace_graph_batch
 from tleaf_cli.embed.probes import ProbeBank
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.monitors import MonitorBank
@@ -132,6 +132,18 @@ def _part_matrix(hops: int, bins: int, device: torch.device) -> torch.Tensor:
     return m
 
 
+def run_readout(
+    weights: torch.Tensor, x: torch.Tensor, graph_of: torch.Tensor, graphs: int
+) -> torch.Tensor:
+    """[graphs, parts · hidden]: Σ_v w_k(v) x_v per graph and part k, the parts side by side
+    (part 0's hidden units first), for node weights `weights` [n, parts] and node states `x`
+    [n, hidden]. One batched product over the graphs padded to the largest (`to_dense_batch`),
+    not one pool per part over a [n, parts, hidden] product."""
+    dense_x, _ = to_dense_batch(x, graph_of, batch_size=graphs)  # [graphs, most nodes, hidden]
+    dense_w, _ = to_dense_batch(weights, graph_of, batch_size=graphs)  # [graphs, most, parts]
+    return (dense_w.transpose(1, 2) @ dense_x).reshape(graphs, -1)
+
+
 def walk_weights(edge_index: torch.Tensor, start: torch.Tensor, num_nodes: int, steps: int):
     """Expected visit share of every node over a `steps`-step uniform random walk from the nodes
     in `start` (one per graph of a batch): the readout weights r."""
@@ -177,9 +189,15 @@ class AutomatonEncoder(nn.Module):
         if readout not in READOUTS:
             raise SettingError("readout", f"must be one of {READOUTS}, not {readout!r}")
         dims = [KINDS + FLAGS + edge_dim] + [hidden] * layers
-        self.convs = nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims))
+        # normalize=False: each direction's normalised adjacency is computed once per batch
+        # (graphs.gcn_adjacency) and read by every layer
+        self.convs = nn.ModuleList(
+            GCNConv(a, b, normalize=False) for a, b in itertools.pairwise(dims)
+        )
         self.back = (
-            nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims)) if directed else None
+            nn.ModuleList(GCNConv(a, b, normalize=False) for a, b in itertools.pairwise(dims))
+            if directed
+            else None
         )
         parts = {"walk": 1, "steps": steps + 1, "accept": bins, "runs": 2 * bins}[readout]
         width = hidden * parts
@@ -248,19 +266,24 @@ class AutomatonEncoder(nn.Module):
     def forward(self, batch) -> torch.Tensor:
         kinds = nn.functional.one_hot(batch.node_kind, KINDS).float()
         x = torch.cat([kinds, batch.flags, batch.edge_vec], dim=1)
-        arcs = batch.edge_index
-        both = to_undirected(arcs, num_nodes=x.shape[0]) if self.back is None else None
-        for layer, conv in enumerate(self.convs):
-            if self.back is None:
+        arcs, n = batch.edge_index, x.shape[0]
+        if self.back is None:
+            both = gcn_adjacency(to_undirected(arcs, num_nodes=n), n, x.dtype)
+            for conv in self.convs:
                 x = torch.relu(conv(x, both))
-            else:
-                x = torch.relu(conv(x, arcs) + self.back[layer](x, arcs.flip(0)))
+        else:
+            along, against = (
+                gcn_adjacency(arcs, n, x.dtype),
+                gcn_adjacency(arcs.flip(0), n, x.dtype),
+            )
+            for conv, back in zip(self.convs, self.back, strict=True):
+                x = torch.relu(conv(x, along) + back(x, against))
         start = batch.ptr[:-1] + batch.initial
         graphs = int(batch.ptr.numel() - 1)
         if self.readout in RUN_READOUTS:
             cached = getattr(batch, "run_weights", None)
-            r = cached.t() if cached is not None else self.run_weights(batch)
-            parts = [global_add_pool(rk.unsqueeze(1) * x, batch.batch, size=graphs) for rk in r]
+            r = cached if cached is not None else self.run_weights(batch).t()  # [n, parts]
+            parts = [run_readout(r, x, batch.batch, graphs)]
             if self.probes is not None:
                 parts.append(self.probes(batch, self._ends(batch), batch.edge_vec))
             if self.monitor_bank is not None:

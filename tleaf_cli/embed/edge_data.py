@@ -13,9 +13,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from torch_geometric.data import Data
+import torch
 
 from tleaf_cli.data.dfa_table import DfaTable
+from tleaf_cli.embed.batches import GraphStore
 from tleaf_cli.embed.graphs import cnf_graph, letter_cnf
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.guards import cnf_holds
@@ -87,11 +88,36 @@ def split_by_formula(
     return train, [t for t in triplets if t.formula_id in held]
 
 
-def triplet_graphs(t: GuardTriplet, index: dict[str, int]) -> tuple[Data, Data, Data]:
-    """(guard, satisfying letter, violating letter) as propositional graphs."""
-    ids = [index[a] for a in t.atoms]
-    return (
-        cnf_graph(t.cnf, ids),
-        cnf_graph(letter_cnf(t.sat, t.atoms, t.one_hot), ids),
-        cnf_graph(letter_cnf(t.unsat, t.atoms, t.one_hot), ids),
-    )
+Key = tuple[tuple[int, ...], tuple[tuple[int, ...], ...]]  # (atom ids, CNF): one graph
+
+
+def triplet_keys(t: GuardTriplet, index: dict[str, int]) -> tuple[Key, Key, Key]:
+    """(guard, satisfying letter, violating letter) as the keys of their propositional graphs:
+    the CNF's atoms as vocabulary indices, and the CNF."""
+    ids = tuple(index[a] for a in t.atoms)
+    letters = (letter_cnf(x, t.atoms, t.one_hot) for x in (t.sat, t.unsat))
+    return (ids, t.cnf), *((ids, tuple(map(tuple, cnf))) for cnf in letters)
+
+
+class TripletStore:
+    """Triplets' propositional graphs, each distinct graph built and collated once
+    (`batches.GraphStore`: guards and letters repeat across triplets); `embed` puts some
+    triplets' graphs through q_e in one pass."""
+
+    def __init__(
+        self, triplets: Sequence[GuardTriplet], index: dict[str, int], device="cpu"
+    ) -> None:
+        keys = [triplet_keys(t, index) for t in triplets]
+        distinct = {k: i for i, k in enumerate(dict.fromkeys(k for ks in keys for k in ks))}
+        self.graphs = GraphStore([cnf_graph(cnf, ids) for ids, cnf in distinct], device)
+        self.triples = torch.tensor(
+            [[distinct[k] for k in ks] for ks in keys], dtype=torch.long
+        ).reshape(-1, 3)
+
+    def __len__(self) -> int:
+        return len(self.triples)
+
+    def embed(self, model: torch.nn.Module, ids: Sequence[int]) -> tuple[torch.Tensor, ...]:
+        """(anchors, positives, negatives) [len(ids), d] of triplets `ids`."""
+        order = self.triples[list(ids)].t().reshape(-1)  # all anchors, then positives, ...
+        return tuple(model(self.graphs.select(order)).split(len(ids)))

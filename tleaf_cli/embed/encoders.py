@@ -22,7 +22,7 @@ from torch import nn
 from torch_geometric.nn import GCNConv, global_mean_pool
 from torch_geometric.utils import to_undirected
 
-from tleaf_cli.embed.graphs import PROP_TYPES
+from tleaf_cli.embed.graphs import PROP_TYPES, gcn_adjacency
 from tleaf_cli.errors import SettingError
 from tleaf_cli.settings.edge import ATOM_FEATURE_KINDS
 
@@ -79,7 +79,10 @@ class TypedGraphEncoder(nn.Module):
         self.num_types = num_types
         self.register_buffer("atom_table", atom_table.float())
         dims = [num_types + atom_table.shape[1]] + [hidden] * layers
-        self.convs = nn.ModuleList(GCNConv(a, b) for a, b in itertools.pairwise(dims))
+        # normalize=False: the normalised adjacency is computed once per batch (gcn_adjacency)
+        self.convs = nn.ModuleList(
+            GCNConv(a, b, normalize=False) for a, b in itertools.pairwise(dims)
+        )
         self.head = nn.Linear(hidden, out_dim)
 
     def forward(self, batch) -> torch.Tensor:
@@ -87,9 +90,11 @@ class TypedGraphEncoder(nn.Module):
         atom = batch.atom
         feats = self.atom_table[atom.clamp(min=0)] * (atom >= 0).unsqueeze(1).float()
         x = torch.cat([kinds, feats], dim=1)
-        edge_index = to_undirected(batch.edge_index, num_nodes=x.shape[0])
+        adjacency = gcn_adjacency(
+            to_undirected(batch.edge_index, num_nodes=x.shape[0]), x.shape[0], x.dtype
+        )
         for conv in self.convs:
-            x = torch.relu(conv(x, edge_index))
+            x = torch.relu(conv(x, adjacency))
         return self.head(global_mean_pool(x, batch.batch))
 
 

@@ -21,6 +21,7 @@ vocabulary the caller fixes), so atom features (one-hot, random, text) stay plug
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Collection, Sequence
 
 import torch
@@ -43,6 +44,8 @@ from ltlf2dfa.ltlf import (
     LTLfWeakNext,
 )
 from torch_geometric.data import Batch, Data
+from torch_geometric.nn.conv.gcn_conv import gcn_norm
+from torch_geometric.utils import to_torch_csr_tensor
 
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
@@ -256,6 +259,18 @@ def trace_graph_batch(lengths: Sequence[int]) -> tuple[Batch, torch.Tensor]:
     )
     batch.num_nodes = total
     return batch, edge_nodes
+
+
+def gcn_adjacency(edge_index: torch.Tensor, num_nodes: int, dtype=torch.float32) -> torch.Tensor:
+    """Â = D^-1/2 (A + I) D^-1/2 of the arcs `edge_index` (source -> target) as a sparse CSR
+    matrix [num_nodes, num_nodes] whose row v holds v's incoming messages: what `GCNConv`
+    computes from `edge_index` at every call (`gcn_norm`), computed once per batch and shared by
+    every layer (their GCNConvs built with `normalize=False` read it as `adj_t`; one sparse
+    matrix product per layer instead of a gather and a scatter)."""
+    arcs, weight = gcn_norm(edge_index, None, num_nodes, add_self_loops=True, dtype=dtype)
+    with warnings.catch_warnings():  # torch marks CSR support beta; PyG's own path uses it
+        warnings.simplefilter("ignore", UserWarning)
+        return to_torch_csr_tensor(arcs.flip(0), weight, size=(num_nodes, num_nodes))
 
 
 def syntax_graph(formula: LTLfFormula, vocabulary: dict[str, int]) -> Data:

@@ -22,11 +22,10 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from torch_geometric.data import Batch
 
 from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import read_dfas
-from tleaf_cli.embed.edge_data import guard_triplets, split_by_formula, triplet_graphs, vocabulary
+from tleaf_cli.embed.edge_data import TripletStore, guard_triplets, split_by_formula, vocabulary
 from tleaf_cli.embed.encoders import PropositionEncoder, atom_features, triplet_accuracy
 from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit, read_model_config
 from tleaf_cli.embed.triplets import SCORE, EpochReport, reporting, triplet_step
@@ -61,21 +60,21 @@ def train_edge(
     )
     if not train or not heldout:
         raise InputError(f"{dfas_path}: too few formulas for a train / held-out split")
-    train_graphs = [triplet_graphs(t, index) for t in train]
-    heldout_graphs = [triplet_graphs(t, index) for t in heldout]
+    # every triplet's three graphs collated once; a batch selects its triplets' graphs
+    train_graphs = TripletStore(train, index, device)
+    heldout_graphs = TripletStore(heldout, index, device)
 
     # ---- model, then the shared triplet loop
     atoms = atom_features(vocab, settings.atom_features, settings.feature_dim, settings.seed)
     model = PropositionEncoder(atoms, settings.hidden, settings.layers, settings.out_dim).to(device)
 
-    def embed(chunk) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        return tuple(_embed(model, part, device) for part in zip(*chunk, strict=True))
-
     metrics = fit(
         model,
-        lambda epoch, generator: chunks(train_graphs, settings.batch_size, generator),
-        triplet_step(embed, settings.margin),
-        lambda: evaluate(model, heldout_graphs, settings.batch_size, device),
+        lambda epoch, generator: chunks(
+            list(range(len(train_graphs))), settings.batch_size, generator
+        ),
+        triplet_step(lambda ids: train_graphs.embed(model, ids), settings.margin),
+        lambda: evaluate(model, heldout_graphs, settings.batch_size),
         LoopSettings.of(settings),
         out_dir,
         score=SCORE,
@@ -97,13 +96,12 @@ def train_edge(
     return metrics
 
 
-def evaluate(model: PropositionEncoder, graphs, batch_size: int, device) -> float:
+def evaluate(model: PropositionEncoder, graphs: TripletStore, batch_size: int) -> float:
     """Triplet accuracy over (guard, sat, unsat) graph triples."""
     hits = 0.0
     for i in range(0, len(graphs), batch_size):
-        chunk = graphs[i : i + batch_size]
-        anchor, pos, neg = (_embed(model, part, device) for part in zip(*chunk, strict=True))
-        hits += triplet_accuracy(anchor, pos, neg) * len(chunk)
+        ids = list(range(i, min(i + batch_size, len(graphs))))
+        hits += triplet_accuracy(*graphs.embed(model, ids)) * len(ids)
     return hits / max(len(graphs), 1)
 
 
@@ -119,7 +117,3 @@ def load_edge_model(model_dir: str | Path) -> tuple[PropositionEncoder, dict]:
         torch.load(model_dir / "weights.pt", map_location="cpu", weights_only=True)
     )
     return model.eval(), config
-
-
-def _embed(model: PropositionEncoder, graphs, device) -> torch.Tensor:
-    return model(Batch.from_data_list(list(graphs)).to(device))

@@ -28,6 +28,7 @@ from tleaf_cli.data.artifacts import describe_inputs, relative_to, write_text_at
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.automaton import AutomatonEncoder
+from tleaf_cli.embed.batches import GraphStore, join
 from tleaf_cli.embed.encoders import RadiusClassifier, anchor_pull, triplet_accuracy
 from tleaf_cli.embed.evidence import MonitorEvidence, chain_lengths
 from tleaf_cli.embed.graphs import syntax_graph
@@ -88,13 +89,29 @@ class TripletEmbedder(nn.Module):
         return nn.functional.normalize(z, dim=-1) if self.sphere else z
 
     def embed_formulas(self, batch) -> torch.Tensor:
-        z = self._out(self.formula(batch))
+        return self._formula_vectors(self.formula(batch), batch)
+
+    def embed_traces(self, batch) -> torch.Tensor:
+        return self._trace_vectors(self.trace(batch), batch)
+
+    def embed_both(self, formulas, traces) -> tuple[torch.Tensor, torch.Tensor]:
+        """`embed_formulas(formulas)` and `embed_traces(traces)`; where one encoder reads both
+        (q_m), in one pass over the two batches joined: the same vectors at half the layer
+        calls."""
+        if self.formula is not self.trace:
+            return self.embed_formulas(formulas), self.embed_traces(traces)
+        z = self.trace(join(formulas, traces))
+        k = int(formulas.ptr.numel() - 1)
+        return self._formula_vectors(z[:k], formulas), self._trace_vectors(z[k:], traces)
+
+    def _formula_vectors(self, z: torch.Tensor, batch) -> torch.Tensor:
+        z = self._out(z)
         if self.evidence is None:
             return z
         return torch.cat([z, self.evidence.formulas(self.formula.monitor_features(batch))], dim=1)
 
-    def embed_traces(self, batch) -> torch.Tensor:
-        z = self._out(self.trace(batch))
+    def _trace_vectors(self, z: torch.Tensor, batch) -> torch.Tensor:
+        z = self._out(z)
         if self.evidence is None:
             return z
         evidence = self.evidence.traces(self.trace.monitor_features(batch), chain_lengths(batch))
@@ -180,6 +197,7 @@ def train_meta(
         for fid, row in rows.items():
             vectors.ids(row["atoms"])  # every atom must have features
             formula_graphs[fid] = syntax_graph(parse(row["formula"]), vocab_index)
+    formula_index = {fid: i for i, fid in enumerate(formula_graphs)}  # its graph in `store`
     by_split: dict[str, dict[str, dict[bool, list]]] = defaultdict(
         lambda: defaultdict(lambda: {True: [], False: []})
     )
@@ -203,7 +221,7 @@ def train_meta(
         for fid, sides in by_split[split].items():
             for (sat, _), (neg, kind) in zip(sides[True], sides[False], strict=False):
                 if source is None or kind == source:
-                    out.append((formula_graphs[fid], sat, neg))
+                    out.append((formula_index[fid], sat, neg))
         return out
 
     train_formulas = [f for f, s in by_split["train"].items() if s[True] and s[False]]
@@ -214,6 +232,8 @@ def train_meta(
     if settings.readout in RUN_READOUTS and settings.embedder == "dfa":
         store_run_weights(model.trace, list(formula_graphs.values()))  # once per graph
     model = model.to(device)
+    # the formula graphs collated once, on the device; a batch selects its formulas by index
+    store = GraphStore(list(formula_graphs.values()), device)
 
     def epoch_triplets(epoch: int, generator: torch.Generator):
         # Triplets travel in groups of GROUP from one formula, the groups shuffled: a batch still
@@ -223,7 +243,7 @@ def train_meta(
             sides = by_split["train"][fid]
             picks = torch.randint(len(sides[False]), (len(sides[True]),), generator=generator)
             triplets = [
-                (formula_graphs[fid], sat, sides[False][k][0])
+                (formula_index[fid], sat, sides[False][k][0])
                 for (sat, _), k in zip(sides[True], picks.tolist(), strict=True)
             ]
             groups += [triplets[i : i + GROUP] for i in range(0, len(triplets), GROUP)]
@@ -232,9 +252,8 @@ def train_meta(
 
     def embed(chunk):
         formulas, sats, negs = zip(*chunk, strict=True)
-        distinct = {id(g): g for g in formulas}
+        distinct = list(dict.fromkeys(formulas))  # each formula embedded once per batch
         row = {key: i for i, key in enumerate(distinct)}
-        z_formulas = model.embed_formulas(Batch.from_data_list(list(distinct.values())).to(device))
         traces = sats + negs  # one batch of chains for both sides
         monitor = None if monitors is None else torch.stack([m for _, m in traces])
         chains = chain_batch(
@@ -243,9 +262,9 @@ def train_meta(
             [len(x) for x, _ in traces],
             monitor,
         )
-        z_traces = model.embed_traces(chains)
+        z_formulas, z_traces = model.embed_both(store.select(distinct), chains)
         return (
-            z_formulas[torch.tensor([row[id(g)] for g in formulas], device=device)],
+            z_formulas[torch.tensor([row[f] for f in formulas], device=device)],
             z_traces[: len(sats)],
             z_traces[len(sats) :],
         )
