@@ -13,6 +13,7 @@ from typer.testing import CliRunner
 
 from tleaf_cli import cli
 from tleaf_cli.defaults import TIERS
+from tleaf_cli.settings import DEVICES, PRECISIONS
 from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS
 from tleaf_cli.tasks.action_recognition.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
 from tleaf_cli.tasks.model_checking import PAIR_FEATURES
@@ -96,6 +97,8 @@ def test_choice_types_match_the_library() -> None:
         (cli.KbFormulaFrom, KB_FORMULA_SOURCES),
         (cli.RuleSets, RULE_SET_SPLITS),
         (cli.PairFeatures, PAIR_FEATURES),
+        (cli.EvalDevice, DEVICES),
+        (cli.Precision, PRECISIONS),
         (cli.Decoding, DECODINGS),
     ]
     for literal, values in pairs:

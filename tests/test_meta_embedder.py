@@ -198,3 +198,30 @@ def test_a_moved_tree_and_a_copied_meta_folder_still_load(chain, tmp_path: Path)
     shutil.copytree(moved / "meta", alone)
     shutil.copytree(moved / "edge", tree / "edge")  # the absolute path exists again
     assert torch.equal(load_embedder(alone).embed_traces([trace], [atoms]), before)
+
+
+@pytest.mark.parametrize("one_hot", [False, True])
+def test_trace_inputs_equal_the_one_by_one_features(chain, one_hot) -> None:
+    """The batched reading of many traces gives each trace the letter vectors and monitor
+    features the one-trace functions give it."""
+    from tleaf_cli.embed.meta_data import (
+        GuardVectors,
+        trace_inputs,
+        trace_letter_vectors,
+        trace_monitor_features,
+    )
+    from tleaf_cli.embed.train_edge import load_edge_model
+    from tleaf_cli.logic.monitors import MonitorBank
+
+    edge, config = load_edge_model(chain["edge"])
+    vectors = GuardVectors(edge, config["vocabulary"])
+    bank = MonitorBank(2, 6, 2)
+    traces = [[{"a"}, {"b"}, set()], [{"c"}], [set(), {"a"}, {"a"}, {"b"}]]
+    if not one_hot:
+        traces.append([{"a", "b"}, {"a", "c"}])
+    atoms = [("a", "b", "c"), ("a", "c"), ("a", "b"), ("a", "b", "c")][: len(traces)]
+    letters, monitor = trace_inputs(traces, atoms, [one_hot] * len(traces), vectors, bank)
+    for k, (trace, a) in enumerate(zip(traces, atoms, strict=True)):
+        assert torch.equal(letters[k], trace_letter_vectors(trace, a, vectors, one_hot))
+        expected = trace_monitor_features(trace, a, bank, one_hot).float()
+        assert torch.equal(monitor[k], expected)

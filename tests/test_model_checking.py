@@ -36,6 +36,7 @@ def test_report_is_well_formed(chain, chain_cli, meta_model, tmp_path: Path) -> 
         out,
         "--label",
         "tiny",
+        "--all-negatives",
     )
     assert result.exit_code == 0, result.output
     report = json.loads((out / "report.json").read_text())
@@ -48,6 +49,30 @@ def test_report_is_well_formed(chain, chain_cli, meta_model, tmp_path: Path) -> 
         assert 0.0 <= report[clf]["accuracy"] <= 1.0
         assert 0.0 <= report[clf]["balanced_accuracy"] <= 1.0
     assert "| MLP 512-128 fitted on all negatives" in (out / "report.md").read_text()
+
+
+def test_the_second_mlp_is_fitted_only_when_asked(chain, meta_model, tmp_path) -> None:
+    from tleaf_cli.tasks import model_checking as mc
+
+    report = mc.evaluate_model_checking(
+        meta_model, chain["dfas"], chain["traces"], tmp_path, mc.EvalSettings()
+    )
+    assert "mlp_all_negatives" not in report and "mlp" in report
+    assert "fitted on all negatives" not in (tmp_path / "report.md").read_text()
+
+
+def test_bfloat16_products_decide_like_float32(chain, meta_model, tmp_path) -> None:
+    """precision="bfloat16" changes the MLP's arithmetic, not what it learns: on the tiny
+    chain its test accuracy is within a few points of float32's."""
+    from tleaf_cli.tasks import model_checking as mc
+
+    exact, fast = (
+        mc.evaluate_model_checking(
+            meta_model, chain["dfas"], chain["traces"], tmp_path / p, mc.EvalSettings(precision=p)
+        )["mlp"]["balanced_accuracy"]
+        for p in ("float32", "bfloat16")
+    )
+    assert abs(exact - fast) <= 0.1
 
 
 def test_the_paper_mlp_is_fitted_on_satisfying_and_uniform_traces_only(
@@ -64,7 +89,7 @@ def test_the_paper_mlp_is_fitted_on_satisfying_and_uniform_traces_only(
 
     monkeypatch.setattr(mc, "_fit_mlp", spy)
     mc.evaluate_model_checking(
-        meta_model, chain["dfas"], chain["traces"], tmp_path, mc.EvalSettings()
+        meta_model, chain["dfas"], chain["traces"], tmp_path, mc.EvalSettings(all_negatives=True)
     )
     (paper_train, paper_val, balanced), (all_train, all_val, all_balanced) = fitted
     assert balanced and not all_balanced  # the paper's MLP weighs both classes the same

@@ -125,6 +125,38 @@ def trace_letter_vectors(
     return vectors([(atoms, tuple(map(tuple, letter_cnf(step, atoms, one_hot)))) for step in trace])
 
 
+def trace_inputs(
+    traces: Sequence[Sequence[Collection[str]]],
+    atoms: Sequence[tuple[str, ...]],
+    one_hot: Sequence[bool],
+    vectors: GuardVectors,
+    monitors: MonitorBank | None = None,
+) -> tuple[list[torch.Tensor], torch.Tensor | None]:
+    """What q_m reads of many traces: each trace's letter vectors [T, d]
+    (`trace_letter_vectors`) and, with `monitors`, their monitor features [N, 2 R F]
+    (`trace_monitor_features`), trace i read over `atoms[i]` (one-hot alphabet where
+    `one_hot[i]`). The same values as those functions give one trace at a time, at a fraction
+    of the cost: each step is indexed in its alphabet once, and each distinct letter of each
+    alphabet goes through q_e once and is looked up by index."""
+    rows: dict[tuple, int] = {}  # (atoms, one_hot, letter index) -> row of the letter table
+    per_trace, words = [], []
+    for trace, a, h in zip(traces, atoms, one_hot, strict=True):
+        alphabet, truth = _alphabet(tuple(a), h)
+        word = [alphabet.index(step) for step in trace]
+        per_trace.append([rows.setdefault((alphabet, h, i), len(rows)) for i in word])
+        if monitors is not None:
+            word_features = monitors.of_word(truth, word)
+            words.append(np.concatenate([word_features, np.zeros_like(word_features)]))
+    keys = [
+        (alphabet.atoms, tuple(map(tuple, letter_cnf(alphabet.letter(i), alphabet.atoms, h))))
+        for alphabet, h, i in rows
+    ]
+    table = vectors(keys)
+    letters = [table[torch.tensor(r, dtype=torch.long)] for r in per_trace]
+    features = None if monitors is None else torch.from_numpy(np.stack(words)).float()
+    return letters, features
+
+
 def featured_trace_graph(
     trace: Sequence[Collection[str]],
     atoms: tuple[str, ...],

@@ -36,8 +36,7 @@ from tleaf_cli.embed.meta_data import (
     GuardVectors,
     chain_batch,
     featured_dfa_graphs,
-    trace_letter_vectors,
-    trace_monitor_features,
+    trace_inputs,
 )
 from tleaf_cli.embed.syntax import SyntaxEncoder
 from tleaf_cli.embed.train_edge import load_edge_model
@@ -201,20 +200,19 @@ def train_meta(
     by_split: dict[str, dict[str, dict[bool, list]]] = defaultdict(
         lambda: defaultdict(lambda: {True: [], False: []})
     )
-    for t in traces.to_pylist():
-        if t["formula_id"] not in rows:
-            continue
-        row = rows[t["formula_id"]]
-        atoms, one_hot = tuple(row["atoms"]), row["alphabet"] == "one-hot"
-        # a trace is its letters' q_e vectors [T, d] (`embed` batches them as chains), with
-        # its monitor features where q reads them
-        letters = trace_letter_vectors(t["trace"], atoms, vectors, one_hot)
-        monitor = (
-            None
-            if monitors is None
-            else trace_monitor_features(t["trace"], atoms, monitors, one_hot)
-        )
-        by_split[t["split"]][t["formula_id"]][t["label"]].append(((letters, monitor), t["source"]))
+    kept = [t for t in traces.to_pylist() if t["formula_id"] in rows]
+    # a trace is its letters' q_e vectors [T, d] (`embed` batches them as chains), with its
+    # monitor features where q reads them
+    letters, monitor = trace_inputs(
+        [t["trace"] for t in kept],
+        [tuple(rows[t["formula_id"]]["atoms"]) for t in kept],
+        [rows[t["formula_id"]]["alphabet"] == "one-hot" for t in kept],
+        vectors,
+        monitors,
+    )
+    for k, t in enumerate(kept):
+        features = (letters[k], None if monitor is None else monitor[k])
+        by_split[t["split"]][t["formula_id"]][t["label"]].append((features, t["source"]))
 
     def fixed_pairs(split: str, source: str | None = None):
         out = []

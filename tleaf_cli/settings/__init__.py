@@ -25,6 +25,7 @@ from typing import Any, ClassVar
 from tleaf_cli.errors import SettingError
 
 DEVICES = ("cpu", "cuda")  # where torch computes
+PRECISIONS = ("float32", "bfloat16")  # how matrix products are computed (bfloat16: autocast)
 SCHEDULES = ("constant", "cosine")  # the embedders' learning-rate schedules (embed/training.py)
 LOGIC_LOSSES = ("none", "tleaf", "checker", "exact")  # `tl.logic_loss` kinds, and "none"
 

@@ -1,0 +1,265 @@
+"""Per-epoch training time of q_e, q_m and the action recogniser (none, exact, tleaf losses),
+this tree against another (e.g. the landed commit), on the CPU and, where one is present, a GPU.
+
+    git worktree add /tmp/tleaf-base <commit>
+    python benchmarks/speed.py --baseline /tmp/tleaf-base [--out DIR] [--devices cpu cuda]
+
+Every figure comes from the run's own `metrics.json` (`seconds` of each epoch: training only,
+without evaluation), as the mean over the epochs after the first; every command runs in a fresh
+process with one torch thread (OMP_NUM_THREADS=1), the trees one after the other on the same
+data, so the ratios compare like with like. Data (SYNTHETIC): the Low tier, `--formulas`
+formulas with 20 traces each, as the Table I pipeline draws them; activities as the
+action-recognition pipeline draws them (60 training videos), with a q trained for one epoch on
+their rule sets (its quality does not matter for time). q_m runs the default preset (best); the
+tleaf loss reads that q. Prints a markdown table: seconds per epoch for each tree and device,
+and the baseline / this-tree ratio; for the action recogniser also each loss against `none`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import statistics
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+Q = ["--max-length", "20", "--pull", "0.02", "--monitor-ranges", "1", "--no-sphere"]
+
+
+def tleaf(tree: Path, *args: str) -> None:
+    """`tleaf args` with the package of `tree` (PYTHONPATH first), one torch thread."""
+    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
+    code = "from tleaf_cli.cli import main; main()"
+    subprocess.run([sys.executable, "-c", code, *args, "-q"], check=True, env=env, cwd=ROOT)
+
+
+def epoch_seconds(run: Path) -> float:
+    """Mean training seconds of a run's epochs after the first (the first pays warm-up)."""
+    history = json.loads((run / "metrics.json").read_text())["history"]
+    times = [h["seconds"] for h in history]
+    return statistics.mean(times[1:] if len(times) > 1 else times)
+
+
+def prepare(data: Path, tree: Path, formulas: int) -> None:
+    """The Low tier and the activities with their q, made once with `tree` (reused)."""
+    low, ar = data / "low", data / "ar"
+    if not (low / "traces.parquet").exists():
+        low.mkdir(parents=True, exist_ok=True)
+        tleaf(
+            tree,
+            "gen-formulas",
+            "--tier",
+            "low",
+            "-n",
+            str(formulas),
+            "--pairs",
+            "20",
+            "--seed",
+            "0",
+            "-o",
+            str(low / "formulas.ltl"),
+        )
+        tleaf(tree, "compile-dfa", str(low / "formulas.ltl"), "-o", str(low / "dfas.parquet"))
+        tleaf(
+            tree,
+            "gen-traces",
+            str(low / "dfas.parquet"),
+            "--per-formula",
+            "20",
+            "--split",
+            "0.8,0.1,0.1",
+            "--seed",
+            "0",
+            "-o",
+            str(low / "traces.parquet"),
+        )
+    if not (ar / "meta" / "metrics.json").exists():
+        ar.mkdir(parents=True, exist_ok=True)
+        tleaf(
+            tree,
+            "gen-activities",
+            "-o",
+            str(ar / "activities.parquet"),
+            "--kb-out",
+            str(ar / "kb.ltl"),
+            "--seed",
+            "0",
+        )
+        tleaf(
+            tree,
+            "kb-extract",
+            str(ar / "kb.ltl"),
+            str(ar / "activities.parquet"),
+            "-o",
+            str(ar / "kb"),
+        )
+        tleaf(tree, "compile-dfa", str(ar / "kb.ltl"), "--one-hot", "-o", str(ar / "rules.parquet"))
+        subprocess.run(  # exit 1: some rule set is short of traces; the others are written
+            [
+                sys.executable,
+                "-c",
+                "from tleaf_cli.cli import main; main()",
+                "gen-traces",
+                str(ar / "kb" / "dfas.parquet"),
+                "--once-each",
+                "--per-formula",
+                "20",
+                "--split",
+                "0.8,0.1,0.1",
+                "-o",
+                str(ar / "traces.parquet"),
+                "-q",
+            ],
+            env={**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"},
+            cwd=ROOT,
+        )
+        tleaf(
+            tree, "train-edge", str(ar / "rules.parquet"), "-o", str(ar / "edge"), "--epochs", "1"
+        )
+        tleaf(
+            tree,
+            "train-meta",
+            str(ar / "kb" / "dfas.parquet"),
+            str(ar / "traces.parquet"),
+            "--edge",
+            str(ar / "edge"),
+            "-o",
+            str(ar / "meta"),
+            "--epochs",
+            "1",
+            *Q,
+        )
+
+
+def measure(tree: Path, name: str, data: Path, device: str, epochs: int) -> dict[str, float]:
+    """Seconds per epoch of every trainer with `tree`'s code on `device`."""
+    low, ar, runs = data / "low", data / "ar", data / "runs" / f"{name}-{device}"
+    shutil.rmtree(runs, ignore_errors=True)  # fresh runs (a model folder is never overwritten)
+    common = ["--device", device]
+    tleaf(
+        tree,
+        "train-edge",
+        str(low / "dfas.parquet"),
+        "-o",
+        str(runs / "edge"),
+        "--epochs",
+        str(epochs),
+        *common,
+    )
+    # q_m reads this tree's q_e, so each tree's q_m has the same kind of input
+    tleaf(
+        tree,
+        "train-meta",
+        str(low / "dfas.parquet"),
+        str(low / "traces.parquet"),
+        "--edge",
+        str(runs / "edge"),
+        "-o",
+        str(runs / "meta"),
+        "--epochs",
+        str(epochs),
+        *common,
+    )
+    out = {"q_e": epoch_seconds(runs / "edge"), "q_m": epoch_seconds(runs / "meta")}
+    for model in ("lstm", "tcn"):
+        for loss in ("none", "exact", "tleaf"):
+            run = runs / f"{model}-{loss}"
+            q = ["--embedder", str(ar / "meta")] if loss == "tleaf" else []
+            tleaf(
+                tree,
+                "train-task",
+                "action-recognition",
+                str(ar / "activities.parquet"),
+                "--kb",
+                str(ar / "kb.ltl"),
+                "--model",
+                model,
+                "--logic-loss",
+                loss,
+                *q,
+                "--epochs",
+                str(2 * epochs),
+                "--patience",
+                str(2 * epochs),
+                "-o",
+                str(run),
+                *common,
+            )
+            out[f"{model} {loss}"] = epoch_seconds(run)
+    return out
+
+
+def table(results: dict[tuple[str, str], dict[str, float]], devices: list[str]) -> str:
+    rows = [
+        "| trainer | " + " | ".join(f"{t} {d}" for t, d in results) + " | baseline / this |",
+        "|---|" + "---|" * (len(results) + 1),
+    ]
+    for key in next(iter(results.values())):
+        cells = [f"{r[key]:.3f}" for r in results.values()]
+        ratios = [
+            f"{results[('baseline', d)][key] / results[('this', d)][key]:.2f}x ({d})"
+            for d in devices
+            if ("baseline", d) in results and ("this", d) in results
+        ]
+        rows.append(f"| {key} | " + " | ".join(cells) + f" | {', '.join(ratios)} |")
+    rows.append("")
+    rows.append("Each loss's epoch against `none` (same model, tree and device):")
+    rows.append("")
+    rows.append(
+        "| tree, device | "
+        + " | ".join(f"{m} {loss}" for m in ("lstm", "tcn") for loss in ("exact", "tleaf"))
+        + " |"
+    )
+    rows.append("|---|" + "---|" * 4)
+    for (tree, device), r in results.items():
+        ratios = [
+            f"{r[f'{m} {loss}'] / r[f'{m} none']:.2f}x"
+            for m in ("lstm", "tcn")
+            for loss in ("exact", "tleaf")
+        ]
+        rows.append(f"| {tree}, {device} | " + " | ".join(ratios) + " |")
+    return "\n".join(rows)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", type=Path, help="another tleaf tree (a git worktree)")
+    parser.add_argument("--out", type=Path, default=ROOT / "out" / "bench-speed")
+    parser.add_argument("--formulas", type=int, default=1000, help="Low-tier formulas")
+    parser.add_argument(
+        "--epochs",
+        type=int,
+        default=3,
+        help="epochs of q_e and q_m (twice that for the action recogniser)",
+    )
+    parser.add_argument(
+        "--devices",
+        nargs="+",
+        default=None,
+        help="cpu and/or cuda [default: cpu, and cuda where present]",
+    )
+    args = parser.parse_args()
+    devices = args.devices
+    if devices is None:
+        import torch
+
+        devices = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
+    prepare(args.out / "data", ROOT, args.formulas)
+    trees = [("this", ROOT)] + ([("baseline", args.baseline.resolve())] if args.baseline else [])
+    results = {}
+    for device in devices:
+        for name, tree in trees:
+            results[(name, device)] = measure(tree, name, args.out / "data", device, args.epochs)
+            print(name, device, json.dumps(results[(name, device)]), flush=True)
+    (args.out / "speed.json").write_text(
+        json.dumps({f"{t} {d}": r for (t, d), r in results.items()}, indent=2)
+    )
+    print(table(results, devices))
+
+
+if __name__ == "__main__":
+    main()
