@@ -8,9 +8,9 @@ differentiable in P throughout. Laid out as a trace's crisp features are: these,
 (a trace has no rejected words).
 
 Every trace of a batch and every monitor move together: the letters' classes are one batched
-matrix product ([N, T, L] by [N, L, M·4]), and each step is one product and one scatter-add over
-[N, M, 4·S] (a monitor's move on class c is a table, so Σ_s state(s) · step_c[s, u] adds each
-state's mass into its successor); the Python loop runs over the T steps only.
+matrix product ([N, T, L] by [N, L, M·4]), and each step is one product of class and state
+probabilities ([4, S, M·N]) and one index-add of it into the next states (a monitor's move on a
+class is a table: state s goes to one state u); the Python loop runs over the T steps only.
 """
 
 from __future__ import annotations
@@ -63,17 +63,22 @@ def soft_monitor_features_weighted(
     n, steps, _ = probs.shape
     m = bank.width
     lengths = lengths.to(device)
-    per_class = torch.bmm(probs, weights.to(device, dtype)).view(n, steps, m, 4, 1)
-    tables = _tables(bank, device)  # [M, 4·S]: the state each (class, state) moves to
-    index = tables.expand(n, -1, -1)
-    state = torch.zeros((n, m, STATES), dtype=dtype, device=device)
-    state[:, :, 0] = 1.0
-    for t in range(steps):
-        mass = (per_class[:, t] * state[:, :, None, :]).flatten(2)  # [N, M, 4·S]
-        moved = torch.zeros_like(state).scatter_add(2, index, mass)
-        state = torch.where((t < lengths).view(-1, 1, 1), moved, state)
-    accepting = torch.as_tensor(bank.accepting, dtype=dtype, device=device)
-    accepted = (state * accepting).sum(dim=-1) * present.to(device, dtype)  # [N, M]
+    # [T, 4, M·N]: each step's class probabilities, (monitor, trace) pairs innermost so that
+    # every elementwise product below runs over long contiguous rows
+    per_class = torch.bmm(probs, weights.to(device, dtype)).view(n, steps, m, 4)
+    per_class = per_class.permute(1, 3, 2, 0).reshape(steps, 4, m * n)
+    targets = _targets(bank, n, device)  # [4·S·M·N]: where each (class, state) mass goes
+    state = torch.zeros((STATES, m * n), dtype=dtype, device=device)
+    state[0] = 1.0
+    running = (torch.arange(steps, device=device)[:, None] < lengths).repeat(1, m)  # [T, M·N]
+    # unbound once: indexing step t inside the loop would give a full-size gradient per step
+    for t, step in enumerate(per_class.unbind(0)):
+        mass = step[:, None, :] * state[None, :, :]  # [4, S, M·N]
+        moved = state.new_zeros(STATES * m * n).index_add(0, targets, mass.flatten())
+        state = torch.where(running[t], moved.view(STATES, m * n), state)
+    accepting = torch.as_tensor(bank.accepting.T, dtype=dtype, device=device)  # [S, M]
+    accepted = (state.view(STATES, m, n) * accepting[:, :, None]).sum(dim=0).t()  # [N, M]
+    accepted = accepted * present.to(device, dtype)
     # in the trace's length range (logic.monitors.MonitorBank.range_of), the others 0
     ranges = ((lengths - 1) * bank.ranges // bank.max_length).clamp(max=bank.ranges - 1)
     at_range = torch.nn.functional.one_hot(ranges, bank.ranges).to(dtype)
@@ -81,14 +86,18 @@ def soft_monitor_features_weighted(
     return torch.cat([placed, torch.zeros_like(placed)], dim=1)
 
 
-_TABLES: dict[tuple[int, str], torch.Tensor] = {}
+_TARGETS: dict[tuple[int, int, str], torch.Tensor] = {}
 
 
-def _tables(bank: MonitorBank, device: torch.device) -> torch.Tensor:
-    """[M, 4·S] long: `bank.tables` [M, S, 4] laid out class-major, on `device`. Kept per
-    (width, device): the tables depend on the bank's slots only, and the width on the slots."""
-    key = (bank.width, str(device))
-    if key not in _TABLES:
-        table = np.ascontiguousarray(bank.tables.transpose(0, 2, 1)).reshape(bank.width, -1)
-        _TABLES[key] = torch.as_tensor(table, dtype=torch.long, device=device)
-    return _TABLES[key]
+def _targets(bank: MonitorBank, traces: int, device: torch.device) -> torch.Tensor:
+    """[4·S·M·N] long: for the mass of monitor m on trace n in state s reading class c (laid
+    out [c, s, m, n]), its flat index (u, m, n) in the next state distribution [S, M·N], u =
+    `bank.tables[m, s, c]`. Kept per (width, traces, device): the tables depend on the bank's
+    slots only, and the width on the slots."""
+    key = (bank.width, traces, str(device))
+    if key not in _TARGETS:
+        m = bank.width
+        table = torch.as_tensor(bank.tables.transpose(2, 1, 0).copy(), device=device)  # [4, S, M]
+        pair = torch.arange(m * traces, device=device).view(m, traces)  # (m, n) -> m·N + n
+        _TARGETS[key] = (table[:, :, :, None] * (m * traces) + pair).flatten()
+    return _TARGETS[key]
