@@ -363,3 +363,34 @@ def test_knowledge_rule_sets_are_kept_per_atom_set(kb) -> None:
     assert again[3] is first[0] and rules.skipped_rules == skipped + 3
     assert [r.name for r in rules.rules(videos[0])] == ["ordering.egg"]
     assert rules.skipped_rules == skipped + 4
+
+
+def test_rule_sets_and_training_need_no_mona(tmp_path, monkeypatch) -> None:
+    """Rules progression compiles need no `mona` on PATH: a rule set, and a train-task run with
+    the exact loss; their DFAs are MONA's."""
+    from tleaf_cli.logic import mona
+    from tleaf_cli.tasks.action_recognition.train import TaskSettings, train_action_recognition
+
+    formulas = ["(!fry_onion U cut_onion) | G !fry_onion", "G(cut_egg -> X rinse_onion)"]
+    want = [compile_formula(f, "one-hot", engine="mona") for f in formulas]
+    monkeypatch.setenv("PATH", str(tmp_path))  # no mona there
+    mona.mona_version.cache_clear()
+    with pytest.raises(TleafError, match="mona"):
+        mona.mona_binary()
+    for f, dfa in zip(formulas, want, strict=True):
+        assert RuleSet(f, VOCAB).dfa == dfa.minimize_nonempty()
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    data, kb = tmp_path / "act.parquet", tmp_path / "kb.ltl"
+    args = ["--actions", 3, "--ingredients", 2, "--feature-dim", 8, "--train", 8, "--val", 4]
+    args += ["--test", 4, "--min-steps", 3, "--max-steps", 6, "--seed", 2]
+    result = CliRunner().invoke(
+        app, ["gen-activities", "-o", str(data), "--kb-out", str(kb), *map(str, args)]
+    )
+    assert result.exit_code == 0, result.output
+    settings = TaskSettings(logic_loss="exact", lam=1.0, hidden=8, head_hidden=4, epochs=1)
+    metrics = train_action_recognition(data, kb, None, tmp_path / "run", settings)
+    assert metrics["history"][0]["logic_loss"] > 0
+    mona.mona_version.cache_clear()

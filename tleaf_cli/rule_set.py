@@ -8,8 +8,9 @@ compiles each formula over the one-hot alphabet of its atoms, conjoins them as a
     letter 0      "none of the DFA's atoms" — every vocabulary item the formulas do not mention;
     letter k + 1  dfa.atoms[k], vocabulary position index[k].
 
-Each formula is compiled by MONA once per process (and once per machine, through compile-dfa's
-disk cache); a rule set is then a product of small DFAs, without a MONA call per conjunction.
+Each formula is compiled once per process, in-process by formula progression (no MONA needed),
+or by compile-dfa's stage past progression's limits (MONA, once per machine through its disk
+cache); a rule set is then a product of small DFAs, without a compilation per conjunction.
 Formulas that share no atoms with the rest form their own groups (a knowledge base's rules about
 one ingredient), and each group's product is kept: rule sets derived from a model's predictions
 every batch differ in a group or two, and rebuild only the product of the groups. The result is
@@ -34,20 +35,31 @@ from tleaf_cli import arguments
 from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.formula_files import FormulaSource
-from tleaf_cli.errors import ArgumentError, InputError
+from tleaf_cli.errors import ArgumentError, InputError, TleafError
+from tleaf_cli.logic.alphabet import Alphabet
+from tleaf_cli.logic.compile import by_progression
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.formulas import atoms as formula_atoms
+from tleaf_cli.logic.formulas import parse
 
 _COMPILED: dict[tuple[str, float], DFA] = {}  # (formula text, timeout) -> one-hot DFA
 
 
 def compile_rules(formulas: Iterable[str], settings: CompileSettings | None = None) -> None:
-    """Compile the formulas not compiled yet in this process, in one batch (parallel with
-    `settings.jobs`, through the disk cache), so later `RuleSet`s only look them up.
+    """Compile the formulas not compiled yet in this process, so later `RuleSet`s only look
+    them up: in-process by formula progression where the engine (`settings.engine`) takes
+    that route — it needs no MONA — and the others in one batch through compile-dfa's stage
+    (parallel with `settings.jobs`, through the disk cache; MONA past progression's limits).
 
     Raises InputError naming the first formula that does not compile.
     """
     settings = replace(settings or CompileSettings(), alphabet="one-hot")
     fresh = list(dict.fromkeys(f for f in formulas if (f, settings.timeout) not in _COMPILED))
+    for text in fresh:
+        dfa = _in_process(text, settings.engine)
+        if dfa is not None:
+            _COMPILED[(text, settings.timeout)] = dfa
+    fresh = [f for f in fresh if (f, settings.timeout) not in _COMPILED]
     if not fresh:
         return
     sources = [FormulaSource(f"rule {i}", f, "rules", f"rule {f!r}") for i, f in enumerate(fresh)]
@@ -123,6 +135,18 @@ class RuleSet:
             f"RuleSet({self.name}, {len(self.formulas)} formula(s), {self.dfa.num_states} states, "
             f"atoms {list(self.atoms)})"
         )
+
+
+def _in_process(text: str, engine: str) -> DFA | None:
+    """The one-hot DFA of `text` by the compile stage's first route, formula progression
+    (`logic.compile.by_progression`: the same DFA as the stage's); None where the stage must
+    take it (a syntax error to report, or MONA's turn)."""
+    try:
+        formula = parse(text)
+        Alphabet(formula_atoms(formula), "one-hot")
+        return by_progression(formula, "one-hot", engine)
+    except TleafError:  # a syntax error, or past progression's limits (TooLarge)
+        return None
 
 
 def _conjunction(formulas: Sequence[str], timeout: float) -> DFA:
