@@ -20,7 +20,7 @@ ROWS ?= dfa paper syntax
 # satisfies φ is a relation between the two vectors, which an MLP that sees them side by side
 # only cannot form from a dot product (docs/results/model_checking.md).
 PAIR_FEATURES ?= rich
-# where q_e and q_m train: cpu, or cuda (evaluations stay on the CPU)
+# where q_e and q_m train and the evaluations' MLPs fit: cpu, or cuda
 DEVICE ?= cpu
 # more train-meta options for the dfa row, e.g. META_FLAGS="--probes 16 --epochs 12"
 META_FLAGS ?=
@@ -100,7 +100,7 @@ $(OUT)/$(1)/seed$(2)/meta-$(3)/metrics.json: $(OUT)/$(1)/traces.parquet $(OUT)/$
 $(OUT)/$(1)/seed$(2)/eval-$(3)/report.json: $(OUT)/$(1)/seed$(2)/meta-$(3)/metrics.json
 	$(TLEAF) eval model-checking $(OUT)/$(1)/dfas.parquet $(OUT)/$(1)/traces.parquet \
 	    --embedder $(OUT)/$(1)/seed$(2)/meta-$(3) -o $$(@D) --label $(1) --seed $(2) \
-	    --pair-features $(PAIR_FEATURES) -q
+	    --pair-features $(PAIR_FEATURES) --device $(DEVICE) --precision $(PRECISION) -q
 endef
 $(foreach t,$(TIERS),$(foreach s,$(SEEDS),$(foreach e,$(ROWS),$(eval $(call RUN,$(t),$(s),$(e))))))
 

@@ -72,3 +72,27 @@ def test_an_encoder_gives_each_graph_its_own_vector_in_any_batch(directed, reado
     together = encoder(GraphStore(graphs).select(range(len(graphs))))
     alone = torch.cat([encoder(Batch.from_data_list([g])) for g in graphs])
     assert torch.allclose(together, alone, atol=1e-5)
+
+
+def test_the_normalised_layer_is_gcnconv_with_its_gradients():
+    """NormalisedGCNConv over gcn_adjacency(edge_index) computes what GCNConv computes from
+    edge_index, forwards and backwards, with GCNConv's own weights."""
+    from torch_geometric.nn import GCNConv
+
+    from tleaf_cli.embed.graphs import gcn_adjacency
+    from tleaf_cli.embed.layers import NormalisedGCNConv
+
+    torch.manual_seed(0)
+    edge_index = torch.tensor([[0, 1, 1, 2, 3, 4], [1, 2, 3, 0, 4, 4]])
+    reference, layer = GCNConv(5, 3), NormalisedGCNConv(5, 3)
+    layer.load_state_dict(reference.state_dict())
+    x = torch.randn(6, 5)
+    xs = [x.clone().requires_grad_() for _ in range(2)]
+    out_ref = reference(xs[0], edge_index)
+    out = layer(xs[1], gcn_adjacency(edge_index, 6))
+    assert torch.allclose(out, out_ref, atol=1e-6)
+    weights = torch.randn(6, 3)
+    (out_ref * weights).sum().backward()
+    (out * weights).sum().backward()
+    assert torch.allclose(xs[0].grad, xs[1].grad, atol=1e-6)
+    assert torch.allclose(reference.lin.weight.grad, layer.lin.weight.grad, atol=1e-6)

@@ -34,10 +34,11 @@ import itertools
 
 import torch
 from torch import nn
-from torch_geometric.nn import GCNConv, global_add_pool
+from torch_geometric.nn import global_add_pool
 from torch_geometric.utils import degree, to_dense_batch, to_undirected
 
 from tleaf_cli.embed.graphs import gcn_adjacency, read_limits, trace_graph_batch
+from tleaf_cli.embed.layers import NormalisedGCNConv
 from tleaf_cli.embed.probes import ProbeBank
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.monitors import MonitorBank
@@ -189,13 +190,10 @@ class AutomatonEncoder(nn.Module):
         if readout not in READOUTS:
             raise SettingError("readout", f"must be one of {READOUTS}, not {readout!r}")
         dims = [KINDS + FLAGS + edge_dim] + [hidden] * layers
-        # normalize=False: each direction's normalised adjacency is computed once per batch
-        # (graphs.gcn_adjacency) and read by every layer
-        self.convs = nn.ModuleList(
-            GCNConv(a, b, normalize=False) for a, b in itertools.pairwise(dims)
-        )
+        # GCN layers reading each direction's adjacency, normalised once per batch
+        self.convs = nn.ModuleList(NormalisedGCNConv(a, b) for a, b in itertools.pairwise(dims))
         self.back = (
-            nn.ModuleList(GCNConv(a, b, normalize=False) for a, b in itertools.pairwise(dims))
+            nn.ModuleList(NormalisedGCNConv(a, b) for a, b in itertools.pairwise(dims))
             if directed
             else None
         )

@@ -19,10 +19,11 @@ from collections.abc import Sequence
 
 import torch
 from torch import nn
-from torch_geometric.nn import GCNConv, global_mean_pool
+from torch_geometric.nn import global_mean_pool
 from torch_geometric.utils import to_undirected
 
 from tleaf_cli.embed.graphs import PROP_TYPES, gcn_adjacency
+from tleaf_cli.embed.layers import NormalisedGCNConv
 from tleaf_cli.errors import SettingError
 from tleaf_cli.settings.edge import ATOM_FEATURE_KINDS
 
@@ -79,10 +80,8 @@ class TypedGraphEncoder(nn.Module):
         self.num_types = num_types
         self.register_buffer("atom_table", atom_table.float())
         dims = [num_types + atom_table.shape[1]] + [hidden] * layers
-        # normalize=False: the normalised adjacency is computed once per batch (gcn_adjacency)
-        self.convs = nn.ModuleList(
-            GCNConv(a, b, normalize=False) for a, b in itertools.pairwise(dims)
-        )
+        # GCN layers reading the adjacency normalised once per batch (gcn_adjacency)
+        self.convs = nn.ModuleList(NormalisedGCNConv(a, b) for a, b in itertools.pairwise(dims))
         self.head = nn.Linear(hidden, out_dim)
 
     def forward(self, batch) -> torch.Tensor:

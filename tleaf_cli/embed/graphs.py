@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Collection, Sequence
+from typing import NamedTuple
 
 import torch
 from ltlf2dfa.ltlf import (
@@ -261,16 +262,26 @@ def trace_graph_batch(lengths: Sequence[int]) -> tuple[Batch, torch.Tensor]:
     return batch, edge_nodes
 
 
-def gcn_adjacency(edge_index: torch.Tensor, num_nodes: int, dtype=torch.float32) -> torch.Tensor:
-    """Â = D^-1/2 (A + I) D^-1/2 of the arcs `edge_index` (source -> target) as a sparse CSR
-    matrix [num_nodes, num_nodes] whose row v holds v's incoming messages: what `GCNConv`
-    computes from `edge_index` at every call (`gcn_norm`), computed once per batch and shared by
-    every layer (their GCNConvs built with `normalize=False` read it as `adj_t`; one sparse
-    matrix product per layer instead of a gather and a scatter)."""
+class Adjacency(NamedTuple):
+    """A normalised adjacency Â as sparse CSR matrices, and its transpose (what the backward
+    pass of Â·X multiplies by: stored, so no step transposes Â again)."""
+
+    matrix: torch.Tensor
+    transposed: torch.Tensor
+
+
+def gcn_adjacency(edge_index: torch.Tensor, num_nodes: int, dtype=torch.float32) -> Adjacency:
+    """Â = D^-1/2 (A + I) D^-1/2 of the arcs `edge_index` (source -> target), row v holding v's
+    incoming messages: what `GCNConv` computes from `edge_index` at every call (`gcn_norm`),
+    computed once per batch and read by every layer (`layers.NormalisedGCNConv`)."""
     arcs, weight = gcn_norm(edge_index, None, num_nodes, add_self_loops=True, dtype=dtype)
+    size = (num_nodes, num_nodes)
     with warnings.catch_warnings():  # torch marks CSR support beta; PyG's own path uses it
         warnings.simplefilter("ignore", UserWarning)
-        return to_torch_csr_tensor(arcs.flip(0), weight, size=(num_nodes, num_nodes))
+        return Adjacency(
+            to_torch_csr_tensor(arcs.flip(0), weight, size=size),
+            to_torch_csr_tensor(arcs, weight, size=size),
+        )
 
 
 def syntax_graph(formula: LTLfFormula, vocabulary: dict[str, int]) -> Data:
