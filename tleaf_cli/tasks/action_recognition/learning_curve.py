@@ -98,8 +98,9 @@ def read_curve_run(run_dir: str | Path, both_decodings: bool = True) -> dict:
     run_dir = Path(run_dir)
     row = read_run(run_dir)
     if both_decodings and "decodings" not in row:
-        raise InputError(f"{run_dir}: no constrained-decoding figures (train with --decode "
-                         "constrained)")  # fmt: skip
+        raise InputError(
+            f"{run_dir}: no constrained-decoding figures (trained with argmax decoding only)"
+        )
     metrics = json.loads((run_dir / "metrics.json").read_text())
     config = json.loads((run_dir / "config.json").read_text())
     videos = metrics.get("train_videos", config["settings"].get("train_videos"))
@@ -365,7 +366,7 @@ def learning_curve(
         raise InputError("give at least one train-task run directory")
     runs = [read_curve_run(d) for d in run_dirs]
     if not any(r["logic_loss"] == "none" for r in runs):
-        raise InputError("no reference run (--logic-loss none) among the runs")
+        raise InputError("no reference run (no logic loss) among the runs")
     rows = curve(runs)
     sweep = [read_curve_run(d, both_decodings=False) for d in sweep_dirs]
     cells = sorted({(r["model"], r["logic_loss"], r["train_videos"]) for r in sweep})
