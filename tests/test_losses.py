@@ -71,6 +71,19 @@ def test_exact_loss_is_the_brute_force_probability() -> None:
     loss.sum().backward()
     assert lp.grad[0].abs().sum() > 0 and lp.grad[1].abs().sum() == 0  # no rule, no gradient
     assert lp.grad[2, 3:].abs().sum() == 0  # steps past a length are not read
+    # the gradient of −log P(accept), P written out as the sum over accepted sequences
+    for b in (0, 2):
+        n = int(lengths[b])
+        one = lp[b, :n].detach().clone().requires_grad_()
+        accepted = [
+            seq
+            for seq in itertools.product(range(len(VOCAB)), repeat=n)
+            if sets[b].dfa.accepts([{VOCAB[k]} for k in seq])
+        ]
+        rows = torch.tensor(accepted)  # [sequences, n]
+        p = one.gather(1, rows.t()).sum(dim=0).exp().sum()  # Σ_w Π_t P_t(w_t)
+        (grad,) = torch.autograd.grad(-p.log(), one)
+        torch.testing.assert_close(lp.grad[b, :n], grad, rtol=1e-4, atol=1e-6)
 
 
 def test_batched_equals_one_by_one_and_reductions() -> None:

@@ -30,13 +30,16 @@ def exact_loss(
     targets = packed.targets[rows].flatten(1)  # [N, S·L], the sink state S for padding
     alpha = letters.new_full((n, states), NEG)
     alpha[torch.arange(n, device=letters.device), packed.initial[rows]] = 0.0
-    for t in range(int(lengths.max()) if n else 0):
-        terms = (alpha[:, :, None] + letters[:, t, None, :]).flatten(1)  # [N, S·L]
+    steps = int(lengths.max()) if n else 0
+    running = torch.arange(steps, device=letters.device)[:, None, None] < lengths[:, None]
+    # the steps unbound once: indexing step t in the loop would give a full-size gradient each
+    for t, at_t in enumerate(letters[:, :steps].unbind(1)):
+        terms = (alpha[:, :, None] + at_t[:, None, :]).flatten(1)  # [N, S·L]
         top = letters.new_full((n, states + 1), NEG)
         top = top.scatter_reduce(1, targets, terms.detach(), "amax")
         sums = letters.new_zeros((n, states + 1))
         sums = sums.scatter_add(1, targets, (terms - top.gather(1, targets)).exp())
         step = (top + sums.clamp(min=1.0).log())[:, :states]  # a reached state's sum is >= 1
-        alpha = torch.where((t < lengths)[:, None], step, alpha)
+        alpha = torch.where(running[t], step, alpha)
     final = torch.where(packed.accepting[rows], alpha, letters.new_tensor(NEG))
     return -torch.logsumexp(final, dim=1)
