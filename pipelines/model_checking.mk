@@ -22,9 +22,10 @@ ROWS ?= dfa paper syntax
 PAIR_FEATURES ?= rich
 # where q_e and q_m train and the evaluations' MLPs fit: cpu, or cuda
 DEVICE ?= cpu
-# the evaluations' MLP products: float32, or bfloat16 (autocast; 3-4x faster products on CPUs
-# with AMX / AVX-512 BF16, slower on others)
-PRECISION ?= float32
+# the evaluations' MLP products: auto (bfloat16 under autocast where the hardware computes it
+# natively: 3-4x faster products on CPUs with AMX / AVX-512 BF16; float32 elsewhere), float32,
+# or bfloat16 (docs/results/model_checking.md: what it changes)
+PRECISION ?= auto
 # more train-meta options for the dfa row, e.g. META_FLAGS="--probes 16 --epochs 12"
 META_FLAGS ?=
 # One torch thread per process: `make -j` already runs a process per core, and torch's own

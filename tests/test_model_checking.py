@@ -75,6 +75,22 @@ def test_bfloat16_products_decide_like_float32(chain, meta_model, tmp_path) -> N
     assert abs(exact - fast) <= 0.1
 
 
+@pytest.mark.parametrize("native", [False, True])
+def test_auto_precision_follows_the_hardware(chain, meta_model, tmp_path, monkeypatch, native):
+    """precision="auto" is bfloat16 where the hardware has it natively, float32 elsewhere: the
+    same MLP, to the bit, as the precision it stands for."""
+    from tleaf_cli.tasks import model_checking as mc
+
+    monkeypatch.setattr(mc, "native_bfloat16", lambda device: native)
+    auto, named = (
+        mc.evaluate_model_checking(
+            meta_model, chain["dfas"], chain["traces"], tmp_path / p, mc.EvalSettings(precision=p)
+        )["mlp"]
+        for p in ("auto", "bfloat16" if native else "float32")
+    )
+    assert auto == named
+
+
 def test_the_paper_mlp_is_fitted_on_satisfying_and_uniform_traces_only(
     chain, meta_model, tmp_path, monkeypatch
 ) -> None:

@@ -865,8 +865,9 @@ def eval_model_checking(
     precision: Annotated[
         Precision,
         typer.Option(
-            help="float32, or bfloat16: the MLPs' products under autocast, 3-4x faster on CPUs "
-            "with AMX / AVX-512 BF16 (slower on others)."
+            help="float32; bfloat16: the MLPs' products under autocast, 3-4x faster on CPUs "
+            "with AMX / AVX-512 BF16 (slower on others); auto: bfloat16 where the hardware "
+            "computes it natively, else float32."
         ),
     ] = "float32",
     seed: Seed = 0,

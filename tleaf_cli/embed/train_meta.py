@@ -53,6 +53,7 @@ from tleaf_cli.settings.meta import (
 )
 
 GROUP = 4  # triplets of one formula that share its embedding within a batch
+SCORE_BATCH = 512  # pairs per pass when scoring (no gradient: a graph's vector is its own)
 
 
 class TripletEmbedder(nn.Module):
@@ -271,8 +272,8 @@ def train_meta(
         """Triplet accuracy over `pairs`, and the mean squared distance of the formula to its
         satisfying and to its violating traces (one embedding pass)."""
         sums = torch.zeros(3, dtype=torch.float64)
-        for i in range(0, len(pairs), settings.batch_size):
-            part = pairs[i : i + settings.batch_size]
+        for i in range(0, len(pairs), SCORE_BATCH):
+            part = pairs[i : i + SCORE_BATCH]
             anchor, pos, neg = embed(part)
             distance = [(anchor - z).pow(2).sum(dim=1).sum().item() for z in (pos, neg)]
             hits = triplet_accuracy(anchor, pos, neg) * len(part)

@@ -25,7 +25,9 @@ from typing import Any, ClassVar
 from tleaf_cli.errors import SettingError
 
 DEVICES = ("cpu", "cuda")  # where torch computes
-PRECISIONS = ("float32", "bfloat16")  # how matrix products are computed (bfloat16: autocast)
+# how matrix products are computed: float32, bfloat16 (autocast), or auto (bfloat16 where the
+# hardware computes it natively: AMX / AVX-512 BF16 CPUs, GPUs; float32 elsewhere)
+PRECISIONS = ("float32", "bfloat16", "auto")
 SCHEDULES = ("constant", "cosine")  # the embedders' learning-rate schedules (embed/training.py)
 LOGIC_LOSSES = ("none", "tleaf", "checker", "exact")  # `tl.logic_loss` kinds, and "none"
 

@@ -55,7 +55,7 @@ class EvalSettings:
     label: str = ""  # e.g. the tier, for the report's table
     all_negatives: bool = False  # also fit and report the MLP on all negatives (hard ones too)
     device: str = "cpu"  # where the MLPs train ("cuda": a GPU)
-    precision: str = "float32"  # or "bfloat16": the MLPs' products under torch.autocast
+    precision: str = "float32"  # "bfloat16": the MLPs' products under autocast; "auto"
 
 
 @dataclass
@@ -91,7 +91,8 @@ def evaluate_model_checking(
             "pair_features", f"must be concat or rich, not '{settings.pair_features}'"
         )
     if settings.precision not in PRECISIONS:
-        raise SettingError("precision", f"must be float32 or bfloat16, not '{settings.precision}'")
+        choices = ", ".join(PRECISIONS)
+        raise SettingError("precision", f"must be one of {choices}, not '{settings.precision}'")
     device = device_for(settings.device)
     out_dir = Path(out_dir)
     check_writable(out_dir / "report.json")
@@ -176,9 +177,22 @@ def _paper_traces(split: Split) -> Split:
 
 
 def _precision(s: EvalSettings, device: torch.device):
-    """The MLPs' products in bfloat16 (`precision="bfloat16"`: 3-4x faster on CPUs with AMX
-    or AVX-512 BF16), or as they are."""
-    return torch.autocast(device.type, torch.bfloat16, enabled=s.precision == "bfloat16")
+    """The MLPs' products in bfloat16 under autocast (`precision="bfloat16"`: 3-4x faster on
+    CPUs with AMX or AVX-512 BF16, slower on others; "auto": where `native_bfloat16`), or as
+    they are."""
+    bf16 = s.precision == "bfloat16" or (s.precision == "auto" and native_bfloat16(device))
+    return torch.autocast(device.type, torch.bfloat16, enabled=bf16)
+
+
+def native_bfloat16(device: torch.device) -> bool:
+    """Whether `device` computes bfloat16 products natively (a GPU that supports them; a CPU
+    with AMX or AVX-512 BF16, as oneDNN reports it)."""
+    if device.type == "cuda":
+        return torch.cuda.is_bf16_supported()
+    try:
+        return bool(torch.ops.mkldnn._is_mkldnn_bf16_supported())
+    except (AttributeError, RuntimeError):  # a torch built without oneDNN
+        return False
 
 
 def _predict(mlp: nn.Module, split: Split, s: EvalSettings) -> np.ndarray:
