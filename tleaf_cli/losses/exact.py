@@ -11,13 +11,21 @@ states as a log-sum-exp per state (O(S·L) per step, not the O(S·L·S) of a tra
 whole-video rule sets reach hundreds of states). Log space keeps a sequence the model is sure
 violates φ at a finite loss with a gradient, in float32, where a product of probabilities would
 need float64 and a floor (1e-300, −log = 690.8) to stay finite.
+
+The rows of a batch run together without padding: their states are laid end to end in one
+vector and their (state, letter) arcs in one list, so a batch with one large rule set and many
+small ones costs the arcs it has, not rows × the largest set's arcs.
 """
 
 from __future__ import annotations
 
+from functools import lru_cache
+
+import numpy as np
 import torch
 
 from tleaf_cli.losses.packed import NEG, PackedRuleSets
+from tleaf_cli.rule_set import RuleSet
 
 
 def exact_loss(
@@ -25,21 +33,54 @@ def exact_loss(
 ) -> torch.Tensor:
     """−log P(w ⊨ φ_rows[i]) [N] for letter log-probabilities [N, T, L] (`packed.
     letter_log_probs`); steps at or past lengths[i] are not read."""
-    n = letters.shape[0]
-    states = packed.num_states
-    targets = packed.targets[rows].flatten(1)  # [N, S·L], the sink state S for padding
-    alpha = letters.new_full((n, states), NEG)
-    alpha[torch.arange(n, device=letters.device), packed.initial[rows]] = 0.0
-    steps = int(lengths.max()) if n else 0
-    running = torch.arange(steps, device=letters.device)[:, None, None] < lengths[:, None]
+    n, _, width = letters.shape
+    if not n:
+        return letters.new_zeros(0)
+    arcs = _arcs([packed.rule_sets[j] for j in rows.tolist()], width)
+    source, letter, target, row_of, accepting, initial = (
+        torch.as_tensor(a, device=letters.device) for a in arcs
+    )
+    states = len(row_of)
+    alpha = letters.new_full((states,), NEG).index_fill(0, initial, 0.0)
+    steps = int(lengths.max())
+    running = torch.arange(steps, device=letters.device)[:, None] < lengths[row_of]  # [T, states]
     # the steps unbound once: indexing step t in the loop would give a full-size gradient each
     for t, at_t in enumerate(letters[:, :steps].unbind(1)):
-        terms = (alpha[:, :, None] + at_t[:, None, :]).flatten(1)  # [N, S·L]
-        top = letters.new_full((n, states + 1), NEG)
-        top = top.scatter_reduce(1, targets, terms.detach(), "amax")
-        sums = letters.new_zeros((n, states + 1))
-        sums = sums.scatter_add(1, targets, (terms - top.gather(1, targets)).exp())
-        step = (top + sums.clamp(min=1.0).log())[:, :states]  # a reached state's sum is >= 1
+        terms = alpha[source] + at_t.flatten()[letter]  # [arcs]
+        top = letters.new_full((states,), NEG).scatter_reduce(0, target, terms.detach(), "amax")
+        sums = letters.new_zeros(states).scatter_add(0, target, (terms - top[target]).exp())
+        step = top + sums.clamp(min=1.0).log()  # a reached state's sum is >= 1
         alpha = torch.where(running[t], step, alpha)
-    final = torch.where(packed.accepting[rows], alpha, letters.new_tensor(NEG))
-    return -torch.logsumexp(final, dim=1)
+    final = torch.where(accepting, alpha, letters.new_tensor(NEG))
+    top = letters.new_full((n,), NEG).scatter_reduce(0, row_of, final.detach(), "amax")
+    total = letters.new_zeros(n).scatter_add(0, row_of, (final - top[row_of]).exp())
+    return -(top + total.log())
+
+
+def _arcs(rule_sets: list[RuleSet], width: int) -> tuple[np.ndarray, ...]:
+    """The rows' DFAs end to end: each arc's source state, letter (flat index into a step's
+    [rows, width] letters) and target state; each state's row and acceptance; the rows'
+    initial states. States of row i are numbered from the sum of the earlier rows' states."""
+    parts = [_arcs_of(r) for r in rule_sets]
+    sizes = np.array([len(p[3]) for p in parts], dtype=np.int64)
+    offset = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    arcs = np.array([len(p[0]) for p in parts], dtype=np.int64)
+    state_shift = np.repeat(offset, arcs)
+    letter_shift = np.repeat(np.arange(len(parts), dtype=np.int64) * width, arcs)
+    return (
+        np.concatenate([p[0] for p in parts]) + state_shift,
+        np.concatenate([p[1] for p in parts]) + letter_shift,
+        np.concatenate([p[2] for p in parts]) + state_shift,
+        np.repeat(np.arange(len(parts), dtype=np.int64), sizes),
+        np.concatenate([p[3] for p in parts]),
+        offset + np.array([p[4] for p in parts], dtype=np.int64),
+    )
+
+
+@lru_cache(maxsize=4096)
+def _arcs_of(rule_set: RuleSet) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """One DFA's arcs (source, letter, target) for every (state, letter), its accepting states
+    and initial state; built once per rule set."""
+    table = rule_set.dfa.table.astype(np.int64)  # [S, L]
+    source, letter = np.indices(table.shape).reshape(2, -1)
+    return source, letter, table.ravel(), rule_set.dfa.accepting.copy(), rule_set.dfa.initial
