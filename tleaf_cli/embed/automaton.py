@@ -35,7 +35,7 @@ import itertools
 import torch
 from torch import nn
 from torch_geometric.nn import global_add_pool
-from torch_geometric.utils import degree, to_dense_batch, to_undirected
+from torch_geometric.utils import degree, to_undirected
 
 from tleaf_cli.embed.graphs import gcn_adjacency, read_limits, trace_graph_batch
 from tleaf_cli.embed.layers import NormalisedGCNConv
@@ -138,11 +138,16 @@ def run_readout(
 ) -> torch.Tensor:
     """[graphs, parts · hidden]: Σ_v w_k(v) x_v per graph and part k, the parts side by side
     (part 0's hidden units first), for node weights `weights` [n, parts] and node states `x`
-    [n, hidden]. One batched product over the graphs padded to the largest (`to_dense_batch`),
-    not one pool per part over a [n, parts, hidden] product."""
-    dense_x, _ = to_dense_batch(x, graph_of, batch_size=graphs)  # [graphs, most nodes, hidden]
-    dense_w, _ = to_dense_batch(weights, graph_of, batch_size=graphs)  # [graphs, most, parts]
-    return (dense_w.transpose(1, 2) @ dense_x).reshape(graphs, -1)
+    [n, hidden]: one sparse product S · x, S [graphs · parts, n] holding w_k(v) at row
+    (graph of v, k), instead of a pool per part or a [n, parts, hidden] product (and no
+    padding: graphs of a batch differ in size by a hundredfold)."""
+    n, parts = weights.shape
+    rows = (graph_of.unsqueeze(1) * parts + torch.arange(parts, device=x.device)).reshape(-1)
+    cols = torch.arange(n, device=x.device).repeat_interleave(parts)
+    pool = torch.sparse_coo_tensor(
+        torch.stack([rows, cols]), weights.reshape(-1), (graphs * parts, n)
+    )
+    return torch.sparse.mm(pool, x).reshape(graphs, -1)
 
 
 def walk_weights(edge_index: torch.Tensor, start: torch.Tensor, num_nodes: int, steps: int):
