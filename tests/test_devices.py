@@ -3,7 +3,9 @@
 A GPU is not always there, so two checks: a small training run (every logic loss, constrained
 decoding) and the shield on CUDA where it exists, else the CPU; and, on any machine, the same
 calls with the *default* device set to `meta` while the inputs stay on the CPU — a tensor made
-without `device=` then lands on meta, and mixing it with the CPU inputs, or reading it, fails.
+without `device=` (and from no tensor) then lands on meta, and mixing it with the CPU inputs,
+or reading it, fails. What this does not catch: a tensor built on the CPU on purpose and never
+moved to the inputs' device (the CPU is the inputs' device here).
 """
 
 from __future__ import annotations
@@ -14,6 +16,8 @@ from pathlib import Path
 import pytest
 import torch
 from test_losses import VOCAB, log_probs, monitored_embedder
+from torch.overrides import TorchFunctionMode
+from torch.utils._pytree import tree_flatten
 
 from tleaf_cli.decode import constrained_decode
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
@@ -39,6 +43,34 @@ def kb(tmp_path: Path):
     names = ["ordering.onion", "affordance.cut_egg", "ordering.egg"]
     path.write_text("".join(f"{n}: {r}\n" for n, r in zip(names, RULES, strict=True)))
     return read_knowledge_base(path)
+
+
+class DefaultDevice(TorchFunctionMode):
+    """`torch.device(name)` as a default device for the factories that read it: a tensor made
+    from no tensor (torch.zeros(shape), torch.tensor(list), torch.arange(n), ...) without
+    `device=` lands on `name`. Factories given a tensor (torch.sparse_coo_tensor(indices,
+    values), torch.as_tensor(t)) keep its device, as they do without a default device
+    (torch's own context would move them too)."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__()
+        self.device = torch.device(name)
+
+    def __torch_function__(self, func, types, args=(), kwargs=None):
+        kwargs = dict(kwargs or {})
+        if (
+            func in _device_constructors()
+            and kwargs.get("device") is None
+            and not any(isinstance(a, torch.Tensor) for a in tree_flatten((args, kwargs))[0])
+        ):
+            kwargs["device"] = self.device
+        return func(*args, **kwargs)
+
+
+def _device_constructors() -> set:
+    from torch.utils._device import _device_constructors as constructors
+
+    return constructors()
 
 
 def test_logic_losses_decoding_and_shield_make_no_tensor_on_the_default_device(
@@ -68,7 +100,7 @@ def test_logic_losses_decoding_and_shield_make_no_tensor_on_the_default_device(
     lengths = torch.tensor([5, 3, 4])
     want = {k: logic_loss(k, lp, sets, lengths, q, "none") for k in ("exact", "tleaf", "checker")}
     decoded = constrained_decode(lp, sets, lengths)
-    with torch.device("meta"):  # the default device: nothing the calls make may land there
+    with DefaultDevice("meta"):  # nothing the calls make may land there
         for kind, value in want.items():
             got = logic_loss(kind, lp, sets, lengths, q, "none")
             assert got.device.type == "cpu"
