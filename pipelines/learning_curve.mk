@@ -68,9 +68,13 @@ endif
 # batches per epoch (FULL_AT's over N's) so that every size gets at least the gradient steps, and
 # the patience in steps, of FULL_AT videos (with a fixed 150 epochs, 10 videos are one batch
 # an epoch: the reference stopped under-trained, 31.1 % test against 34.0 % trained on)
-batches = $(shell echo $$(( ($(1) + $(BATCH) - 1) / $(BATCH) )))
-scaled = $(shell echo $$(( $(1) >= $(FULL_AT) ? $(2) : \
-	($(2) * $(call batches,$(FULL_AT)) + $(call batches,$(1)) - 1) / $(call batches,$(1)) )))
+# (one shell per size and number, when the makefile is read: a $(shell) per rule took minutes
+# on a loaded host)
+scaled = $(shell n=$$(( ($(1) + $(BATCH) - 1) / $(BATCH) )); \
+	f=$$(( ($(FULL_AT) + $(BATCH) - 1) / $(BATCH) )); \
+	echo $$(( $(1) >= $(FULL_AT) ? $(2) : ($(2) * f + n - 1) / n )))
+$(foreach n,$(sort $(SIZES) $(TCN_SIZES)),$(eval EPOCHS_$(n) := $(call scaled,$(n),$(EPOCHS)))\
+	$(eval PATIENCE_$(n) := $(call scaled,$(n),$(PATIENCE))))
 
 sizes_of = $(if $(filter tcn,$(1)),$(TCN_SIZES),$(SIZES))
 grid = $(LAMBDAS_$(1))
@@ -91,8 +95,7 @@ include $(dir $(lastword $(MAKEFILE_LIST)))activities_q.mk
 train = $(TLEAF) train-task action-recognition $(OUT)/activities.parquet --kb $(OUT)/kb.ltl \
 	$(if $(filter tleaf,$(2)),--embedder $(OUT)/meta) --model $(1) --logic-loss $(2) \
 	$(if $(filter none,$(2)),,--lambda $(5)) --seed $(4) --train-videos $(3) \
-	--batch-size $(BATCH) --epochs $(call scaled,$(3),$(EPOCHS)) \
-	--patience $(call scaled,$(3),$(PATIENCE)) $(TASK) \
+	--batch-size $(BATCH) --epochs $(EPOCHS_$(3)) --patience $(PATIENCE_$(3)) $(TASK) \
 	--decode constrained --decode-top-k $(DECODE_TOP_K) -o $(6) -q
 
 # the sweep: model $(1), loss $(2), size $(3), λ $(4), seed $(5); only tleaf needs q
