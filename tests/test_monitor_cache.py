@@ -61,3 +61,34 @@ def test_without_the_cache_nothing_is_written(dfas, tmp_path):
     assert np.array_equal(shares, np.stack([bank.of_dfa(d) for d in dfas]))
     assert not (tmp_path / "monitors").exists()
     assert monitor_shares([], bank, tmp_path).shape == (0, 2, bank.features)
+
+
+def test_of_two_processes_at_once_one_computes_and_the_other_reads(dfas, tmp_path, monkeypatch):
+    """make -j starts a tier's trainings together: the second waits on the set's lock and
+    reads the first one's file instead of computing the same shares again."""
+    import threading
+    import time
+
+    from tleaf_cli.data import monitor_cache
+
+    bank = MonitorBank(2, max_length=6, ranges=2)
+    computed = []
+    real = monitor_cache._compute
+
+    def slow(dfas, bank):
+        computed.append(1)
+        time.sleep(0.3)  # long enough for the other to arrive while this one computes
+        return real(dfas, bank)
+
+    monkeypatch.setattr(monitor_cache, "_compute", slow)
+    results = []
+    workers = [
+        threading.Thread(target=lambda: results.append(monitor_shares(dfas, bank, tmp_path)))
+        for _ in range(2)
+    ]
+    for w in workers:
+        w.start()
+    for w in workers:
+        w.join()
+    assert len(computed) == 1 and len(results) == 2
+    assert np.array_equal(results[0], results[1])

@@ -9,17 +9,18 @@ per (DFA set, bank) and keeps them as one .npy file under the compile cache's fo
 The key is a SHA-256 of everything the shares depend on: the bank (its monitors' tables and
 accepting states, slots, maximum length, ranges, and `logic.monitors.SHARES_VERSION`, raised
 whenever `of_dfa`'s arithmetic changes) and each DFA (alphabet, transition table, initial and
-accepting states) in order. A file is written whole (temporary file, then rename), so processes
-that compute the same set at once leave one good copy; a file that cannot be read is computed
-again. The folder only ever grows (14 MB per set of 1,000 DFAs with the pipeline's bank);
-delete it to reclaim the space.
+accepting states) in order. A file is written whole (temporary file, then rename), and a
+process that finds another computing the same set (a lock file beside it) waits for its file
+instead of computing it too; a file that cannot be read is computed again. The folder only ever
+grows (14 MB per set of 1,000 DFAs with the pipeline's bank); delete it to reclaim the space.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -40,15 +41,42 @@ def monitor_shares(
         return _compute(dfas, bank)
     path = Path(cache_dir or default_cache_dir()) / "monitors" / f"{_key(dfas, bank)}.npy"
     expected = (len(dfas), 2, bank.features)
+    shares = _load(path, expected)
+    if shares is None:
+        with _computing(path):  # another process computing this set: wait, then read its file
+            shares = _load(path, expected)
+            if shares is None:
+                shares = _compute(dfas, bank)
+                _write_atomic(path, shares)
+    return shares
+
+
+def _load(path: Path, expected: tuple[int, ...]) -> np.ndarray | None:
     try:
         shares = np.load(path)
         if shares.shape == expected and shares.dtype == np.float32:
             return shares
     except (OSError, ValueError):
         pass  # not there yet, or unreadable: compute it again
-    shares = _compute(dfas, bank)
-    _write_atomic(path, shares)
-    return shares
+    return None
+
+
+@contextlib.contextmanager
+def _computing(path: Path) -> Iterator[None]:
+    """Hold the set's lock file while computing it (`make -j` starts a tier's q_m trainings
+    together: one computes, the others wait for its file instead of computing it too). Where
+    no lock can be taken (no fcntl, a read-only cache), each process computes on its own."""
+    try:
+        import fcntl
+
+        path.parent.mkdir(parents=True, exist_ok=True)
+        lock = open(path.with_suffix(".lock"), "w")  # noqa: SIM115 (held across the yield)
+    except (ImportError, OSError):
+        yield
+        return
+    with lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        yield
 
 
 def _compute(dfas: Sequence[DFA], bank: MonitorBank) -> np.ndarray:
