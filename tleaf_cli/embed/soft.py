@@ -34,8 +34,7 @@ from tleaf_cli.embed.meta_data import (
     GuardVectors,
     chain_batch,
     featured_dfa_graphs,
-    trace_letter_vectors,
-    trace_monitor_features,
+    trace_inputs,
 )
 from tleaf_cli.embed.soft_monitors import (
     class_weights,
@@ -122,27 +121,15 @@ class Embedder:
             raise ArgumentError("atoms", f"{len(atoms)} atom tuples for {len(traces)} traces")
         kinds = [one_hot] * len(traces) if isinstance(one_hot, bool) else one_hot
         device = self.device
-        letters = [
-            trace_letter_vectors(t, a, self.vectors, h).to(device)
-            for t, a, h in zip(traces, atoms, kinds, strict=True)
-        ]
-        bank = self.model.trace.monitor_bank
-        monitors = (
-            None
-            if bank is None
-            else torch.stack(
-                [
-                    trace_monitor_features(t, a, bank, h)
-                    for t, a, h in zip(traces, atoms, kinds, strict=True)
-                ]
-            )
+        letters, monitors = trace_inputs(
+            traces, atoms, kinds, self.vectors, self.model.trace.monitor_bank
         )
         with torch.no_grad():
             parts = [
                 self.model.embed_traces(
                     chain_batch(
                         self.model.trace,
-                        torch.cat(letters[i : i + batch]),
+                        torch.cat(letters[i : i + batch]).to(device),
                         [len(x) for x in letters[i : i + batch]],
                         None if monitors is None else monitors[i : i + batch].to(device),
                     )
