@@ -236,6 +236,8 @@ def test_the_table_has_a_row_per_preset(tmp_path) -> None:
     balanced = [line for line in lines if "MLP 512-128, balanced accuracy" in line]
     assert "80.00" in balanced[0] and "90.00" in balanced[1]
     assert sum("the paper's (MLP)" in line for line in lines) == 1
+    # no report fitted the second MLP (--all-negatives): its rows are left out, not blank
+    assert not any("fitted on all negatives" in line for line in lines)
 
 
 def test_balanced_accuracy_and_class_weights() -> None:

@@ -47,7 +47,8 @@ def mean_se(values: Sequence[float]) -> tuple[float, float]:
 def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
     """Write a markdown table of test accuracy by embedder x label: the MLP fitted on the paper's
     negatives (balanced accuracy, plain accuracy, and its share of hard negatives caught), the MLP
-    fitted on all negatives (balanced accuracy, hard negatives), and the distance rule."""
+    fitted on all negatives (balanced accuracy, hard negatives; where the reports have it), and
+    the distance rule."""
     cells: dict[tuple[str, str, str], list[float]] = defaultdict(list)
     labels: list[str] = []
     inputs: set[str] = set()  # the MLPs' pair features, as the reports name them
@@ -91,8 +92,10 @@ def results_table(report_paths: Sequence[str | Path], out: str | Path) -> str:
     for i, (e, preset) in enumerate(rows):
         title = ROW_NAMES[e] + (f", preset {preset}" if e == "dfa" and preset else "")
         for clf, name in CLASSIFIER_ROWS:
-            row = [fmt(cells.get((e, preset, lab, clf), [])) for lab in labels]
-            lines.append(f"| {title} | {name} | " + " | ".join(row) + " |")
+            values = [cells.get((e, preset, lab, clf), []) for lab in labels]
+            if not any(values):  # no report has it (e.g. no --all-negatives MLP): no row
+                continue
+            lines.append(f"| {title} | {name} | " + " | ".join(map(fmt, values)) + " |")
         if i + 1 == len(rows) or rows[i + 1][0] != e:  # the paper's figures after its kind
             paper = [PAPER[e].get(lab) for lab in labels]
             shown = [f"{p[0]:.2f} ± {p[1]:.2f}" if p else "–" for p in paper]
