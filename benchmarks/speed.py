@@ -31,10 +31,11 @@ Q = ["--max-length", "20", "--pull", "0.02", "--monitor-ranges", "1", "--no-sphe
 
 
 def tleaf(tree: Path, *args: str) -> None:
-    """`tleaf args` with the package of `tree` (PYTHONPATH first), one torch thread."""
+    """`tleaf args` with the package of `tree`, one torch thread. Run from `tree` (`python -c`
+    puts the working directory first on sys.path, before PYTHONPATH)."""
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
     code = "from tleaf_cli.cli import main; main()"
-    subprocess.run([sys.executable, "-c", code, *args, "-q"], check=True, env=env, cwd=ROOT)
+    subprocess.run([sys.executable, "-c", code, *args, "-q"], check=True, env=env, cwd=tree)
 
 
 def epoch_seconds(run: Path) -> float:
@@ -115,7 +116,7 @@ def prepare(data: Path, tree: Path, formulas: int) -> None:
                 "-q",
             ],
             env={**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"},
-            cwd=ROOT,
+            cwd=tree,
         )
         tleaf(
             tree, "train-edge", str(ar / "rules.parquet"), "-o", str(ar / "edge"), "--epochs", "1"
@@ -229,6 +230,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", type=Path, help="another tleaf tree (a git worktree)")
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "bench-speed")
+    parser.add_argument("--this", type=Path, default=ROOT, help="the tree to time [this one]")
     parser.add_argument("--formulas", type=int, default=1000, help="Low-tier formulas")
     parser.add_argument(
         "--epochs",
@@ -248,14 +250,16 @@ def main() -> None:
         import torch
 
         devices = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
-    prepare(args.out / "data", ROOT, args.formulas)
-    trees = [("this", ROOT)] + ([("baseline", args.baseline.resolve())] if args.baseline else [])
+    out = args.out.resolve()
+    prepare(out / "data", args.this.resolve(), args.formulas)
+    trees = [("this", args.this.resolve())]
+    trees += [("baseline", args.baseline.resolve())] if args.baseline else []
     results = {}
     for device in devices:
         for name, tree in trees:
-            results[(name, device)] = measure(tree, name, args.out / "data", device, args.epochs)
+            results[(name, device)] = measure(tree, name, out / "data", device, args.epochs)
             print(name, device, json.dumps(results[(name, device)]), flush=True)
-    (args.out / "speed.json").write_text(
+    (out / "speed.json").write_text(
         json.dumps({f"{t} {d}": r for (t, d), r in results.items()}, indent=2)
     )
     print(table(results, devices))
