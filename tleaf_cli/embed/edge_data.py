@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
+from torch_geometric.utils import to_undirected
 
 from tleaf_cli.data.dfa_table import DfaTable
 from tleaf_cli.embed.batches import GraphStore
@@ -109,7 +110,10 @@ class TripletStore:
     ) -> None:
         keys = [triplet_keys(t, index) for t in triplets]
         distinct = {k: i for i, k in enumerate(dict.fromkeys(k for ks in keys for k in ks))}
-        self.graphs = GraphStore([cnf_graph(cnf, ids) for ids, cnf in distinct], device)
+        graphs = [cnf_graph(cnf, ids) for ids, cnf in distinct]
+        for g in graphs:  # q_e reads arcs both ways: made so once per graph, not per batch
+            g.edge_index = to_undirected(g.edge_index, num_nodes=g.num_nodes)
+        self.graphs = GraphStore(graphs, device)
         self.triples = torch.tensor(
             [[distinct[k] for k in ks] for ks in keys], dtype=torch.long
         ).reshape(-1, 3)
@@ -120,4 +124,6 @@ class TripletStore:
     def embed(self, model: torch.nn.Module, ids: Sequence[int]) -> tuple[torch.Tensor, ...]:
         """(anchors, positives, negatives) [len(ids), d] of triplets `ids`."""
         order = self.triples[list(ids)].t().reshape(-1)  # all anchors, then positives, ...
-        return tuple(model(self.graphs.select(order)).split(len(ids)))
+        batch = self.graphs.select(order)
+        batch.undirected = True
+        return tuple(model(batch).split(len(ids)))

@@ -89,9 +89,10 @@ class TypedGraphEncoder(nn.Module):
         atom = batch.atom
         feats = self.atom_table[atom.clamp(min=0)] * (atom >= 0).unsqueeze(1).float()
         x = torch.cat([kinds, feats], dim=1)
-        adjacency = gcn_adjacency(
-            to_undirected(batch.edge_index, num_nodes=x.shape[0]), x.shape[0], x.dtype
-        )
+        arcs = batch.edge_index  # taken both ways, unless the batch says they already are
+        if not getattr(batch, "undirected", False):
+            arcs = to_undirected(arcs, num_nodes=x.shape[0])
+        adjacency = gcn_adjacency(arcs, x.shape[0], x.dtype)
         for conv in self.convs:
             x = torch.relu(conv(x, adjacency))
         return self.head(global_mean_pool(x, batch.batch))
