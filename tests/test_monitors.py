@@ -187,3 +187,63 @@ def test_cli_refuses_monitors_for_the_syntax_baseline(chain, chain_cli, tmp_path
     result = chain_cli(*args, "-o", tmp_path / "q", "--embedder", "syntax", "--monitors", 3)
     assert result.exit_code != 0 and "--monitors: only with the dfa embedder" in result.output
     assert not (tmp_path / "q").exists()
+
+
+# Declare-style rules over a one-hot domain (the action-recognition knowledge base's kinds)
+_RULES = (
+    "G({a} -> F({b}))",  # response
+    "((!{b} U {a}) | G(!{b}))",  # precedence
+    "G(!{a})",  # absence
+    "F({a})",  # existence
+    "G({a} -> X({b}))",  # chain response
+    "(!{a} U {b})",
+)
+
+
+def _one_hot_rule_sets(seed: int, count: int) -> list[str]:
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        atoms = [f"x{k}" for k in range(rng.integers(2, 9))]
+        parts = []
+        for _ in range(rng.integers(1, 4)):
+            a, b = rng.choice(atoms, size=2, replace=False)
+            parts.append(_RULES[rng.integers(len(_RULES))].format(a=a, b=b))
+        out.append(" & ".join(parts))
+    return out
+
+
+@pytest.mark.parametrize(
+    ("slots", "max_length", "ranges"), [(1, 5, 1), (3, 9, 2), (5, 12, 3), (8, 7, 1)]
+)
+def test_one_hot_shares_are_those_of_the_general_path(slots, max_length, ranges):
+    """`of_dfa` over one-hot alphabets (three letter kinds per monitor, a backward pass) gives
+    the general path's shares, with fewer, as many and more atoms than slots."""
+    bank = MonitorBank(slots, max_length=max_length, ranges=ranges)
+    for text in _one_hot_rule_sets(slots, 25):
+        dfa = compile_formula(text, alphabet="one-hot")
+        assert bank._one_hot_plan(dfa.alphabet.truth()) is not None
+        fast, general = bank.of_dfa(dfa), bank.of_dfa(dfa, general=True)
+        assert fast.dtype == np.float32 and fast.shape == (2, bank.features)
+        assert np.allclose(fast, general, atol=1e-6), text
+
+
+def test_powerset_alphabets_take_the_general_path():
+    bank = MonitorBank(2, max_length=5)
+    dfa = compile_formula("G(a -> F(b))")
+    assert dfa.alphabet.kind == "powerset"
+    assert np.array_equal(bank.of_dfa(dfa), bank.of_dfa(dfa, general=True))
+
+
+def test_the_rest_walk_of_a_large_dfa_is_the_dense_product():
+    """Large DFAs (few distinct successors per state) take a gather per successor instead of
+    the dense product with the letter counts: the same sums."""
+    from tleaf_cli.logic.monitors import _rest_walk
+
+    rng = np.random.default_rng(0)
+    n, letters = 200, 12
+    table = np.where(rng.random((n, letters)) < 0.8, rng.integers(0, n, (n, 1)), 0)
+    counts = np.zeros((n, n))
+    np.add.at(counts, (np.arange(n)[:, None], table), 1.0)
+    beta = rng.random((7, 2, n))
+    np.testing.assert_allclose(_rest_walk(counts)(beta), beta @ counts.T, rtol=1e-12)
