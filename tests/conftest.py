@@ -77,3 +77,20 @@ def make_small(
     return subprocess.run(
         [*command, *args], cwd=root, capture_output=True, text=True, timeout=timeout
     )
+
+
+def tiny_activities(folder: Path) -> tuple[Path, Path]:
+    """`gen-activities`' smallest useful set in `folder` (6 actions, 5 ingredients, 8 / 4 / 4
+    train / val / test videos of 3-6 steps) and its knowledge base: (activities, kb)."""
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    data, kb = folder / "act.parquet", folder / "kb.ltl"
+    args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 8, "--train", 8, "--val", 4]
+    args += ["--test", 4, "--min-steps", 3, "--max-steps", 6]
+    result = CliRunner().invoke(
+        app, ["gen-activities", "-o", str(data), "--kb-out", str(kb), *map(str, args)]
+    )
+    assert result.exit_code == 0, result.output
+    return data, kb

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from tests.conftest import make_small
+from tests.conftest import make_small, tiny_activities
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
 
 
@@ -184,17 +184,7 @@ def test_unlabelled_videos_teach_only_through_the_logic_loss_and_their_labels_ar
 
 
 def test_rule_sets_per_ingredient_change_the_gradient_losses_only(tmp_path: Path) -> None:
-    from typer.testing import CliRunner
-
-    from tleaf_cli.cli import app
-
-    data, kb = tmp_path / "act.parquet", tmp_path / "kb.ltl"
-    args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 8, "--train", 8, "--val", 4]
-    args += ["--test", 4, "--min-steps", 3, "--max-steps", 6]
-    result = CliRunner().invoke(
-        app, ["gen-activities", "-o", str(data), "--kb-out", str(kb), *map(str, args)]
-    )
-    assert result.exit_code == 0, result.output
+    data, kb = tiny_activities(tmp_path)
     whole = _train(data, kb, tmp_path / "whole", formula_from="labels")
     parts = _train(data, kb, tmp_path / "parts", formula_from="labels", rule_sets="ingredient")
     assert all(h["logic_loss"] > 0 for h in parts["metrics"]["history"])

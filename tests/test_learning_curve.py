@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from tests.conftest import make_small
+from tests.conftest import make_small, tiny_activities
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.tasks.action_recognition.learning_curve import (
     Worth,
@@ -175,19 +175,11 @@ def test_training_reads_the_first_n_train_videos_only(tmp_path: Path) -> None:
     relabelled; too many videos is a SettingError naming the setting."""
     import pyarrow as pa
     import pyarrow.parquet as pq
-    from typer.testing import CliRunner
 
-    from tleaf_cli.cli import app
     from tleaf_cli.data.artifacts import read_provenance, write_artifact
     from tleaf_cli.tasks.action_recognition.train import TaskSettings, train_action_recognition
 
-    data, kb = tmp_path / "act.parquet", tmp_path / "kb.ltl"
-    args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 8, "--train", 8, "--val", 4]
-    args += ["--test", 4, "--min-steps", 3, "--max-steps", 6]
-    result = CliRunner().invoke(
-        app, ["gen-activities", "-o", str(data), "--kb-out", str(kb), *map(str, args)]
-    )
-    assert result.exit_code == 0, result.output
+    data, kb = tiny_activities(tmp_path)
     table = pq.read_table(data)
     ids, splits = table["video_id"].to_pylist(), table["split"].to_pylist()
     first = sorted({v for v, s in zip(ids, splits, strict=True) if s == "train"})[:3]
