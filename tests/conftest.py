@@ -94,3 +94,21 @@ def tiny_activities(folder: Path) -> tuple[Path, Path]:
     )
     assert result.exit_code == 0, result.output
     return data, kb
+
+
+def with_actions(data: Path, actions: list, out: Path) -> Path:
+    """A copy of the activities file `data` at `out` whose `action` column is `actions` (one per
+    row), written as the same kind of artifact: for tests that relabel some steps."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from tleaf_cli.data.artifacts import read_provenance, write_artifact
+
+    table = pq.read_table(data)
+    provenance = read_provenance(data)
+    write_artifact(
+        table.set_column(table.schema.get_field_index("action"), "action", pa.array(actions)),
+        out, kind=provenance.kind, schema=provenance.schema, params=provenance.params,
+        inputs=[],
+    )  # fmt: skip
+    return out

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from tests.conftest import make_small, tiny_activities
+from tests.conftest import make_small, tiny_activities, with_actions
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
 
 
@@ -144,7 +144,6 @@ def test_unlabelled_videos_teach_only_through_the_logic_loss_and_their_labels_ar
     from typer.testing import CliRunner
 
     from tleaf_cli.cli import app
-    from tleaf_cli.data.artifacts import read_provenance, write_artifact
 
     data, kb = tmp_path / "act.parquet", tmp_path / "kb.ltl"
     args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 8, "--train", 8, "--val", 4]
@@ -159,13 +158,7 @@ def test_unlabelled_videos_teach_only_through_the_logic_loss_and_their_labels_ar
     actions = [
         first if u else a for u, a in zip(unlabelled, table["action"].to_pylist(), strict=True)
     ]
-    relabelled = tmp_path / "relabelled.parquet"
-    provenance = read_provenance(data)
-    write_artifact(
-        table.set_column(table.schema.get_field_index("action"), "action", pa.array(actions)),
-        relabelled, kind=provenance.kind, schema=provenance.schema, params=provenance.params,
-        inputs=[],
-    )  # fmt: skip
+    relabelled = with_actions(data, actions, tmp_path / "relabelled.parquet")
 
     used = _train(data, kb, tmp_path / "used", formula_from="labels")
     same = _train(relabelled, kb, tmp_path / "same", formula_from="labels")

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from tests.conftest import make_small, tiny_activities
+from tests.conftest import make_small, tiny_activities, with_actions
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.tasks.action_recognition.learning_curve import (
     Worth,
@@ -173,10 +173,8 @@ def test_the_cli_writes_the_curve_and_the_lambda(chain_cli, tmp_path: Path) -> N
 def test_training_reads_the_first_n_train_videos_only(tmp_path: Path) -> None:
     """A run on 3 videos gives the same weights on a file whose later train videos are
     relabelled; too many videos is a SettingError naming the setting."""
-    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from tleaf_cli.data.artifacts import read_provenance, write_artifact
     from tleaf_cli.tasks.action_recognition.train import TaskSettings, train_action_recognition
 
     data, kb = tiny_activities(tmp_path)
@@ -187,13 +185,7 @@ def test_training_reads_the_first_n_train_videos_only(tmp_path: Path) -> None:
     labels = table["action"].to_pylist()
     actions = [a if s != "train" or v in first else other
                for v, s, a in zip(ids, splits, labels, strict=True)]  # fmt: skip
-    relabelled = tmp_path / "relabelled.parquet"
-    provenance = read_provenance(data)
-    write_artifact(
-        table.set_column(table.schema.get_field_index("action"), "action", pa.array(actions)),
-        relabelled, kind=provenance.kind, schema=provenance.schema, params=provenance.params,
-        inputs=[],
-    )  # fmt: skip
+    relabelled = with_actions(data, actions, tmp_path / "relabelled.parquet")
 
     def train(path: Path, out: str, videos: int | None) -> tuple[dict, dict]:
         settings = TaskSettings(hidden=8, head_hidden=4, epochs=2, train_videos=videos)
