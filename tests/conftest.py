@@ -79,16 +79,17 @@ def make_small(
     )
 
 
-def tiny_activities(folder: Path) -> tuple[Path, Path]:
+def tiny_activities(folder: Path, unlabelled: int = 0) -> tuple[Path, Path]:
     """`gen-activities`' smallest useful set in `folder` (6 actions, 5 ingredients, 8 / 4 / 4
-    train / val / test videos of 3-6 steps) and its knowledge base: (activities, kb)."""
+    train / val / test videos of 3-6 steps, and `unlabelled` unlabelled ones) and its knowledge
+    base: (activities, kb)."""
     from typer.testing import CliRunner
 
     from tleaf_cli.cli import app
 
     data, kb = folder / "act.parquet", folder / "kb.ltl"
     args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 8, "--train", 8, "--val", 4]
-    args += ["--test", 4, "--min-steps", 3, "--max-steps", 6]
+    args += ["--test", 4, "--unlabelled", unlabelled, "--min-steps", 3, "--max-steps", 6]
     result = CliRunner().invoke(
         app, ["gen-activities", "-o", str(data), "--kb-out", str(kb), *map(str, args)]
     )

@@ -136,29 +136,25 @@ def _train(data: Path, kb: Path, out: Path, **settings) -> dict:
     return {"metrics": metrics, "weights": torch.load(out / "weights.pt", weights_only=True)}
 
 
-def test_unlabelled_videos_teach_only_through_the_logic_loss_and_their_labels_are_unread(
-    tmp_path: Path,
-) -> None:
+def _unlabelled_relabelled(data: Path, out: Path) -> Path:
+    """A copy of `data` with every unlabelled step relabelled to one other (valid) pair."""
     import pyarrow as pa
     import pyarrow.parquet as pq
-    from typer.testing import CliRunner
 
-    from tleaf_cli.cli import app
-
-    data, kb = tmp_path / "act.parquet", tmp_path / "kb.ltl"
-    args = ["--actions", 6, "--ingredients", 5, "--feature-dim", 8, "--train", 8, "--val", 4]
-    args += ["--test", 4, "--unlabelled", 8, "--min-steps", 3, "--max-steps", 6]
-    result = CliRunner().invoke(app, ["gen-activities", "-o", str(data), "--kb-out", str(kb)]
-                                + [str(a) for a in args])  # fmt: skip
-    assert result.exit_code == 0, result.output
-    # The same file with every unlabelled step relabelled to one other (valid) pair.
     table = pq.read_table(data)
     unlabelled = pa.compute.equal(table["split"], "unlabelled").to_pylist()
     first = table["action"][0].as_py()
     actions = [
         first if u else a for u, a in zip(unlabelled, table["action"].to_pylist(), strict=True)
     ]
-    relabelled = with_actions(data, actions, tmp_path / "relabelled.parquet")
+    return with_actions(data, actions, out)
+
+
+def test_unlabelled_videos_teach_only_through_the_logic_loss_and_their_labels_are_unread(
+    tmp_path: Path,
+) -> None:
+    data, kb = tiny_activities(tmp_path, unlabelled=8)
+    relabelled = _unlabelled_relabelled(data, tmp_path / "relabelled.parquet")
 
     used = _train(data, kb, tmp_path / "used", formula_from="labels")
     same = _train(relabelled, kb, tmp_path / "same", formula_from="labels")
@@ -236,3 +232,33 @@ def test_demo_rules_and_traces_steps_run(tmp_path: Path) -> None:
     assert result.returncode == 0, result.stderr[-2000:]
     assert "rinse_before_cook" in result.stdout and "label" in result.stdout
     assert (tmp_path / "graphs").is_dir() and (tmp_path / "traces.parquet").exists()
+
+
+def test_rules_from_the_whole_knowledge_base_read_no_label_and_no_prediction(
+    tmp_path: Path,
+) -> None:
+    """--formula-from kb: every video, labelled or not, gets the guarded knowledge base; the
+    unlabelled videos still teach, their labels unread, and --unlabelled-videos 0 is the run
+    without them. A warm-up changes the run; metrics record the unlabelled videos read."""
+    data, kb = tiny_activities(tmp_path, unlabelled=8)
+    kb_run = _train(data, kb, tmp_path / "kb", formula_from="kb")
+    assert all(h["logic_loss"] > 0 for h in kb_run["metrics"]["history"])
+    assert kb_run["metrics"]["unlabelled_videos"] == 8
+    labels = _train(data, kb, tmp_path / "labels", formula_from="labels")
+    assert any(not torch.equal(v, labels["weights"][k]) for k, v in kb_run["weights"].items())
+
+    relabelled = _unlabelled_relabelled(data, tmp_path / "relabelled.parquet")
+    same = _train(relabelled, kb, tmp_path / "same", formula_from="kb")
+    assert all(torch.equal(v, same["weights"][k]) for k, v in kb_run["weights"].items())
+
+    none_read = _train(data, kb, tmp_path / "zero", formula_from="kb", unlabelled_videos=0)
+    off = _train(data, kb, tmp_path / "off", formula_from="kb", unlabelled=False)
+    assert none_read["metrics"]["unlabelled_videos"] == 0
+    assert all(torch.equal(v, off["weights"][k]) for k, v in none_read["weights"].items())
+    some = _train(data, kb, tmp_path / "some", formula_from="kb", unlabelled_videos=3)
+    assert some["metrics"]["unlabelled_videos"] == 3
+    warm = _train(data, kb, tmp_path / "warm", formula_from="kb", unlabelled_warmup=4)
+    assert any(not torch.equal(v, kb_run["weights"][k]) for k, v in warm["weights"].items())
+    # the warm-up weighs the first epochs' unlabelled loss down: a lower logic loss reported
+    first = [run["metrics"]["history"][0]["logic_loss"] for run in (warm, kb_run)]
+    assert first[0] < first[1]

@@ -339,3 +339,41 @@ def test_kb_extract_per_ingredient_splits_each_videos_rule_set(tiny, tmp_path) -
             assert {a.split("_", 1)[1] for a in dfas.row(r["formula_id"])["atoms"]} == set(
                 r["ingredients"]
             )
+
+
+def test_the_guarded_knowledge_base_is_the_checkers_verdict_on_any_sequence(
+    kb: KnowledgeBase,
+) -> None:
+    """A sequence meets every rule set of `KnowledgeRuleSets.whole` exactly when it meets the
+    rules `rules_for` picks from its own atoms: one formula set, the same for every sequence,
+    says what the checker says."""
+    import numpy as np
+
+    from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
+    from tleaf_cli.losses import violates
+
+    vocabulary = sorted({a for r in kb for a in r.atoms} | {"stir_milk", "cut_cabbage"})
+    rules = KnowledgeRuleSets(kb, vocabulary)
+    whole = rules.whole()
+    assert len(whole) == 3  # one per ingredient: milk, cabbage, onion
+    rng = random.Random(0)
+    verdicts = []
+    for _ in range(300):
+        seq = np.array([rng.randrange(len(vocabulary)) for _ in range(rng.randint(1, 6))])
+        present = {vocabulary[i] for i in seq}
+        picked = rules.one_each([present])[0]
+        checker = picked is None or not violates([picked], [seq])[0]
+        meets_whole = not violates(whole, [seq] * len(whole)).any()
+        assert meets_whole == checker, [vocabulary[i] for i in seq]
+        verdicts.append(checker)
+    assert 0 < sum(verdicts) < len(verdicts)  # both verdicts were tried
+
+
+def test_a_guard_leaves_a_rule_that_forbids_its_atom_as_it_is(kb: KnowledgeBase) -> None:
+    from tleaf_cli.knowledge.base import guarded
+
+    never, order = kb.of_kind("affordance")[0], kb.of_kind("ordering")[0]
+    assert guarded(never).formula == never.formula
+    first, then = order.atoms
+    assert guarded(order).formula == f"(F {first} & F {then}) -> ({order.formula})"
+    assert guarded(order).name != order.name  # its own rule-set ids

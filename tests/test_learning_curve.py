@@ -59,7 +59,7 @@ def test_the_curve_needs_increasing_sizes() -> None:
 
 
 def _row(lam: float, seed: int, val: float, videos: int = 10) -> dict:
-    return {"run": f"r{lam}-{seed}", "model": "lstm", "logic_loss": "exact", "lambda": lam,
+    return {"run": f"r{lam}-{seed}", "model": "lstm", "method": "exact", "lambda": lam,
             "seed": seed, "train_videos": videos, "val_action_accuracy": val}  # fmt: skip
 
 
@@ -205,16 +205,26 @@ def test_training_reads_the_first_n_train_videos_only(tmp_path: Path) -> None:
 
 @pytest.mark.slow
 def test_small_learning_curve_pipeline(tmp_path: Path) -> None:
-    """pipelines/learning_curve.mk SMALL=1: every size, model, loss and seed; λ chosen on val
-    from the sweep, its runs reused; then `make -q` finds nothing to do."""
+    """pipelines/learning_curve.mk SMALL=1: every size, model, loss and seed, and the runs with
+    unlabelled videos; λ chosen on val from the sweep, its runs reused; then `make -q` finds
+    nothing to do."""
     out = tmp_path / "curve"
     result = make_small("learning_curve.mk", out, "-j2")
     assert result.returncode == 0, result.stderr[-2000:]
     curve = json.loads((out / "curve/curve.json").read_text())
     cells = {(r["model"], r["train_videos"], r["variant"]) for r in curve["curve"]}
-    variants = {f"{loss}, {d}" for loss in ("none", "exact", "tleaf") for d in ("argmax", "rules")}
+    methods = ("none", "exact", "exact (whole KB)", "tleaf")
+    variants = {f"{m}, {d}" for m in methods for d in ("argmax", "rules")}
+    # and the LSTM at 4 labelled videos with 8 unlabelled ones, trained three ways
+    with_unlabelled = {
+        f"{m} + 8 unlabelled, {d}"
+        for d in ("argmax", "rules")
+        for m in ("exact", "exact (whole KB)", "self-training (decoded)")
+    }
     assert cells == {(m, n, v) for m, n in (("lstm", 4), ("lstm", 16), ("tcn", 16))
-                     for v in variants}  # fmt: skip
+                     for v in variants} | {("lstm", 4, v) for v in with_unlabelled}  # fmt: skip
+    read = {r["unlabelled_videos"] for r in curve["runs"] if "unlabelled" in r["method"]}
+    assert read == {8}
     assert all(len(r["seeds"]) == 2 for r in curve["curve"])
     assert all(r["data"].startswith("synthetic") for r in curve["runs"])
     assert all(r["decodings"]["constrained"]["violation_fraction"] == 0 for r in curve["runs"])

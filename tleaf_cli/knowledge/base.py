@@ -103,6 +103,22 @@ def rules_for(kb: KnowledgeBase, present_atoms: Iterable[str]) -> list[Rule]:
     return [kb.rules[k] for k in sorted(candidates) if present.issuperset(kb.rules[k].atoms)]
 
 
+def guarded(rule: Rule) -> Rule:
+    """`rule` where it applies, as a formula over any sequence: `(F a & F b) -> φ`.
+
+    `rules_for` applies a rule to a sequence only when all its atoms occur in it; the guarded
+    rule holds on every sequence on which the rule either does not apply or holds, so the
+    conjunction of a knowledge base's guarded rules is the checker's verdict as one formula,
+    the same for every sequence and known before any prediction. A one-atom rule's guard adds
+    nothing where the rule forbids its atom (`F a -> G !a` is `G !a`), and is left out then.
+    """
+    forbids = len(rule.atoms) == 1 and rule.formula.replace(" ", "") == f"G!{rule.atoms[0]}"
+    formula = rule.formula
+    if rule.atoms and not forbids:
+        formula = f"({' & '.join(f'F {a}' for a in rule.atoms)}) -> ({rule.formula})"
+    return Rule(f"guarded.{rule.name}", rule.kind, formula, rule.atoms)
+
+
 def ingredient_of(atom: str) -> str:
     """The ingredient of a pair atom `action_ingredient` (actions have no `_`)."""
     return atom.split("_", 1)[-1]

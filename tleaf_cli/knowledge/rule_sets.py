@@ -16,6 +16,7 @@ from tleaf_cli.knowledge.base import (
     KnowledgeBase,
     Rule,
     by_ingredient,
+    guarded,
     rule_set_id,
     rules_for,
     sample_formula,
@@ -51,6 +52,7 @@ class KnowledgeRuleSets:
         # of the atom set, and skipped_rules counts every call as if it were recomputed
         self._rules: dict[frozenset[str], tuple[list[Rule], int]] = {}
         self._sets: dict[tuple[frozenset[str], bool], list[RuleSet]] = {}  # atoms -> rule sets
+        self._whole: list[RuleSet] | None = None  # the guarded knowledge base (`whole`)
 
     @property
     def compiled(self) -> int:
@@ -93,6 +95,21 @@ class KnowledgeRuleSets:
             self._sets[key] = [self._named(rid, g) for rid, g in ks]
         self.skipped_rules += sum(self._rules[present][1] for present, _ in keys)
         return [list(self._sets[k]) for k in keys]
+
+    def whole(self) -> list[RuleSet]:
+        """The whole knowledge base as rule sets, the same for every sequence: its rules guarded
+        (`base.guarded`: each holds where its atoms do not all occur), one conjunction per
+        ingredient (`base.by_ingredient`; the whole base as one DFA would be the product of
+        them all). A sequence meets every set exactly when the checker finds no violation in
+        it, so a loss on these sets needs no guess of which rules apply. With `known`, the
+        rules q cannot read are left out. Built once."""
+        if self._whole is None:
+            rules = [guarded(r) for r in self.kb]
+            if self.known is not None:
+                rules = [r for r in rules if set(r.atoms) <= self.known]
+            compile_rules([r.formula for r in rules], self.settings)
+            self._whole = [self.rule_set(g) for g in by_ingredient(rules) if g]
+        return list(self._whole)
 
     def one_each(self, atoms_per_sequence: Sequence[Collection[str]]) -> list[RuleSet | None]:
         """Each sequence's whole rule set (None where no rule applies)."""

@@ -8,9 +8,10 @@ from dataclasses import dataclass
 from tleaf_cli.settings import DEVICES, LOGIC_LOSSES, check_values, setting
 
 MODELS = ("lstm", "tcn")  # h's backbone (tasks/action_recognition/models.py)
-FORMULA_SOURCES = ("predictions", "labels")  # where a video's rule set comes from
+FORMULA_SOURCES = ("predictions", "labels", "kb")  # where a video's rule set comes from
 RULE_SET_SPLITS = ("video", "ingredient")  # one rule set per video, or one per ingredient
 DECODINGS = ("argmax", "constrained")  # test-time decoding
+UNLABELLED_LOSSES = ("logic", "decoded", "argmax")  # what unlabelled videos are trained on
 EXACT_LAMBDA = 1.0  # λ of the exact and checker losses when none is given (chosen on val)
 
 
@@ -30,7 +31,9 @@ class TaskSettings:
     )
     formula_from: str = setting(
         "predictions",
-        "Rules relevant to the predicted pairs (the paper) or to the labels.",
+        "Rules relevant to the predicted pairs (the paper) or to the labels; or kb: the whole "
+        "knowledge base, each rule where its pairs all occur, one rule set per ingredient, the "
+        "same for every video (no guess of the model picks them).",
         choices=FORMULA_SOURCES,
     )
     rule_sets: str = setting(
@@ -43,6 +46,26 @@ class TaskSettings:
         True,
         "Also apply the logic loss (tleaf, exact) to the data's unlabelled videos, one batch of "
         "them per training batch; their labels are never read.",
+    )
+    unlabelled_loss: str = setting(
+        "logic",
+        "What unlabelled videos train: logic (the logic loss, as on labelled videos); decoded "
+        "(cross-entropy to h's own constrained decoding under the rules: the knowledge as a "
+        "teacher); argmax (to h's own argmax: self-training without the knowledge). Weighted by "
+        "λ.",
+        choices=UNLABELLED_LOSSES,
+    )
+    unlabelled_videos: int | None = setting(
+        None,
+        "Read only the first N unlabelled videos (in file order).",
+        min=0,
+        auto="all: every video of the unlabelled split",
+    )
+    unlabelled_warmup: int = setting(
+        0,
+        "Weight the unlabelled videos' logic loss by epoch/N over the first N epochs (0: full "
+        "weight from the start).",
+        min=0,
     )
     train_videos: int | None = setting(
         None,

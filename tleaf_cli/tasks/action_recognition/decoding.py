@@ -19,6 +19,7 @@ import torch
 
 from tleaf_cli.decode import constrained_decode
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
+from tleaf_cli.losses import pair_log_probs
 
 
 def candidate_pairs(log_pairs: torch.Tensor, length: int, top_k: int) -> set[int]:
@@ -58,6 +59,28 @@ def decode_pairs(
                 still.append(b)
         pending = still
     return out, rounds
+
+
+def own_labels(
+    actions: torch.Tensor,
+    ingredients: torch.Tensor,
+    lengths: torch.Tensor,
+    rules: KnowledgeRuleSets | None,
+    top_k: int,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Labels for videos that have none, from the model's own outputs (logits [B, T, A] and
+    [B, T, I]): its constrained decoding under `rules` (the knowledge picks, among the model's
+    top_k candidate pairs, a sequence that breaks no rule), or its argmax per step where `rules`
+    is None. Action and ingredient indices [B, T], −100 past a length (cross-entropy's ignore)."""
+    with torch.no_grad():
+        if rules is None:
+            a, i = actions.argmax(-1), ingredients.argmax(-1)
+        else:
+            pairs, _ = decode_pairs(pair_log_probs(actions, ingredients), lengths, rules, top_k)
+            pairs = pairs.clamp(min=0)
+            a, i = pairs // ingredients.shape[-1], pairs % ingredients.shape[-1]
+        past = torch.arange(a.shape[1], device=a.device)[None, :] >= lengths[:, None]
+        return a.masked_fill(past, -100), i.masked_fill(past, -100)
 
 
 def _covered(rules: KnowledgeRuleSets, decoded: set[str], candidates: set[str]) -> bool:

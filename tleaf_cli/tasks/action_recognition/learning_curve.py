@@ -3,9 +3,11 @@ training set grows (pipelines/learning_curve.mk).
 
 The runs (`train-task action-recognition --train-videos N --decode constrained`) share one data
 set: a run at N training videos read the first N of its train split, and every size is scored on
-the same val and test videos. A **variant** is a logic loss with a decoding: the loss's runs
-decoded by argmax, or under the knowledge base's rules (constrained decoding). The
-**reference** is the runs without a logic loss decoded by argmax. Per model, size and variant:
+the same val and test videos. A **variant** is a training method with a decoding: the method's
+runs decoded by argmax, or under the knowledge base's rules (constrained decoding). A method
+(`method`) is a logic loss, where its rule sets come from the whole knowledge base, and the
+unlabelled videos it read and what it trained them on. The **reference** is the runs without a
+logic loss (and without unlabelled videos) decoded by argmax. Per model, size and variant:
 
 - action accuracy and the share of test videos that break a rule, mean ± s.e. over seeds;
 - the gain, Δ = (accuracy − reference accuracy) / reference accuracy in %, each run against
@@ -107,6 +109,8 @@ def read_curve_run(run_dir: str | Path, both_decodings: bool = True) -> dict:
     if videos is None:
         raise InputError(f"{run_dir}: its number of training videos is not recorded")
     row["train_videos"] = int(videos)
+    row["unlabelled_videos"] = int(metrics.get("unlabelled_videos", 0))
+    row["method"] = method(config["settings"], row["unlabelled_videos"])
     row["val_action_accuracy"] = float(metrics["best"]["val_action_accuracy"])
     return row
 
@@ -117,7 +121,7 @@ def choose_lambda(runs: Sequence[dict]) -> dict:
     the λs were not run at the same seeds."""
     if not runs:
         raise InputError("give at least one run")
-    cells = {(r["model"], r["logic_loss"], r["train_videos"]) for r in runs}
+    cells = {(r["model"], r["method"], r["train_videos"]) for r in runs}
     if len(cells) > 1:
         raise InputError(f"the runs differ in more than λ and seed: {sorted(cells)}")
     by_lambda: dict[float, dict[int, float]] = {}
@@ -139,20 +143,33 @@ def choose_lambda(runs: Sequence[dict]) -> dict:
     model, loss, videos = cells.pop()
     return {
         "model": model,
-        "logic_loss": loss,
+        "method": loss,
         "train_videos": videos,
         "lambda": best["lambda"],
         "val": table,
     }
 
 
-def variant_name(loss: str, decode: str) -> str:
-    return f"{loss}, {'rules' if decode == 'constrained' else 'argmax'}"
+def method(settings: dict, unlabelled: int) -> str:
+    """A run's training as the curve names it: its logic loss; `(whole KB)` where its rule sets
+    are the whole knowledge base (`--formula-from kb`); `+ U unlabelled` where it read U
+    unlabelled videos, with what it trained them on unless that is the logic loss."""
+    name, how = settings["logic_loss"], settings.get("unlabelled_loss", "logic")
+    if settings.get("formula_from") == "kb" and name != "none":
+        name += " (whole KB)"
+    if unlabelled and how != "logic":  # self-training on them, with the logic loss if any
+        name = f"self-training ({how})" if name == "none" else f"{name}, self-training ({how})"
+    return f"{name} + {unlabelled} unlabelled" if unlabelled else name
+
+
+def variant_name(method: str, decode: str) -> str:
+    return f"{method}, {'rules' if decode == 'constrained' else 'argmax'}"
 
 
 def _variant_order(variant: tuple[str, str]) -> tuple:
-    loss, decode = variant
-    return (LOSS_ORDER.index(loss) if loss in LOSS_ORDER else 9, loss, DECODE_ORDER.index(decode))
+    name, decode = variant
+    loss = name.split(" ")[0]
+    return (LOSS_ORDER.index(loss) if loss in LOSS_ORDER else 9, name, DECODE_ORDER.index(decode))
 
 
 def curve(runs: Sequence[dict]) -> list[dict]:
@@ -164,17 +181,17 @@ def curve(runs: Sequence[dict]) -> list[dict]:
         refs = {
             (r["train_videos"], r["seed"]): r["decodings"]["argmax"]["action_accuracy"]
             for r in mine
-            if r["logic_loss"] == "none"
+            if r["method"] == "none"
         }
         ref_sizes = sorted({n for n, _ in refs})
         ref_curve = [float(np.mean([a for (m, _), a in refs.items() if m == n])) for n in ref_sizes]
         variants = sorted(
-            {(r["logic_loss"], d) for r in mine for d in DECODE_ORDER}, key=_variant_order
+            {(r["method"], d) for r in mine for d in DECODE_ORDER}, key=_variant_order
         )
         for n in sorted({r["train_videos"] for r in mine}):
             for loss, decode in variants:
                 group = sorted(
-                    (r for r in mine if r["train_videos"] == n and r["logic_loss"] == loss),
+                    (r for r in mine if r["train_videos"] == n and r["method"] == loss),
                     key=lambda r: r["seed"],
                 )
                 if not group:
@@ -185,7 +202,8 @@ def curve(runs: Sequence[dict]) -> list[dict]:
                 row = {
                     "model": model,
                     "train_videos": n,
-                    "logic_loss": loss,
+                    "method": loss,
+                    "unlabelled_videos": group[0]["unlabelled_videos"],
                     "decode": decode,
                     "variant": variant_name(loss, decode),
                     "reference": (loss, decode) == REFERENCE,
@@ -224,66 +242,18 @@ def markdown(rows: Sequence[dict], choices: Sequence[dict], data: Sequence[str])
         "",
         f"Data: {'; '.join(data)}. Test action accuracy (%), mean ± s.e. over seeds, against "
         "the number of training videos (a larger set holds every smaller one; the same val "
-        "and test videos at every size). A variant is a logic loss with a decoding: argmax, or "
-        "rules (constrained decoding under the knowledge base's rules). The reference: no "
-        "logic loss, argmax. Δ: relative change of action accuracy against the reference run "
-        "of the same size and seed, mean ± s.e. Data worth: the training videos the reference "
+        "and test videos at every size). A variant is a training method (a logic loss; '(whole "
+        "KB)': its rule sets are the whole knowledge base; '+ U unlabelled': it also read U "
+        "unlabelled videos) with a decoding: argmax, or rules (constrained decoding under the "
+        "knowledge base's rules). The reference: no logic loss, argmax. Δ: relative change of "
+        "action accuracy against the reference run of the same size and seed, mean ± s.e. "
+        "Data worth: the training videos the reference "
         "needs to reach the variant's mean accuracy (its curve of mean accuracies, linear "
         "between sizes on a log scale of videos) over the variant's own; '> x': the reference "
         "never reaches it (x = largest size / videos); '≤ x': its smallest size already does.",
     ]
     for model in sorted({r["model"] for r in rows}):
-        mine = [r for r in rows if r["model"] == model]
-        variants = sorted({(r["logic_loss"], r["decode"]) for r in mine}, key=_variant_order)
-        sizes = sorted({r["train_videos"] for r in mine})
-        at = {(r["train_videos"], r["logic_loss"], r["decode"]): r for r in mine}
-        lines += [
-            "",
-            f"## {model.upper()}: action accuracy (%)",
-            "",
-            "| videos | " + " | ".join(variant_name(*v) for v in variants) + " |",
-            "|---|" + "---|" * len(variants),
-        ]
-        for n in sizes:
-            cells = []
-            for v in variants:
-                r = at.get((n, *v))
-                cells.append(
-                    "–" if r is None else _pm(r["action_accuracy_mean"], r["action_accuracy_se"])
-                )
-            lines.append(f"| {n} | " + " | ".join(cells) + " |")
-        lines += [
-            "",
-            f"## {model.upper()}: every variant against the reference",
-            "",
-            "| videos | variant | λ | seeds | action acc (%) | Δ action (%) | improved | "
-            "data worth | violations |",
-            "|---|---|---|---|---|---|---|---|---|",
-        ]
-        for n in sizes:
-            for v in variants:
-                r = at.get((n, *v))
-                if r is None:
-                    continue
-                gain = (
-                    "reference"
-                    if r["reference"]
-                    else "–"
-                    if "gain_pct_mean" not in r
-                    else _pm(r["gain_pct_mean"], r["gain_pct_se"], 1.0, sign=True)
-                )
-                improved = f"{r['improved']}/{len(r['gain_pct'])}" if "improved" in r else "–"
-                worth = (
-                    "–"
-                    if r["reference"] or "data_worth" not in r
-                    else Worth(**r["data_worth"]).text()
-                )
-                lam = ", ".join(f"{x:g}" for x in r["lambda"]) if r["logic_loss"] != "none" else "–"
-                lines.append(
-                    f"| {n} | {r['variant']} | {lam} | {len(r['seeds'])} | "
-                    f"{_pm(r['action_accuracy_mean'], r['action_accuracy_se'])} | {gain} | "
-                    f"{improved} | {worth} | {100 * r['violation_fraction_mean']:.1f}% |"
-                )
+        lines += _model_tables(model, [r for r in rows if r["model"] == model])
     if choices:
         lines += [
             "",
@@ -302,27 +272,94 @@ def markdown(rows: Sequence[dict], choices: Sequence[dict], data: Sequence[str])
                 for v in c["val"]
             )  # fmt: skip
             lines.append(
-                f"| {c['model']} | {c['logic_loss']} | {c['train_videos']} | "
+                f"| {c['model']} | {c['method']} | {c['train_videos']} | "
                 f"{c['val'][0]['seeds']} | {cells} |"
             )
     return "\n".join(lines) + "\n"
 
 
+def _model_tables(model: str, mine: Sequence[dict]) -> list[str]:
+    """curve.md's tables of one model: mean accuracy per size and variant (the methods without
+    unlabelled videos), every such variant against the reference, then the runs that also read
+    unlabelled videos, against the same reference."""
+    labelled = [r for r in mine if not r["unlabelled_videos"]]
+    variants = sorted({(r["method"], r["decode"]) for r in labelled}, key=_variant_order)
+    at = {(r["train_videos"], r["method"], r["decode"]): r for r in labelled}
+    lines = [
+        "",
+        f"## {model.upper()}: action accuracy (%)",
+        "",
+        "| videos | " + " | ".join(variant_name(*v) for v in variants) + " |",
+        "|---|" + "---|" * len(variants),
+    ]
+    for n in sorted({r["train_videos"] for r in labelled}):
+        cells = [at.get((n, *v)) for v in variants]
+        means = ["–" if r is None else _pm(r["action_accuracy_mean"], r["action_accuracy_se"])
+                 for r in cells]  # fmt: skip
+        lines.append(f"| {n} | " + " | ".join(means) + " |")
+    by_size = sorted(labelled, key=lambda r: (r["train_videos"], _variant_order(
+        (r["method"], r["decode"]))))  # fmt: skip
+    lines += ["", f"## {model.upper()}: every variant against the reference", "", *_DETAIL]
+    lines += [_detail(r) for r in by_size]
+    unlabelled = sorted(
+        (r for r in mine if r["unlabelled_videos"]),
+        key=lambda r: (r["train_videos"], _variant_order((r["method"], r["decode"]))),
+    )
+    if unlabelled:
+        lines += [
+            "",
+            f"## {model.upper()}: unlabelled videos",
+            "",
+            "Δ and data worth against the reference of the same labelled videos (no logic loss, "
+            "no unlabelled videos, argmax), seed by seed.",
+            "",
+            *_DETAIL,
+            *(_detail(r) for r in unlabelled),
+        ]
+    return lines
+
+
+_DETAIL = [
+    "| videos | variant | λ | seeds | action acc (%) | Δ action (%) | improved | data worth "
+    "| violations |",
+    "|---|---|---|---|---|---|---|---|---|",
+]
+
+
+def _detail(r: dict) -> str:
+    """One variant at one size: its row of the tables against the reference."""
+    if r["reference"]:
+        gain = "reference"
+    elif "gain_pct_mean" in r:
+        gain = _pm(r["gain_pct_mean"], r["gain_pct_se"], 1.0, sign=True)
+    else:
+        gain = "–"
+    improved = f"{r['improved']}/{len(r['gain_pct'])}" if "improved" in r else "–"
+    worth = "–" if r["reference"] or "data_worth" not in r else Worth(**r["data_worth"]).text()
+    lam = ", ".join(f"{x:g}" for x in r["lambda"]) if r["method"] != "none" else "–"
+    return (
+        f"| {r['train_videos']} | {r['variant']} | {lam} | {len(r['seeds'])} | "
+        f"{_pm(r['action_accuracy_mean'], r['action_accuracy_se'])} | {gain} | {improved} | "
+        f"{worth} | {100 * r['violation_fraction_mean']:.1f}% |"
+    )
+
+
 def figure(rows: Sequence[dict], path: Path) -> None:
     """Action accuracy against training videos (log x), mean ± s.e. per variant, one panel per
-    model: colour = logic loss, solid = argmax, dashed = constrained decoding."""
+    model: colour = training method, solid = argmax, dashed = constrained decoding."""
     plt = pyplot()
     models = sorted({r["model"] for r in rows}) or ["(no runs)"]
     fig, axes = plt.subplots(
         1, len(models), figsize=(5.2 * len(models), 4.2), squeeze=False, sharey=True
     )
-    colours = {loss: f"C{k}" for k, loss in enumerate(LOSS_ORDER)}
+    names = sorted({r["method"] for r in rows}, key=lambda m: _variant_order((m, "argmax")))
+    colours = {name: f"C{k % 10}" for k, name in enumerate(names)}
     for ax, model in zip(axes[0], models, strict=True):
-        mine = [r for r in rows if r["model"] == model]
-        variants = sorted({(r["logic_loss"], r["decode"]) for r in mine}, key=_variant_order)
+        mine = [r for r in rows if r["model"] == model and not r["unlabelled_videos"]]
+        variants = sorted({(r["method"], r["decode"]) for r in mine}, key=_variant_order)
         for k, (loss, decode) in enumerate(variants):
             points = sorted(
-                (r for r in mine if (r["logic_loss"], r["decode"]) == (loss, decode)),
+                (r for r in mine if (r["method"], r["decode"]) == (loss, decode)),
                 key=lambda r: r["train_videos"],
             )
             shift = 1 + 0.012 * (k - (len(variants) - 1) / 2)  # side by side on the log axis
@@ -345,7 +382,7 @@ def figure(rows: Sequence[dict], path: Path) -> None:
         ax.set_title(model.upper())
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel("test action accuracy (%)")
-    axes[0][-1].legend(fontsize="small", title="loss, decoding")
+    axes[0][-1].legend(fontsize="small", title="method, decoding")
     fig.suptitle("Learning curve, mean ± s.e. over seeds (synthetic data)")
     fig.tight_layout()
     save_png(fig, path)
@@ -365,13 +402,13 @@ def learning_curve(
     if not run_dirs:
         raise InputError("give at least one train-task run directory")
     runs = [read_curve_run(d) for d in run_dirs]
-    if not any(r["logic_loss"] == "none" for r in runs):
+    if not any(r["method"] == "none" for r in runs):
         raise InputError("no reference run (no logic loss) among the runs")
     rows = curve(runs)
     sweep = [read_curve_run(d, both_decodings=False) for d in sweep_dirs]
-    cells = sorted({(r["model"], r["logic_loss"], r["train_videos"]) for r in sweep})
+    cells = sorted({(r["model"], r["method"], r["train_videos"]) for r in sweep})
     choices = [
-        choose_lambda([r for r in sweep if (r["model"], r["logic_loss"], r["train_videos"]) == c])
+        choose_lambda([r for r in sweep if (r["model"], r["method"], r["train_videos"]) == c])
         for c in cells
     ]
     data = sorted({r["data"] for r in runs})

@@ -5,8 +5,11 @@ cross-entropy of the action head plus that of the ingredient head (mean over ste
 ℓ_logic one of `tleaf_cli.losses` (none, tleaf, exact, checker). The rule set φ of a video is
 the conjunction of the knowledge base's rules whose atoms all occur in its PREDICTED pairs
 (argmax per step, the paper's choice; re-derived every batch) or in its labelled pairs
-(`formula_from="labels"`, fixed for the run). With `rule_sets="ingredient"` (tleaf, exact) φ
-is split into one conjunction per ingredient, φ = ∧_x φ_x over disjoint atoms, and
+(`formula_from="labels"`, fixed for the run), or is the whole knowledge base (`formula_from=
+"kb"`: every rule guarded by its atoms' presence, `KnowledgeRuleSets.whole`, one conjunction per
+ingredient; the same for every video, so no guess of the model's picks the rules). With
+`rule_sets="ingredient"` (tleaf, exact) φ is split into one conjunction per ingredient,
+φ = ∧_x φ_x over disjoint atoms, and
 ℓ_logic = Σ_x ℓ_logic(φ_x): far smaller DFAs, which q embeds better and faster (the cooking
 experiment's per-ingredient clauses). The checker always checks the whole φ.
 
@@ -65,7 +68,7 @@ from tleaf_cli.tasks.action_recognition.activities import (
     Video,
     read_activities,
 )
-from tleaf_cli.tasks.action_recognition.decoding import decode_pairs
+from tleaf_cli.tasks.action_recognition.decoding import decode_pairs, own_labels
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
 
 GRADIENT_LOSSES = ("tleaf", "exact")  # the losses unlabelled videos can teach through
@@ -76,6 +79,7 @@ class EpochRecord:
     epoch: int
     task_loss: float
     logic_loss: float
+    unlabelled_loss: float  # self-training's cross-entropy on unlabelled videos (0 without)
     seconds: float  # training time of this epoch (forward, losses, backward), without eval
     val_action_accuracy: float
 
@@ -136,6 +140,11 @@ class LogicObjective:
         kind = settings.logic_loss
         self.per_ingredient = settings.rule_sets == "ingredient" and kind in GRADIENT_LOSSES
         self.fixed: dict[str, list[RuleSet]] = {}  # rule sets from labels, labelled videos only
+        self.whole: list[RuleSet] | None = None  # the guarded knowledge base, every video's
+        if settings.formula_from == "kb" and kind != "none":
+            self.whole = rules.whole()
+            if embedder is not None and self.whole:
+                embedder.rule_set_vectors(self.whole)
         if settings.formula_from == "labels" and kind != "none":
             videos = [v for v in data.videos if v.split != UNLABELLED]
             groups = self._groups([set(data.atoms(v)) for v in videos])
@@ -152,6 +161,8 @@ class LogicObjective:
         out = actions.new_zeros(actions.shape[0])
         if kind == "none":
             return out
+        if self.whole is not None:
+            return self._loss(batch, actions, ingredients, [self.whole] * len(batch.videos))
         a = actions.detach().argmax(-1).cpu().numpy()
         i = ingredients.detach().argmax(-1).cpu().numpy()
         lengths = batch.lengths.tolist()
@@ -162,12 +173,23 @@ class LogicObjective:
         groups = [self.fixed.get(v.video_id, []) for v in batch.videos]
         for b, g in zip(predicted, from_predictions, strict=True):
             groups[b] = g
+        return self._loss(batch, actions, ingredients, groups)
+
+    def _loss(
+        self,
+        batch: Batch,
+        actions: torch.Tensor,
+        ingredients: torch.Tensor,
+        groups: list[list[RuleSet]],
+    ) -> torch.Tensor:
+        """Σ over each video's rule sets `groups[b]` of ℓ_logic, one `logic_loss` call [B]."""
+        out = actions.new_zeros(actions.shape[0])
         owner = [b for b, sets in enumerate(groups) for _ in sets]
         if not owner:
             return out
         rows = torch.tensor(owner, device=actions.device)
         per_set = logic_loss(
-            kind,
+            self.settings.logic_loss,
             pair_log_probs(actions[rows], ingredients[rows]),
             [r for sets in groups for r in sets],
             batch.lengths[rows],
@@ -236,18 +258,22 @@ def train_action_recognition(
 
     def epoch_batches(
         epoch: int, generator: torch.Generator
-    ) -> Iterator[tuple[Batch, Batch | None]]:
+    ) -> Iterator[tuple[Batch, Batch | None, float]]:
         """The epoch's training batches, each with the batch of unlabelled videos that joins it
-        (None when they are not used): the unlabelled stream is read on from where the epochs
-        before left it, so that the batches depend on the seed and the epoch alone."""
+        (None when they are not used) and the weight of their loss (`unlabelled_weight`): the
+        unlabelled stream is read on from where the epochs before left it, so that the
+        batches depend on the seed and the epoch alone."""
         unlabelled = unlabelled_batches(data, settings, device, skip=(epoch - 1) * per_epoch)
+        weight = unlabelled_weight(epoch, settings.unlabelled_warmup)
         for videos in chunks(splits["train"], settings.batch_size, generator):
-            yield Batch.of(videos, device), None if unlabelled is None else next(unlabelled)
+            extra = None if unlabelled is None else next(unlabelled)
+            yield Batch.of(videos, device), extra, weight
 
-    def step(batches: tuple[Batch, Batch | None]) -> Step:
+    def step(batches: tuple[Batch, Batch | None, float]) -> Step:
         """ℓ_task + λ·ℓ_logic of a batch, ℓ_logic the mean over its and the unlabelled
-        batch's videos; reported: ℓ_task and ℓ_logic, each the mean over the epoch's batches."""
-        batch, extra = batches
+        batch's videos (theirs weighted); reported: ℓ_task and ℓ_logic, each the mean over the
+        epoch's batches."""
+        batch, extra, weight = batches
         actions, ingredients = model(batch.features, batch.lengths)
         task = F.cross_entropy(
             actions.flatten(0, 1), batch.actions.flatten(), ignore_index=-100
@@ -255,11 +281,22 @@ def train_action_recognition(
             ingredients.flatten(0, 1), batch.ingredients.flatten(), ignore_index=-100
         )
         per_video = [objective(batch, actions, ingredients)]
+        own = task.new_zeros(())
         if extra is not None:
-            per_video.append(objective(extra, *model(extra.features, extra.lengths)))
+            outputs = model(extra.features, extra.lengths)
+            if settings.unlabelled_loss == "logic":
+                per_video.append(weight * objective(extra, *outputs))
+            else:  # self-training: h's own labels, decoded under the rules or not
+                rules = checker_rules if settings.unlabelled_loss == "decoded" else None
+                targets = own_labels(*outputs, extra.lengths, rules, settings.decode_top_k)
+                own = weight * sum(
+                    F.cross_entropy(out.flatten(0, 1), target.flatten(), ignore_index=-100)
+                    for out, target in zip(outputs, targets, strict=True)
+                )
         logic = torch.cat(per_video).mean()
-        loss = task + settings.lam * logic
-        return Step(loss, {"task_loss": task.item(), "logic_loss": logic.item()})
+        loss = task + settings.lam * (logic + own)
+        figures = {"task_loss": task.item(), "logic_loss": logic.item()}
+        return Step(loss, {**figures, "unlabelled_loss": own.item()})
 
     run = fit(
         model,
@@ -286,6 +323,7 @@ def train_action_recognition(
         "logic_loss": settings.logic_loss,
         "seed": settings.seed,
         "train_videos": len(splits["train"]),
+        "unlabelled_videos": unlabelled_count(data, settings),
         "history": history,
         "best": best,
         "mean_epoch_seconds": float(np.mean([h["seconds"] for h in history])),
@@ -329,15 +367,33 @@ def first_videos(
     return videos[:count]
 
 
+def unlabelled_weight(epoch: int, warmup: int) -> float:
+    """The weight of the unlabelled videos' logic loss in `epoch` (from 1): rising linearly to 1
+    over the first `warmup` epochs (epoch/warmup), 1 from then on and without a warm-up. Early
+    on, h's guesses on videos it has no labels for are near uniform, and a loss on them alone
+    is lowest where h answers every video alike (a sequence of one allowed pair meets every
+    rule); the warm-up lets the labels shape h first."""
+    return 1.0 if warmup <= 0 else min(1.0, epoch / warmup)
+
+
+def unlabelled_count(data: Activities, settings: TaskSettings) -> int:
+    """How many unlabelled videos the run reads: 0 unless they are on and its loss has a
+    gradient; else the first `unlabelled_videos` of the split (all by default)."""
+    teaches = settings.logic_loss in GRADIENT_LOSSES or settings.unlabelled_loss != "logic"
+    if not (settings.unlabelled and teaches):
+        return 0
+    return len(data.split(UNLABELLED)[: settings.unlabelled_videos])
+
+
 def unlabelled_batches(
     data: Activities, settings: TaskSettings, device: torch.device, skip: int = 0
 ) -> Iterator[Batch] | None:
     """Endless batches of the unlabelled videos, reshuffled each pass (their own seeded order,
     so the labelled batches are the same as without them), from the `skip`-th batch on; None
     when they are not used."""
-    videos = data.split(UNLABELLED)
-    if not (videos and settings.unlabelled and settings.logic_loss in GRADIENT_LOSSES):
+    if not unlabelled_count(data, settings):
         return None
+    videos = data.split(UNLABELLED)[: settings.unlabelled_videos]
 
     def endless() -> Iterator[Batch]:
         generator = torch.Generator().manual_seed(settings.seed * 100_003 + 99_991)
