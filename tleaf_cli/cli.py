@@ -1107,6 +1107,37 @@ def eval_choose_lambda(
     ui.summary(f"{out}: λ {choice['lambda']:g} (mean val action accuracy {table})", quiet)
 
 
+@eval_app.command("violations", cls=Command)
+@_exits
+def eval_violations(
+    runs: Annotated[list[Path], typer.Argument(help="train-task action-recognition run dirs.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder.")] = Path("violations"),
+    split: Annotated[
+        list[str] | None,
+        typer.Option(
+            metavar="<train|val|test>",
+            help="A split to read (repeat) \\[default: train and test]; train: the first "
+            "train_videos videos of the train split, those the run trained on.",
+        ),
+    ] = None,
+    quiet: Quiet = False,
+) -> None:
+    """Which rules each run's argmax outputs break, per split: the share of videos breaking an
+    affordance rule, an ordering rule, any rule; the share of steps on forbidden pairs and the
+    probability given them; P(rules hold) for the video's own rules and the whole knowledge base.
+
+    Writes violations.json and violations.md.
+    """
+    from tleaf_cli.tasks.action_recognition.violations import DEFAULT_SPLITS, violation_report
+
+    _targets(runs, [out / "violations.json", out / "violations.md"], [out])
+    with ui.progress("reading the runs' outputs", quiet):
+        report = violation_report(runs, out, split or DEFAULT_SPLITS)
+    ui.summary(
+        f"{out}/violations.md: {len(runs)} runs, splits {', '.join(report['splits'])}", quiet
+    )
+
+
 @app.command("demos-kb", cls=Command)
 @_exits
 def demos_kb(
