@@ -19,7 +19,8 @@
 # Losses (what a run trains with): none, the reference; exact and tleaf, the rules of the pairs
 # the model predicts (the paper); kb, the exact loss on the whole knowledge base (every rule
 # where its pairs all occur: no guess of the model picks them); decoded (unlabelled videos
-# only), cross-entropy to the model's own decoding under the rules.
+# only), cross-entropy to the model's own decoding under the rules; argmax, the same to its own
+# argmax (self-training without the rules, decoded's control; not in UNLABELLED_LOSSES' default).
 # SMALL=1: the whole chain on a tiny synthetic set in about a minute (used by the tests).
 # Run the cheap variants first (LOSSES="none exact kb"), tleaf later: its q chain costs more.
 # Results, wall time and the choices below: docs/results/action_recognition.md.
@@ -52,6 +53,7 @@ ARGS_exact = --logic-loss exact
 ARGS_tleaf = --logic-loss tleaf --embedder $(OUT)/meta
 ARGS_kb = --logic-loss exact --formula-from kb
 ARGS_decoded = --logic-loss none --unlabelled-loss decoded
+ARGS_argmax = --logic-loss none --unlabelled-loss argmax
 SWEEP_SEEDS ?= 0 1
 DECODE_TOP_K ?= 5
 BATCH := 16
