@@ -163,3 +163,19 @@ def test_a_run_whose_inputs_changed_is_refused(runs: dict[str, Path], tmp_path: 
     (moved / "config.json").write_text(json.dumps(config))
     with pytest.raises(InputError, match=re.escape(f"{moved}: weights.pt does not load")):
         violation_report([moved], tmp_path / "out")
+
+
+def test_runs_that_differ_in_seed_only_are_averaged() -> None:
+    from tleaf_cli.tasks.action_recognition.violations import FIGURES, mean_over_seeds
+
+    def row(seed: int, split: str, value: float) -> dict:
+        figures = dict.fromkeys(FIGURES, value)
+        return {"model": "lstm", "method": "exact", "train_videos": 20, "split": split,
+                "seed": seed, "videos": 4, **figures}  # fmt: skip
+
+    rows = [row(0, "test", 0.2), row(1, "test", 0.4), row(0, "train", 0.0)]
+    rows[1]["p_own_rules"] = None  # no video with rules: left out of the mean
+    merged = {g["split"]: g for g in mean_over_seeds(rows)}
+    assert merged["test"]["seeds"] == [0, 1] and merged["train"]["seeds"] == [0]
+    assert merged["test"]["violation_fraction"] == pytest.approx(0.3)
+    assert merged["test"]["p_own_rules"] == pytest.approx(0.2)

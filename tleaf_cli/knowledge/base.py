@@ -103,6 +103,13 @@ def rules_for(kb: KnowledgeBase, present_atoms: Iterable[str]) -> list[Rule]:
     return [kb.rules[k] for k in sorted(candidates) if present.issuperset(kb.rules[k].atoms)]
 
 
+def forbidden_atom(rule: Rule) -> str | None:
+    """The atom `rule` forbids outright (`G !a`, as `affordance_rule` writes it), or None."""
+    if len(rule.atoms) == 1 and rule.formula.replace(" ", "") == f"G!{rule.atoms[0]}":
+        return rule.atoms[0]
+    return None
+
+
 def guarded(rule: Rule) -> Rule:
     """`rule` where it applies, as a formula over any sequence: `(F a & F b) -> φ`.
 
@@ -112,9 +119,8 @@ def guarded(rule: Rule) -> Rule:
     the same for every sequence and known before any prediction. A one-atom rule's guard adds
     nothing where the rule forbids its atom (`F a -> G !a` is `G !a`), and is left out then.
     """
-    forbids = len(rule.atoms) == 1 and rule.formula.replace(" ", "") == f"G!{rule.atoms[0]}"
     formula = rule.formula
-    if rule.atoms and not forbids:
+    if rule.atoms and forbidden_atom(rule) is None:
         formula = f"({' & '.join(f'F {a}' for a in rule.atoms)}) -> ({rule.formula})"
     return Rule(f"guarded.{rule.name}", rule.kind, formula, rule.atoms)
 

@@ -38,7 +38,12 @@ import torch
 from tleaf_cli.data.artifacts import check_writable, file_sha256, write_text_atomic
 from tleaf_cli.embed.training import read_model_config
 from tleaf_cli.errors import InputError, SettingError
-from tleaf_cli.knowledge.base import KnowledgeBase, RuleKind, read_knowledge_base
+from tleaf_cli.knowledge.base import (
+    KnowledgeBase,
+    RuleKind,
+    forbidden_atom,
+    read_knowledge_base,
+)
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.losses import logic_loss, pair_log_probs, pair_vocabulary, violates
 from tleaf_cli.rule_set import RuleSet
@@ -76,11 +81,7 @@ class Run:
 def forbidden_pairs(kb: KnowledgeBase) -> set[str]:
     """The atoms affordance rules forbid outright (`G !a`, as `base.affordance_rule` writes
     them); an affordance rule of another shape forbids no single pair."""
-    return {
-        r.atoms[0]
-        for r in kb.of_kind("affordance")
-        if len(r.atoms) == 1 and r.formula.replace(" ", "") == f"G!{r.atoms[0]}"
-    }
+    return {a for r in kb.of_kind("affordance") if (a := forbidden_atom(r)) is not None}
 
 
 def _recorded_inputs(run_dir: Path, config: dict) -> tuple[Path, Path]:
@@ -306,16 +307,66 @@ def markdown(rows: Sequence[dict]) -> str:
         "P(forbidden) / step | P(own rules) | P(whole KB) |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for r in rows:
-        lines.append(
-            f"| {r['run']} | {r['split']} | {r['videos']} | "
-            f"{_pct(r['affordance_violation_fraction'])} | "
-            f"{_pct(r['ordering_violation_fraction'])} | {_pct(r['violation_fraction'])} | "
-            f"{_pct(r['forbidden_step_fraction'])} | "
-            f"{r['forbidden_probability_per_step']:.3f} | {_probability(r['p_own_rules'])} | "
-            f"{_probability(r['p_whole_kb'])} |"
-        )
+    lines += [_row(r["run"], r) for r in rows]
+    groups = mean_over_seeds(rows)
+    if any(len(g["seeds"]) > 1 for g in groups):
+        lines += [
+            "",
+            "## Mean over seeds",
+            "",
+            "The runs that differ only in their seed (same model, method and training videos), "
+            "each figure the mean of theirs.",
+            "",
+            "| model, method, training videos | split | seeds | videos | affordance | ordering | "
+            "any rule | forbidden steps | P(forbidden) / step | P(own rules) | P(whole KB) |",
+            "|---|---|---|---|---|---|---|---|---|---|---|",
+        ]
+        lines += [
+            _row(f"{g['model']}, {g['method']}, {g['train_videos']}", g, len(g["seeds"]))
+            for g in groups
+        ]
     return "\n".join(lines) + "\n"
+
+
+FIGURES = (
+    "affordance_violation_fraction",
+    "ordering_violation_fraction",
+    "violation_fraction",
+    "forbidden_step_fraction",
+    "forbidden_probability_per_step",
+    "p_own_rules",
+    "p_whole_kb",
+)
+
+
+def mean_over_seeds(rows: Sequence[dict]) -> list[dict]:
+    """Rows of runs that differ only in their seed, merged: each figure the mean over seeds (a
+    P(own rules) of None, no video with rules, left out of its mean)."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["model"], r["method"], r["train_videos"], r["split"]), []).append(r)
+    out = []
+    for (model, method, videos, split), group in groups.items():
+        merged = {"model": model, "method": method, "train_videos": videos, "split": split}
+        merged["seeds"] = sorted(r["seed"] for r in group)
+        merged["videos"] = group[0]["videos"]
+        for key in FIGURES:
+            values = [r[key] for r in group if r[key] is not None]
+            merged[key] = float(np.mean(values)) if values else None
+        out.append(merged)
+    return out
+
+
+def _row(name: str, r: dict, seeds: int | None = None) -> str:
+    """One table row of `r`'s figures, after the name (and the number of seeds)."""
+    return (
+        f"| {name} | {r['split']} | {'' if seeds is None else f'{seeds} | '}{r['videos']} | "
+        f"{_pct(r['affordance_violation_fraction'])} | "
+        f"{_pct(r['ordering_violation_fraction'])} | {_pct(r['violation_fraction'])} | "
+        f"{_pct(r['forbidden_step_fraction'])} | "
+        f"{r['forbidden_probability_per_step']:.3f} | {_probability(r['p_own_rules'])} | "
+        f"{_probability(r['p_whole_kb'])} |"
+    )
 
 
 def check_splits(splits: Sequence[str]) -> tuple[str, ...]:
@@ -334,7 +385,7 @@ def violation_report(
     splits: Sequence[str] = DEFAULT_SPLITS,
 ) -> dict:
     """Every run on every split (`split_violations`); writes violations.json and violations.md
-    in `out_dir` and returns the report ({"splits", "rows"})."""
+    in `out_dir` and returns the report ({"splits", "rows", "mean_over_seeds"})."""
     splits = check_splits(splits)
     out_dir = Path(out_dir)
     check_writable(out_dir / "violations.json")
@@ -343,7 +394,7 @@ def violation_report(
     cache: dict[tuple[Path, Path], Inputs] = {}
     runs = [load_run(d, cache) for d in run_dirs]  # every folder checked before any work
     rows = [split_violations(run, split) for run in runs for split in splits]
-    report = {"splits": list(splits), "rows": rows}
+    report = {"splits": list(splits), "rows": rows, "mean_over_seeds": mean_over_seeds(rows)}
     write_text_atomic(out_dir / "violations.json", json.dumps(report, indent=2))
     write_text_atomic(out_dir / "violations.md", markdown(rows))
     return report
