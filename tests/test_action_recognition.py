@@ -262,3 +262,21 @@ def test_rules_from_the_whole_knowledge_base_read_no_label_and_no_prediction(
     # the warm-up weighs the first epochs' unlabelled loss down: a lower logic loss reported
     first = [run["metrics"]["history"][0]["logic_loss"] for run in (warm, kb_run)]
     assert first[0] < first[1]
+
+
+def test_self_training_reads_unlabelled_videos_without_a_logic_loss(tmp_path: Path) -> None:
+    """--unlabelled-loss decoded / argmax: unlabelled videos trained on h's own labels for them
+    (their own labels unread), with no logic loss; both move h."""
+    data, kb = tiny_activities(tmp_path, unlabelled=8)
+    ref = _train(data, kb, tmp_path / "ref", logic_loss="none")
+    assert ref["metrics"]["unlabelled_videos"] == 0
+    runs = {}
+    for how in ("decoded", "argmax"):
+        runs[how] = _train(data, kb, tmp_path / how, logic_loss="none", unlabelled_loss=how)
+        history = runs[how]["metrics"]["history"]
+        assert runs[how]["metrics"]["unlabelled_videos"] == 8
+        assert all(h["logic_loss"] == 0 and h["unlabelled_loss"] > 0 for h in history)
+        assert any(not torch.equal(v, ref["weights"][k]) for k, v in runs[how]["weights"].items())
+    relabelled = _unlabelled_relabelled(data, tmp_path / "relabelled.parquet")
+    same = _train(relabelled, kb, tmp_path / "same", logic_loss="none", unlabelled_loss="decoded")
+    assert all(torch.equal(v, same["weights"][k]) for k, v in runs["decoded"]["weights"].items())

@@ -988,7 +988,8 @@ def train_task_action_recognition(
             update(r.epoch, epochs)
             ui.summary(
                 f"epoch {r.epoch}: task {r.task_loss:.4f}, logic {r.logic_loss:.4f}, "
-                f"val action acc {r.val_action_accuracy:.3f} ({r.seconds:.1f} s)",
+                + (f"unlabelled {r.unlabelled_loss:.4f}, " if r.unlabelled_loss else "")
+                + f"val action acc {r.val_action_accuracy:.3f} ({r.seconds:.1f} s)",
                 quiet,
             )
 

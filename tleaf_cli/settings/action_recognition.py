@@ -63,8 +63,8 @@ class TaskSettings:
     )
     unlabelled_warmup: int = setting(
         0,
-        "Weight the unlabelled videos' logic loss by epoch/N over the first N epochs (0: full "
-        "weight from the start).",
+        "Weight the unlabelled videos' loss by epoch/N over the first N epochs (0: full weight "
+        "from the start).",
         min=0,
     )
     train_videos: int | None = setting(

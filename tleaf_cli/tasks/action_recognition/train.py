@@ -8,16 +8,20 @@ the conjunction of the knowledge base's rules whose atoms all occur in its PREDI
 (`formula_from="labels"`, fixed for the run), or is the whole knowledge base (`formula_from=
 "kb"`: every rule guarded by its atoms' presence, `KnowledgeRuleSets.whole`, one conjunction per
 ingredient; the same for every video, so no guess of the model's picks the rules). With
-`rule_sets="ingredient"` (tleaf, exact) φ is split into one conjunction per ingredient,
-φ = ∧_x φ_x over disjoint atoms, and
-ℓ_logic = Σ_x ℓ_logic(φ_x): far smaller DFAs, which q embeds better and faster (the cooking
-experiment's per-ingredient clauses). The checker always checks the whole φ.
+`rule_sets="ingredient"` (tleaf, exact) φ is split into one conjunction per ingredient, φ = ∧_x
+φ_x over disjoint atoms, and ℓ_logic = Σ_x ℓ_logic(φ_x): far smaller DFAs, which q embeds better
+and faster (the cooking experiment's per-ingredient clauses). The checker always checks the
+whole φ.
 
-Unlabelled videos (split `unlabelled`, labels never read): with `unlabelled=True` and a loss
-with a gradient (tleaf, exact), every training batch is joined by a batch of them, whose only
-loss is the logic loss, φ from their predicted pairs; ℓ_logic is then the mean over both
-batches' videos. The knowledge needs no labels, so this is where it can add what 60 labelled
-videos do not show. The reference (none) and checker (no gradient) do not read them.
+Unlabelled videos (split `unlabelled`, labels never read; the first `unlabelled_videos` of
+them): with `unlabelled=True` and a loss with a gradient (tleaf, exact), every training batch is
+joined by a batch of them, whose only loss is the logic loss, φ from their predicted pairs (or
+the whole knowledge base); ℓ_logic is then the mean over both batches' videos. With
+`unlabelled_loss` decoded or argmax they are trained instead on h's own labels for them
+(self-training: its constrained decoding under the rules, or its argmax), cross-entropy weighted
+by λ. Either way their loss is weighted by epoch/`unlabelled_warmup` over the first epochs. The
+knowledge needs no labels, so this is where it could add what a few labelled videos do not
+show. The reference (none) and checker (no gradient) do not read them.
 
 Adam (lr 1e-4 as in the paper); after every epoch, action accuracy on the val split; the best
 epoch's weights are kept and training stops after `patience` epochs without a better one. The
