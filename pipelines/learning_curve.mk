@@ -15,7 +15,7 @@
 #        [SIZES="10 20 40 80 160 320"] [SEEDS="0 1 2 3 4"] [MODELS="lstm tcn"]
 #        [LOSSES="none exact kb tleaf"] [TCN_SIZES="20 80"] [LAMBDAS_exact="0.3 1 3 10"]
 #        [UNLABELLED="100 300"] [UNLABELLED_SIZES="20 80"] [UNLABELLED_LOSSES="exact kb decoded"]
-#        [UNLABELLED_SEEDS="0 1 2"] -j2
+#        [UNLABELLED_SEEDS="0 1 2"] [SIZES_kb="10 20 40 80"] -j2
 # Losses (what a run trains with): none, the reference; exact and tleaf, the rules of the pairs
 # the model predicts (the paper); kb, the exact loss on the whole knowledge base (every rule
 # where its pairs all occur: no guess of the model picks them); decoded (unlabelled videos
@@ -111,15 +111,17 @@ $(foreach n,$(sort $(SIZES) $(TCN_SIZES) $(UNLABELLED_SIZES)),\
 	$(eval PATIENCE_$(n) := $(call scaled,$(n),$(PATIENCE))))
 
 sizes_of = $(if $(filter tcn,$(1)),$(TCN_SIZES),$(SIZES))
+# the sizes of model $(1) that loss $(2) runs at: SIZES_<loss> narrows them (e.g. SIZES_kb)
+sizes_for = $(if $(SIZES_$(2)),$(filter $(SIZES_$(2)),$(call sizes_of,$(1))),$(call sizes_of,$(1)))
 grid = $(LAMBDAS_$(1))
 swept = $(filter-out none,$(if $(word 2,$(call grid,$(1))),$(1)))
 CELLS := $(foreach m,$(MODELS),$(foreach n,$(call sizes_of,$(m)),$(m)-n$(n)))
-RUNS := $(foreach m,$(MODELS),$(foreach n,$(call sizes_of,$(m)),$(foreach l,$(LOSSES),\
+RUNS := $(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach n,$(call sizes_for,$(m),$(l)),\
 	$(foreach s,$(SEEDS),$(OUT)/runs/$(m)-$(l)-n$(n)-seed$(s)/metrics.json))))
 UNLABELLED_RUNS := $(foreach n,$(UNLABELLED_SIZES),$(foreach l,$(UNLABELLED_LOSSES),\
 	$(foreach u,$(UNLABELLED),$(foreach s,$(UNLABELLED_SEEDS),\
 	$(OUT)/unlabelled/lstm-$(l)-n$(n)-u$(u)-seed$(s)/metrics.json))))
-SWEEP := $(foreach m,$(MODELS),$(foreach n,$(call sizes_of,$(m)),$(foreach l,$(LOSSES),\
+SWEEP := $(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach n,$(call sizes_for,$(m),$(l)),\
 	$(foreach x,$(call grid,$(call swept,$(l))),$(foreach s,$(SWEEP_SEEDS),\
 	$(OUT)/sweep/$(m)-$(l)-n$(n)-lam$(x)-seed$(s)/metrics.json)))))
 
@@ -178,11 +180,11 @@ $(OUT)/runs/$(1)-$(2)-n$(3)-seed$(4)/metrics.json: $(OUT)/activities.parquet $(O
 	else $(call train,$(1),$(2),$(3),$(4),$$$$lam,$$(@D)); fi)
 endef
 
-$(foreach m,$(MODELS),$(foreach n,$(call sizes_of,$(m)),$(foreach l,$(LOSSES),\
+$(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach n,$(call sizes_for,$(m),$(l)),\
 	$(foreach s,$(SEEDS),$(eval $(call RUN,$(m),$(l),$(n),$(s)))))))
-$(foreach m,$(MODELS),$(foreach n,$(call sizes_of,$(m)),$(foreach l,$(filter-out none,$(LOSSES)),\
+$(foreach m,$(MODELS),$(foreach l,$(filter-out none,$(LOSSES)),$(foreach n,$(call sizes_for,$(m),$(l)),\
 	$(eval $(call LAMBDA,$(m),$(l),$(n))))))
-$(foreach m,$(MODELS),$(foreach n,$(call sizes_of,$(m)),$(foreach l,$(LOSSES),\
+$(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach n,$(call sizes_for,$(m),$(l)),\
 	$(foreach x,$(call grid,$(call swept,$(l))),$(foreach s,$(SWEEP_SEEDS),\
 	$(eval $(call SWEEP_RUN,$(m),$(l),$(n),$(x),$(s))))))))
 
