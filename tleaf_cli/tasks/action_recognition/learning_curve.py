@@ -140,10 +140,10 @@ def choose_lambda(runs: Sequence[dict]) -> dict:
         for lam, s in sorted(by_lambda.items())
     ]
     best = max(table, key=lambda row: (row["val_action_accuracy"], -row["lambda"]))
-    model, loss, videos = cells.pop()
+    model, name, videos = cells.pop()
     return {
         "model": model,
-        "method": loss,
+        "method": name,
         "train_videos": videos,
         "lambda": best["lambda"],
         "val": table,
@@ -189,9 +189,9 @@ def curve(runs: Sequence[dict]) -> list[dict]:
             {(r["method"], d) for r in mine for d in DECODE_ORDER}, key=_variant_order
         )
         for n in sorted({r["train_videos"] for r in mine}):
-            for loss, decode in variants:
+            for name, decode in variants:
                 group = sorted(
-                    (r for r in mine if r["train_videos"] == n and r["method"] == loss),
+                    (r for r in mine if r["train_videos"] == n and r["method"] == name),
                     key=lambda r: r["seed"],
                 )
                 if not group:
@@ -202,11 +202,11 @@ def curve(runs: Sequence[dict]) -> list[dict]:
                 row = {
                     "model": model,
                     "train_videos": n,
-                    "method": loss,
+                    "method": name,
                     "unlabelled_videos": group[0]["unlabelled_videos"],
                     "decode": decode,
-                    "variant": variant_name(loss, decode),
-                    "reference": (loss, decode) == REFERENCE,
+                    "variant": variant_name(name, decode),
+                    "reference": (name, decode) == REFERENCE,
                     "lambda": sorted({r["lambda"] for r in group if r["lambda"] is not None}),
                     "seeds": [r["seed"] for r in group],
                     "action_accuracy": accuracy,
@@ -352,14 +352,15 @@ def figure(rows: Sequence[dict], path: Path) -> None:
     fig, axes = plt.subplots(
         1, len(models), figsize=(5.2 * len(models), 4.2), squeeze=False, sharey=True
     )
-    names = sorted({r["method"] for r in rows}, key=lambda m: _variant_order((m, "argmax")))
+    drawn = {r["method"] for r in rows if not r["unlabelled_videos"]}
+    names = sorted(drawn, key=lambda m: _variant_order((m, "argmax")))
     colours = {name: f"C{k % 10}" for k, name in enumerate(names)}
     for ax, model in zip(axes[0], models, strict=True):
         mine = [r for r in rows if r["model"] == model and not r["unlabelled_videos"]]
         variants = sorted({(r["method"], r["decode"]) for r in mine}, key=_variant_order)
-        for k, (loss, decode) in enumerate(variants):
+        for k, (name, decode) in enumerate(variants):
             points = sorted(
-                (r for r in mine if (r["method"], r["decode"]) == (loss, decode)),
+                (r for r in mine if (r["method"], r["decode"]) == (name, decode)),
                 key=lambda r: r["train_videos"],
             )
             shift = 1 + 0.012 * (k - (len(variants) - 1) / 2)  # side by side on the log axis
@@ -367,8 +368,8 @@ def figure(rows: Sequence[dict], path: Path) -> None:
                 [r["train_videos"] * shift for r in points],
                 [100 * r["action_accuracy_mean"] for r in points],
                 yerr=[100 * r["action_accuracy_se"] for r in points],
-                label=variant_name(loss, decode),
-                color=colours.get(loss, "C9"),
+                label=variant_name(name, decode),
+                color=colours.get(name, "C9"),
                 linestyle="-" if decode == "argmax" else "--",
                 marker="o" if decode == "argmax" else "s",
                 markersize=4,
