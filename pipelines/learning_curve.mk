@@ -15,7 +15,7 @@
 #        [SIZES="10 20 40 80 160 320"] [SEEDS="0 1 2 3 4"] [MODELS="lstm tcn"]
 #        [LOSSES="none exact kb tleaf"] [TCN_SIZES="20 80"] [LAMBDAS_exact="0.3 1 3 10"]
 #        [UNLABELLED="100 300"] [UNLABELLED_SIZES="20 80"] [UNLABELLED_LOSSES="exact kb decoded"]
-#        [UNLABELLED_SEEDS="0 1 2"] [SIZES_kb="10 20 40 80"] -j2
+#        [UNLABELLED_SEEDS="0 1 2 3 4"] [SIZES_kb="10 20 40 80"] -j2
 # Losses (what a run trains with): none, the reference; exact and tleaf, the rules of the pairs
 # the model predicts (the paper); kb, the exact loss on the whole knowledge base (every rule
 # where its pairs all occur: no guess of the model picks them); decoded (unlabelled videos
@@ -70,7 +70,6 @@ SEEDS ?= 0 1
 MODELS ?= lstm tcn
 UNLABELLED ?= 8
 UNLABELLED_SIZES ?= 4
-UNLABELLED_SEEDS ?= $(SEEDS)
 DATA := --actions 6 --ingredients 8 --feature-dim 16 --train 16 --val 8 --test 16 --max-steps 8
 TASK := --hidden 16 --lr 1e-3
 EPOCHS := 2
@@ -92,14 +91,14 @@ SEEDS ?= 0 1 2 3 4
 MODELS ?= lstm tcn
 UNLABELLED ?= 100 300
 UNLABELLED_SIZES ?= 20 80
-# 3 seeds: its 36 runs cost as much as the 80 of the kb loss over the whole curve
-UNLABELLED_SEEDS ?= 0 1 2
 DATA := --train $(lastword $(SIZES))
 TASK := --lr 1e-3
 EPOCHS := 150
 PATIENCE := 20
 FULL_AT := 80
 endif
+
+UNLABELLED_SEEDS ?= $(SEEDS)
 
 # epochs and patience at N videos: EPOCHS and PATIENCE from FULL_AT videos on; below, scaled by
 # batches per epoch (FULL_AT's over N's) so that every size gets at least the gradient steps, and
