@@ -161,10 +161,8 @@ class LogicObjective:
         return self.rules.for_atoms(atoms_per_video, self.per_ingredient)
 
     def __call__(self, batch: Batch, actions: torch.Tensor, ingredients: torch.Tensor):
-        kind = self.settings.logic_loss
-        out = actions.new_zeros(actions.shape[0])
-        if kind == "none":
-            return out
+        if self.settings.logic_loss == "none":
+            return actions.new_zeros(actions.shape[0])
         if self.whole is not None:
             return self._loss(batch, actions, ingredients, [self.whole] * len(batch.videos))
         a = actions.detach().argmax(-1).cpu().numpy()
@@ -444,6 +442,23 @@ def predict(
     return out, stats
 
 
+def rules_broken(
+    rules: KnowledgeRuleSets,
+    data: Activities,
+    predictions: Sequence[tuple[np.ndarray, np.ndarray]],
+) -> tuple[list[RuleSet | None], np.ndarray]:
+    """Each predicted sequence's rule set — the knowledge base's rules whose pairs all occur in
+    it (None where none do) — and bool [n]: the sequence breaks it (the violation metric)."""
+    sets = rules.one_each([predicted_atoms(data, a, i) for a, i in predictions])
+    n = len(data.ingredients)
+    rows = [k for k, r in enumerate(sets) if r is not None]
+    bad = np.zeros(len(sets), dtype=bool)
+    if rows:
+        pairs = [predictions[k][0] * n + predictions[k][1] for k in rows]
+        bad[rows] = violates([sets[k] for k in rows], pairs)
+    return sets, bad
+
+
 def score(
     model: ActionRecognizer,
     data: Activities,
@@ -469,12 +484,9 @@ def score(
         "pair_accuracy": float((hit_a & hit_i).mean()),
     }
     if rules is not None:
-        sets = rules.one_each([predicted_atoms(data, a, i) for a, i in predictions])
-        n = len(data.ingredients)
-        with_rules = [(r, a * n + i) for r, (a, i) in zip(sets, predictions, strict=True) if r]
-        bad = violates([r for r, _ in with_rules], [p for _, p in with_rules])
+        sets, bad = rules_broken(rules, data, predictions)
         out["violation_fraction"] = float(bad.sum() / len(videos))
-        out["videos_with_rules"] = len(with_rules)
+        out["videos_with_rules"] = sum(r is not None for r in sets)
     if top_k is not None:
         out.update(stats)
     return out

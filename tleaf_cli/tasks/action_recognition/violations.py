@@ -50,7 +50,12 @@ from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.tasks.action_recognition.activities import Activities, Video, read_activities
 from tleaf_cli.tasks.action_recognition.learning_curve import read_curve_run
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
-from tleaf_cli.tasks.action_recognition.train import Batch, predict, predicted_atoms
+from tleaf_cli.tasks.action_recognition.train import (
+    Batch,
+    predict,
+    predicted_atoms,
+    rules_broken,
+)
 
 SPLITS = ("train", "val", "test")
 DEFAULT_SPLITS = ("train", "test")
@@ -246,12 +251,11 @@ def split_violations(run: Run, split: str) -> dict:
     width = len(inputs.data.ingredients)
     sequences = [a * width + i for a, i in predictions]
     present = [predicted_atoms(inputs.data, a, i) for a, i in predictions]
-    own = rules.one_each(present)  # score()'s rule sets: the violation metric's
+    own, broken = rules_broken(rules, inputs.data, predictions)  # score()'s violation metric
     by_kind = {
         kind: _broken([_of_kind(rules, p, kind) for p in present], sequences)
         for kind in ("affordance", "ordering")
     }
-    broken = _broken(own, sequences)
     forbidden_steps = np.isin(np.concatenate(sequences), inputs.forbidden)
     mass, log_own, log_whole = _probabilities(run, videos, own)
     return {
