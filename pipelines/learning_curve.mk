@@ -163,12 +163,14 @@ $(OUT)/sweep/$(1)-$(2)-n$(3)-lam$(4)-seed$(5)/metrics.json: $(OUT)/activities.pa
 	$(call train,$(1),$(2),$(3),$(5),$(4),$$(@D))
 endef
 
-# λ of model $(1), loss $(2), size $(3): chosen on val from the sweep, or the one value given
+# λ of model $(1), loss $(2), size $(3): chosen on val from the sweep, or the one value given;
+# the file is only replaced when λ changes, so a wider sweep re-trains only the runs it moves
 define LAMBDA
 $(OUT)/lambda/$(1)-$(2)-n$(3).txt: $(foreach x,$(call grid,$(call swept,$(2))),\
     $(foreach s,$(SWEEP_SEEDS),$(OUT)/sweep/$(1)-$(2)-n$(3)-lam$(x)-seed$(s)/metrics.json))
 	@mkdir -p $$(@D)
-	$(if $(call swept,$(2)),$(TLEAF) eval choose-lambda $$(dir $$^) -o $$@ -q,echo $(call grid,$(2)) > $$@)
+	$(if $(call swept,$(2)),$(TLEAF) eval choose-lambda $$(dir $$^) -o $$@.new -q,echo $(call grid,$(2)) > $$@.new)
+	cmp -s $$@.new $$@ && rm $$@.new || mv $$@.new $$@
 endef
 
 # a main run: the chosen λ's sweep run of this seed when there is one, else trained here
