@@ -117,6 +117,36 @@ def test_soft_features_of_one_hot_letters_are_the_crisp_ones_and_carry_gradients
     assert ((out >= 0) & (out <= 1 + 1e-6)).all()
 
 
+def test_soft_features_of_mixed_alphabets_are_each_monitors_own_walk():
+    """Traces over alphabets of 1..3 atoms in one batch of a 3-slot bank (only the pairs whose
+    atoms exist are run): each feature is the monitor's state distribution walked step by step
+    with its table, and a missing atom's monitors read 0."""
+    bank = MonitorBank(3, max_length=6)
+    rng = np.random.default_rng(4)
+    sizes, lengths = [1, 3, 2, 3], [6, 2, 4, 1]
+    tables = [monitor_classes(bank, Alphabet(("a", "b", "c")[:k], "one-hot").truth()) for k in sizes]
+    classes = torch.zeros(len(sizes), bank.width, 4, dtype=torch.long)
+    for row, (c, _) in enumerate(tables):
+        classes[row, :, : c.shape[1]] = c
+    present = torch.stack([p for _, p in tables])
+    probs = torch.zeros(len(sizes), 6, 4, dtype=torch.float64)
+    for row, k in enumerate(sizes):
+        probs[row, :, : k + 1] = torch.from_numpy(rng.dirichlet(np.ones(k + 1), size=6))
+    out = soft_monitor_features(bank, probs, torch.tensor(lengths), classes, present)
+    for row, k in enumerate(sizes):
+        for m in range(bank.width):
+            state = np.eye(5)[0]
+            for t in range(lengths[row]):
+                moved = np.zeros(5)
+                for letter in range(k + 1):
+                    c = int(classes[row, m, letter])
+                    np.add.at(moved, bank.tables[m, :, c], state * float(probs[row, t, letter]))
+                state = moved
+            want = float(state @ bank.accepting[m]) if present[row, m] else 0.0
+            assert float(out[row, m]) == pytest.approx(want, abs=1e-12)
+    assert present.sum() < present.numel()  # some monitors are missing, and read 0 above
+
+
 @pytest.fixture(scope="module")
 def monitor_q(chain, tmp_path_factory):
     """A small q with monitors trained through train-meta, and what train-meta reported."""

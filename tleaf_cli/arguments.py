@@ -51,7 +51,15 @@ def sequence(value: Any, argument: str, what: str) -> Sequence:
 
 def vocabulary(items: Any, argument: str = "vocabulary") -> tuple[str, ...]:
     """A model's output items: distinct strs, each one a possible atom (`grammar.atom_problem`),
-    since a rule names an item by its atom and a repeated item would be judged as one copy."""
+    since a rule names an item by its atom and a repeated item would be judged as one copy.
+    A tuple that passed once passes again without a second look (a trainer builds every rule
+    set of a run over the same vocabulary)."""
+    if type(items) is tuple:
+        try:
+            if items in _VOCABULARIES:
+                return items
+        except TypeError:  # an unhashable item: the checks below name it
+            pass
     items = sequence(items, argument, "item names (str)")
     seen: dict[str, int] = {}
     for i, item in enumerate(items):
@@ -67,7 +75,10 @@ def vocabulary(items: Any, argument: str = "vocabulary") -> tuple[str, ...]:
         seen[item] = i
     if not items:
         raise ArgumentError(argument, "is empty; pass the model's output items")
-    return tuple(items)
+    checked = tuple(items)
+    if len(_VOCABULARIES) < 64:
+        _VOCABULARIES.add(checked)
+    return checked
 
 
 def traces(value: Any, argument: str = "traces") -> list[Sequence[Collection[str]]]:
@@ -82,6 +93,7 @@ def traces(value: Any, argument: str = "traces") -> list[Sequence[Collection[str
 
 
 _TRACES = {list, tuple}
+_VOCABULARIES: set[tuple[str, ...]] = set()  # `vocabulary`'s tuples that passed
 _LETTERS = {set, frozenset}
 
 

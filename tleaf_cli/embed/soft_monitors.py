@@ -7,10 +7,11 @@ probability that it accepts the trace — exactly ψ(w) when every P_t is one-ho
 differentiable in P throughout. Laid out as a trace's crisp features are: these, then zeros
 (a trace has no rejected words).
 
-Every trace of a batch and every monitor move together: the letters' classes are one batched
-matrix product ([N, T, L] by [N, L, M·4]), and each step is one product of class and state
-probabilities ([4, S, M·N]) and one index-add of it into the next states (a monitor's move on a
-class is a table: state s goes to one state u); the Python loop runs over the T steps only.
+Every (trace, monitor) pair whose atoms the trace's alphabet has moves together, the others
+being 0: the letters' classes are one batched matrix product ([N, T, L] by [N, L, M·4]), and
+each step is one product of class and state probabilities ([4, S, P]) and one index-add of it
+into the next states (a monitor's move on a class is a table: state s goes to one state u); the
+Python loop runs over the T steps only.
 """
 
 from __future__ import annotations
@@ -58,46 +59,39 @@ def soft_monitor_features_weighted(
     present: torch.Tensor,
 ) -> torch.Tensor:
     """`soft_monitor_features` with each trace's classes given as `class_weights` [N, L, M·4]
-    (what a caller that reads the same alphabets again keeps, instead of the classes)."""
+    (what a caller that reads the same alphabets again keeps, instead of the classes).
+
+    Only the (trace, monitor) pairs whose atoms the trace's alphabet has are run: the others'
+    features are 0 whatever the trace (a rule set of k atoms fills 7 k + 18 k (k − 1) of the
+    bank's monitors, a fifth of a 10-slot bank's at k = 4)."""
     device, dtype = probs.device, probs.dtype
-    n, steps, _ = probs.shape
+    n, steps, letters = probs.shape
     m = bank.width
     lengths = lengths.to(device)
-    # [T, 4, M·N]: each step's class probabilities, (monitor, trace) pairs innermost so that
-    # every elementwise product below runs over long contiguous rows
+    trace, monitor = present.to(device).bool().nonzero(as_tuple=True)  # the P pairs run
+    pairs = len(trace)
+    # [T, 4, P]: each step's class probabilities per pair (one product per trace for all its
+    # monitors, then the pairs picked), pairs innermost so that every elementwise product
+    # below runs over one long contiguous row
     per_class = torch.bmm(probs, weights.to(device, dtype)).view(n, steps, m, 4)
-    per_class = per_class.permute(1, 3, 2, 0).reshape(steps, 4, m * n)
-    targets = _targets(bank, n, device)  # [4·S·M·N]: where each (class, state) mass goes
-    state = torch.zeros((STATES, m * n), dtype=dtype, device=device)
+    per_class = per_class[trace, :, monitor].permute(1, 2, 0)
+    table = torch.as_tensor(bank.tables.transpose(2, 1, 0).copy(), device=device)  # [4, S, M]
+    # where each (class, state) mass of pair p goes: flat index u·P + p of the next states
+    targets = (table[:, :, monitor] * pairs + torch.arange(pairs, device=device)).flatten()
+    state = torch.zeros((STATES, pairs), dtype=dtype, device=device)
     state[0] = 1.0
-    running = (torch.arange(steps, device=device)[:, None] < lengths).repeat(1, m)  # [T, M·N]
+    running = torch.arange(steps, device=device)[:, None] < lengths[trace]  # [T, P]
     # unbound once: indexing step t inside the loop would give a full-size gradient per step
     for t, step in enumerate(per_class.unbind(0)):
-        mass = step[:, None, :] * state[None, :, :]  # [4, S, M·N]
-        moved = state.new_zeros(STATES * m * n).index_add(0, targets, mass.flatten())
-        state = torch.where(running[t], moved.view(STATES, m * n), state)
-    accepting = torch.as_tensor(bank.accepting.T, dtype=dtype, device=device)  # [S, M]
-    accepted = (state.view(STATES, m, n) * accepting[:, :, None]).sum(dim=0).t()  # [N, M]
-    accepted = accepted * present.to(device, dtype)
+        mass = step[:, None, :] * state[None, :, :]  # [4, S, P]
+        moved = state.new_zeros(STATES * pairs).index_add(0, targets, mass.flatten())
+        state = torch.where(running[t], moved.view(STATES, pairs), state)
+    accepting = torch.as_tensor(bank.accepting, dtype=dtype, device=device)  # [M, S]
+    accepted = torch.zeros((n, m), dtype=dtype, device=device).index_put(
+        (trace, monitor), (state * accepting[monitor].t()).sum(dim=0)
+    )
     # in the trace's length range (logic.monitors.MonitorBank.range_of), the others 0
     ranges = ((lengths - 1) * bank.ranges // bank.max_length).clamp(max=bank.ranges - 1)
     at_range = torch.nn.functional.one_hot(ranges, bank.ranges).to(dtype)
     placed = (at_range[:, :, None] * accepted[:, None, :]).flatten(1)
     return torch.cat([placed, torch.zeros_like(placed)], dim=1)
-
-
-_TARGETS: dict[tuple[int, int, str], torch.Tensor] = {}
-
-
-def _targets(bank: MonitorBank, traces: int, device: torch.device) -> torch.Tensor:
-    """[4·S·M·N] long: for the mass of monitor m on trace n in state s reading class c (laid
-    out [c, s, m, n]), its flat index (u, m, n) in the next state distribution [S, M·N], u =
-    `bank.tables[m, s, c]`. Kept per (width, traces, device): the tables depend on the bank's
-    slots only, and the width on the slots."""
-    key = (bank.width, traces, str(device))
-    if key not in _TARGETS:
-        m = bank.width
-        table = torch.as_tensor(bank.tables.transpose(2, 1, 0).copy(), device=device)  # [4, S, M]
-        pair = torch.arange(m * traces, device=device).view(m, traces)  # (m, n) -> m·N + n
-        _TARGETS[key] = (table[:, :, :, None] * (m * traces) + pair).flatten()
-    return _TARGETS[key]
