@@ -124,7 +124,9 @@ def test_soft_features_of_mixed_alphabets_are_each_monitors_own_walk():
     bank = MonitorBank(3, max_length=6)
     rng = np.random.default_rng(4)
     sizes, lengths = [1, 3, 2, 3], [6, 2, 4, 1]
-    tables = [monitor_classes(bank, Alphabet(("a", "b", "c")[:k], "one-hot").truth()) for k in sizes]
+    tables = [
+        monitor_classes(bank, Alphabet(("a", "b", "c")[:k], "one-hot").truth()) for k in sizes
+    ]
     classes = torch.zeros(len(sizes), bank.width, 4, dtype=torch.long)
     for row, (c, _) in enumerate(tables):
         classes[row, :, : c.shape[1]] = c

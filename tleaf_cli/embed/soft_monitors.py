@@ -65,7 +65,7 @@ def soft_monitor_features_weighted(
     features are 0 whatever the trace (a rule set of k atoms fills 7 k + 18 k (k − 1) of the
     bank's monitors, a fifth of a 10-slot bank's at k = 4)."""
     device, dtype = probs.device, probs.dtype
-    n, steps, letters = probs.shape
+    n, steps, _ = probs.shape
     m = bank.width
     lengths = lengths.to(device)
     trace, monitor = present.to(device).bool().nonzero(as_tuple=True)  # the P pairs run
