@@ -41,7 +41,7 @@ from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.soft import load_embedder
-from tleaf_cli.embed.training import device_for
+from tleaf_cli.embed.training import adam, device_for
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings import PRECISIONS
 from tleaf_cli.settings.meta import MetaSettings
@@ -232,7 +232,7 @@ def _fit_mlp(train: Split, val: Split, s: EvalSettings, balanced: bool = False) 
         nn.ReLU(),
         nn.Linear(s.hidden[1], 1),
     ).to(device)
-    optimiser = torch.optim.Adam(model.parameters(), lr=s.lr)
+    optimiser = adam(list(model.parameters()), s.lr)
     weights = _class_weights(train.label) if balanced else torch.ones_like(train.label)
     val_label = val.label.cpu().numpy().astype(bool)
     generator = torch.Generator().manual_seed(s.seed)
