@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import torch
+from torch_geometric.data import Batch
 from torch_geometric.loader import DataLoader
 
 from tleaf_cli.embed.graphs import (
@@ -16,6 +17,7 @@ from tleaf_cli.embed.graphs import (
     SYNTAX_ATOM,
     SYNTAX_OPS,
     cnf_graph,
+    cnf_graph_batch,
     dfa_graph,
     letter_cnf,
     syntax_graph,
@@ -46,6 +48,15 @@ def test_cnf_graph_structure() -> None:
     assert (b, neg) in arcs and any((neg, c) in arcs for c in clauses)
     glob = types.index(GLOBAL)
     assert all((glob, n) in arcs and (n, glob) in arcs for n in range(g.num_nodes) if n != glob)
+
+
+def test_a_batch_of_cnf_graphs_is_the_collated_graphs() -> None:
+    items = [([[1, -2], [3]], [7, 8, 9]), ([], [0]), ([[-1]], [4]), ([[2], [-1, 2]], [5, 6])]
+    want = Batch.from_data_list([cnf_graph(cnf, ids) for cnf, ids in items])
+    got = cnf_graph_batch(items)
+    for key in ("node_type", "atom", "edge_index", "batch", "ptr"):
+        assert torch.equal(got[key], want[key]), key
+    assert got.num_nodes == want.num_nodes and got.num_graphs == len(items)
 
 
 def test_true_guard_and_letters() -> None:

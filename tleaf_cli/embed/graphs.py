@@ -95,6 +95,46 @@ def cnf_graph(cnf: Clauses, atom_ids: Sequence[int]) -> Data:
     `atom_ids[k]` is the vocabulary index of the CNF's k-th atom. Fields: `node_type` [N],
     `atom` [N] (vocabulary index, -1 for operator nodes), `edge_index` [2, E].
     """
+    types, atoms, arcs = _cnf_parts(cnf, atom_ids)
+    return Data(
+        node_type=torch.tensor(types, dtype=torch.long),
+        atom=torch.tensor(atoms, dtype=torch.long),
+        edge_index=_edge_index(arcs),
+        num_nodes=len(types),
+    )
+
+
+def cnf_graph_batch(items: Sequence[tuple[Clauses, Sequence[int]]]) -> Batch:
+    """The graphs of many (cnf, atom_ids) pairs (`cnf_graph`) as one batch, what
+    `Batch.from_data_list` of them gives, built from plain lists: q_e embeds thousands of
+    guards at a time, and a `Data` object per guard cost more than the encoder."""
+    types: list[int] = []
+    atoms: list[int] = []
+    arcs: list[tuple[int, int]] = []
+    sizes: list[int] = []
+    for cnf, atom_ids in items:
+        offset = len(types)
+        t, a, e = _cnf_parts(cnf, atom_ids)
+        types += t
+        atoms += a
+        arcs += [(u + offset, v + offset) for u, v in e]
+        sizes.append(len(t))
+    sizes_t = torch.tensor(sizes, dtype=torch.long)
+    batch = Batch(
+        node_type=torch.tensor(types, dtype=torch.long),
+        atom=torch.tensor(atoms, dtype=torch.long),
+        edge_index=_edge_index(arcs),
+        batch=torch.repeat_interleave(torch.arange(len(sizes)), sizes_t),
+        ptr=torch.cat([torch.zeros(1, dtype=torch.long), sizes_t.cumsum(0)]),
+    )
+    batch.num_nodes = len(types)
+    return batch
+
+
+def _cnf_parts(
+    cnf: Clauses, atom_ids: Sequence[int]
+) -> tuple[list[int], list[int], list[tuple[int, int]]]:
+    """`cnf_graph`'s node types, node atoms and arcs, as lists."""
     types, atoms, arcs = [GLOBAL, AND], [-1, -1], []
     atom_node: dict[int, int] = {}
     for clause in cnf:
@@ -120,12 +160,7 @@ def cnf_graph(cnf: Clauses, atom_ids: Sequence[int]) -> Data:
             arcs.append((source, clause_node))
     for node in range(1, len(types)):
         arcs += [(0, node), (node, 0)]
-    return Data(
-        node_type=torch.tensor(types, dtype=torch.long),
-        atom=torch.tensor(atoms, dtype=torch.long),
-        edge_index=_edge_index(arcs),
-        num_nodes=len(types),
-    )
+    return types, atoms, arcs
 
 
 def letter_cnf(

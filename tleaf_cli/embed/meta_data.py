@@ -17,7 +17,13 @@ from torch_geometric.data import Batch, Data
 from tleaf_cli.data.monitor_cache import monitor_shares
 from tleaf_cli.embed.automaton import RUN_READOUTS
 from tleaf_cli.embed.encoders import PropositionEncoder
-from tleaf_cli.embed.graphs import cnf_graph, dfa_graph, letter_cnf, trace_graph, trace_graph_batch
+from tleaf_cli.embed.graphs import (
+    cnf_graph_batch,
+    dfa_graph,
+    letter_cnf,
+    trace_graph,
+    trace_graph_batch,
+)
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
@@ -40,9 +46,9 @@ class GuardVectors:
         missing = list(dict.fromkeys(k for k in keys if k not in self.cache))
         for i in range(0, len(missing), self.batch):
             part = missing[i : i + self.batch]
-            graphs = [cnf_graph(cnf, self.ids(atoms)) for atoms, cnf in part]
+            graphs = cnf_graph_batch([(cnf, self.ids(atoms)) for atoms, cnf in part])
             with torch.no_grad():
-                vectors = self.model(Batch.from_data_list(graphs))
+                vectors = self.model(graphs)
             self.cache.update(zip(part, vectors, strict=True))
         if not keys:
             return torch.zeros((0, self.dim))
