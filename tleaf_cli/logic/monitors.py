@@ -372,11 +372,10 @@ class MonitorBank:
         """`of_dfa`'s result from the hits [lengths, 2, M] and the DFA's own mass [lengths, 2]
         of accepted / rejected words: shares per length, averaged per length range."""
         share = np.where(mass[:, :, None] > 0, hit / np.where(mass > 0, mass, 1)[:, :, None], 0)
-        out = np.zeros((2, self.ranges, self.width))
-        counted = np.zeros((2, self.ranges, 1))
-        for t in range(self.max_length):  # length t + 1
-            out[:, self.range_of(t + 1)] += share[t]
-            counted[:, self.range_of(t + 1), 0] += mass[t] > 0
+        # [lengths, R]: 1 where length t + 1 falls in range r; sums over each range's lengths
+        in_range = np.eye(self.ranges)[[self.range_of(t + 1) for t in range(self.max_length)]]
+        out = np.einsum("tew,tr->erw", share, in_range)
+        counted = ((mass > 0).T.astype(float) @ in_range)[:, :, None]
         out = out / np.maximum(counted, 1) * present
         return out.reshape(2, -1).astype(np.float32)
 
