@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import itertools
 import random
 
@@ -10,10 +11,11 @@ import pytest
 
 from tests.conftest import all_traces
 from tleaf_cli.data.random_formulas import random_formula
+from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet, LetterError
 from tleaf_cli.logic.checker import check
 from tleaf_cli.logic.compile import compile_formula
-from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.dfa import DFA, conjoin_nonempty
 from tleaf_cli.logic.guards import cnf_holds
 
 
@@ -130,3 +132,77 @@ def test_powerset_alphabet_is_bounded() -> None:
     with pytest.raises(LetterError, match="one-hot"):
         Alphabet(atoms, "powerset")
     assert Alphabet(atoms, "one-hot").size == 18
+
+
+# Formulas without atoms: letter 0 is then their every letter, and not a self-loop for most.
+ATOMLESS = ("last", "!last", "X true", "X X true", "X(last)", "WX false", "true", "false")
+
+
+def _folded(dfas: list[DFA]) -> DFA:
+    """The reference `conjoin_nonempty` must equal: pairwise products, then minimize_nonempty."""
+    return functools.reduce(lambda x, y: x.product(y), dfas).minimize_nonempty()
+
+
+def _unminimised(dfa: DFA) -> DFA:
+    """The same language with every state doubled (the copies alternate), so not minimal."""
+    n, table = dfa.num_states, dfa.table
+    doubled = np.vstack([table + n, table])  # copy 0 steps into copy 1 and back
+    return DFA(dfa.alphabet, doubled, dfa.initial, np.concatenate([dfa.accepting] * 2))
+
+
+def _random_groups(rng: random.Random) -> list[DFA]:
+    """1-4 one-hot DFAs over disjoint atoms, as `rule_set._conjunction` gets its groups: each the
+    product (minimal, the empty word included) of 1-3 random formulas over its own atoms (X, WX,
+    U, ... included), or of atomless formulas; now and then one not minimal."""
+    names = iter("abcdefghijklmn")
+    groups = []
+    for _ in range(rng.randint(1, 4)):
+        atoms = [next(names) for _ in range(rng.randint(0, 3))]
+        texts = []
+        for _ in range(rng.randint(1, 3)):
+            if not atoms or rng.random() < 0.15:
+                texts.append(rng.choice(ATOMLESS))
+                continue
+            some = rng.sample(atoms, rng.randint(1, len(atoms)))
+            texts.append(random_formula(rng, some, rng.randint(2 * len(some), 2 * len(some) + 5)))
+        # one group's formulas with their atoms, whatever atoms the others have
+        dfa = functools.reduce(DFA.product, [compile_formula(t, "one-hot") for t in texts])
+        groups.append(_unminimised(dfa) if rng.random() < 0.1 else dfa)
+    return groups
+
+
+def test_conjoin_nonempty_equals_the_pairwise_products() -> None:
+    rng = random.Random(5)
+    for case in range(150):
+        groups = _random_groups(rng)
+        expected = _folded(groups)
+        assert conjoin_nonempty(groups) == expected, case
+        rng.shuffle(groups)
+        assert conjoin_nonempty(groups) == expected, case  # the order does not matter
+
+
+@pytest.mark.parametrize(
+    "texts",
+    [
+        ["G !a", "G !b", "G !c", "G !d", "G !e", "G !f", "G !g", "G !h", "G !i", "G !j", "G !k"],
+        ["G !a", "G !b", "X X true", "F c", "F d"],
+        ["F a", "F b", "F c", "F d", "F e", "F f", "F g", "F h", "F i", "F j"],  # 1024 states
+        ["G !a", "false"],
+        ["last"],
+        ["a U b"],
+    ],
+)
+def test_conjoin_nonempty_sinks_and_large_products(texts: list[str]) -> None:
+    """Rejecting sinks collapse to one state ("G !x" each, or all with "false"); a product past
+    SMALL_TABLE entries ("F x" each: 2**10 states) takes the pairwise route: the same DFA."""
+    dfas = [compile_formula(t, "one-hot") for t in texts]
+    assert conjoin_nonempty(dfas) == _folded(dfas)
+
+
+def test_conjoin_nonempty_rejects_shared_atoms_and_powersets() -> None:
+    with pytest.raises(InputError, match="atom a is in two"):
+        conjoin_nonempty([compile_formula("F a", "one-hot"), compile_formula("G !a", "one-hot")])
+    with pytest.raises(InputError, match="one-hot"):
+        conjoin_nonempty([compile_formula("F a")])
+    with pytest.raises(InputError, match="at least one"):
+        conjoin_nonempty([])

@@ -377,3 +377,48 @@ def test_a_guard_leaves_a_rule_that_forbids_its_atom_as_it_is(kb: KnowledgeBase)
     first, then = order.atoms
     assert guarded(order).formula == f"(F {first} & F {then}) -> ({order.formula})"
     assert guarded(order).name != order.name  # its own rule-set ids
+
+
+def _group_count(atom_sets: list[tuple[str, ...]]) -> int:
+    """How many groups `rule_set._conjunction` makes: formulas joined by shared atoms, plus one
+    for the atomless formulas."""
+    parts = [set(atoms) for atoms in atom_sets if atoms]
+    for i in reversed(range(len(parts))):  # merge each into the first earlier one it meets
+        j = next((j for j in range(i) if parts[j] & parts[i]), None)
+        if j is not None:
+            parts[j] |= parts.pop(i)
+    return len(parts) + (len(parts) < len(atom_sets) and not all(atom_sets))
+
+
+def test_a_rule_sets_dfa_is_the_pairwise_product_of_its_rules() -> None:
+    """`RuleSet` conjoins its groups of rules (connected by shared atoms) in one walk
+    (`dfa.conjoin_nonempty`): the same DFA as pairwise `DFA.product`s of every rule, then
+    `minimize_nonempty`, on random rule sets whose rules share atoms or not, use X, WX, U, ...
+    (letter 0 then moves a group), or name no atom ("last", "X true")."""
+    import functools
+
+    from tleaf_cli.data.random_formulas import random_formula
+    from tleaf_cli.logic.compile import compile_formula
+    from tleaf_cli.logic.dfa import DFA
+    from tleaf_cli.rule_set import RuleSet
+
+    vocabulary = [f"p{i}" for i in range(12)]
+    atomless = ["last", "!last", "X true", "X X true", "WX false", "true"]
+    rng = random.Random(3)
+    several = unsatisfiable = 0
+    for case in range(120):
+        formulas = []
+        for _ in range(rng.randint(1, 5)):
+            if rng.random() < 0.15:
+                formulas.append(rng.choice(atomless))
+                continue
+            atoms = rng.sample(vocabulary[: rng.randint(2, 12)], rng.randint(1, 2))
+            formulas.append(random_formula(rng, atoms, rng.randint(2 * len(atoms), 7)))
+        rule_set = RuleSet(formulas, vocabulary)
+        dfas = [compile_formula(f, "one-hot") for f in formulas]
+        expected = functools.reduce(DFA.product, dfas).minimize_nonempty()
+        assert rule_set.dfa == expected, (case, formulas)
+        assert rule_set.satisfiable == bool(expected.alive_letters(expected.initial).any())
+        several += _group_count([d.atoms for d in dfas]) > 1
+        unsatisfiable += not rule_set.satisfiable
+    assert several > 60 and unsatisfiable > 5, (several, unsatisfiable)  # both kinds were tried

@@ -38,7 +38,7 @@ from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.errors import ArgumentError, InputError, TleafError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.compile import by_progression
-from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.dfa import DFA, conjoin_nonempty
 from tleaf_cli.logic.formulas import atoms as formula_atoms
 from tleaf_cli.logic.formulas import parse
 
@@ -110,7 +110,7 @@ class RuleSet:
         compile_rules(self.formulas, compile_settings)
         timeout = (compile_settings or CompileSettings()).timeout
         self.dfa = _conjunction(self.formulas, timeout)
-        position = {item: i for i, item in enumerate(self.vocabulary)}
+        position = _positions(self.vocabulary)
         missing = [a for a in self.dfa.atoms if a not in position]
         if missing:
             raise InputError(
@@ -118,7 +118,10 @@ class RuleSet:
                 f"({len(self.vocabulary)} items)"
             )
         self.index = np.array([position[a] for a in self.dfa.atoms], dtype=np.int64)
-        self.satisfiable = bool(self.dfa.alive_letters(self.dfa.initial).any())
+        # minimal for non-empty traces: an accepting state exactly when a non-empty trace is
+        # accepted (an empty language is one rejecting state), the same as
+        # dfa.alive_letters(dfa.initial).any() without its numpy passes
+        self.satisfiable = bool(self.dfa.accepting.any())
 
     @property
     def atoms(self) -> tuple[str, ...]:
@@ -151,7 +154,8 @@ def _in_process(text: str, engine: str) -> DFA | None:
 
 def _conjunction(formulas: Sequence[str], timeout: float) -> DFA:
     """The minimal DFA (for non-empty traces) of the conjunction of compiled `formulas`: the
-    product of the groups of formulas connected by shared atoms, each group's DFA kept."""
+    product of the groups of formulas connected by shared atoms, each group's DFA kept. The
+    groups share no atoms, so their product is one walk (`dfa.conjoin_nonempty`)."""
     group_of: dict[str, int] = {}  # atom -> its group (union-find over the formulas' atoms)
     groups: list[set[str]] = []  # formulas per group
     atomless: set[str] = set()
@@ -175,11 +179,7 @@ def _conjunction(formulas: Sequence[str], timeout: float) -> DFA:
         for a in atoms:
             group_of[a] = keep
     parts = [frozenset(g) for g in groups if g] + ([frozenset(atomless)] if atomless else [])
-    dfa = None
-    for part in sorted(parts, key=sorted):
-        group = _group(part, timeout)
-        dfa = group if dfa is None else dfa.product(group, canonical=False)
-    return dfa.minimize_nonempty()
+    return conjoin_nonempty([_group(part, timeout) for part in sorted(parts, key=sorted)])
 
 
 @functools.lru_cache(maxsize=8192)
@@ -190,6 +190,13 @@ def _group(formulas: frozenset[str], timeout: float) -> DFA:
     for formula in ordered[1:]:
         dfa = dfa.product(_COMPILED[(formula, timeout)], canonical=False)
     return dfa.minimize()
+
+
+@functools.lru_cache(maxsize=16)
+def _positions(vocabulary: tuple[str, ...]) -> dict[str, int]:
+    """Item -> its position in `vocabulary` (read only): built once per vocabulary, not once per
+    rule set (a trainer builds every rule set of a run over the same few hundred items)."""
+    return {item: i for i, item in enumerate(vocabulary)}
 
 
 def _digest(texts: Iterable[str]) -> str:
