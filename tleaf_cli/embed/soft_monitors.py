@@ -16,10 +16,12 @@ Python loop runs over the T steps only.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 import torch
 
-from tleaf_cli.logic.monitors import STATES, MonitorBank
+from tleaf_cli.logic.monitors import MonitorBank
 
 
 def monitor_classes(bank: MonitorBank, truth: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
@@ -69,29 +71,48 @@ def soft_monitor_features_weighted(
     m = bank.width
     lengths = lengths.to(device)
     trace, monitor = present.to(device).bool().nonzero(as_tuple=True)  # the P pairs run
-    pairs = len(trace)
-    # [T, 4, P]: each step's class probabilities per pair (one product per trace for all its
-    # monitors, then the pairs picked), pairs innermost so that every elementwise product
-    # below runs over one long contiguous row
+    slots = _Slots.of(bank, monitor)
+    # [T, 4, slots]: each step's class probabilities per state slot (one product per trace for
+    # all its monitors, then each pair's value on each of its slots), slots innermost so that
+    # every elementwise product below runs over one long contiguous row
     per_class = torch.bmm(probs, weights.to(device, dtype)).view(n, steps, m, 4)
-    per_class = per_class[trace, :, monitor].permute(1, 2, 0)
-    table = torch.as_tensor(bank.tables.transpose(2, 1, 0).copy(), device=device)  # [4, S, M]
-    # where each (class, state) mass of pair p goes: flat index u·P + p of the next states
-    targets = (table[:, :, monitor] * pairs + torch.arange(pairs, device=device)).flatten()
-    state = torch.zeros((STATES, pairs), dtype=dtype, device=device)
-    state[0] = 1.0
-    running = torch.arange(steps, device=device)[:, None] < lengths[trace]  # [T, P]
+    per_class = per_class[trace, :, monitor].permute(1, 2, 0)[:, :, slots.pair]
+    state = (slots.state == 0).to(dtype)  # every monitor starts in its state 0
+    running = (torch.arange(steps, device=device)[:, None] < lengths[trace])[:, slots.pair]
     # unbound once: indexing step t inside the loop would give a full-size gradient per step
     for t, step in enumerate(per_class.unbind(0)):
-        mass = step[:, None, :] * state[None, :, :]  # [4, S, P]
-        moved = state.new_zeros(STATES * pairs).index_add(0, targets, mass.flatten())
-        state = torch.where(running[t], moved.view(STATES, pairs), state)
-    accepting = torch.as_tensor(bank.accepting, dtype=dtype, device=device)  # [M, S]
+        mass = step * state[None, :]  # [4, slots]
+        moved = torch.zeros_like(state).index_add(0, slots.targets, mass.flatten())
+        state = torch.where(running[t], moved, state)
+    per_pair = state.new_zeros(len(trace)).index_add(0, slots.pair, state * slots.accepting)
     accepted = torch.zeros((n, m), dtype=dtype, device=device).index_put(
-        (trace, monitor), (state * accepting[monitor].t()).sum(dim=0)
+        (trace, monitor), per_pair
     )
     # in the trace's length range (logic.monitors.MonitorBank.range_of), the others 0
     ranges = ((lengths - 1) * bank.ranges // bank.max_length).clamp(max=bank.ranges - 1)
     at_range = torch.nn.functional.one_hot(ranges, bank.ranges).to(dtype)
     placed = (at_range[:, :, None] * accepted[:, None, :]).flatten(1)
     return torch.cat([placed, torch.zeros_like(placed)], dim=1)
+
+
+class _Slots(NamedTuple):
+    """The state slots of P (trace, monitor) pairs laid end to end, each pair with as many as
+    its monitor uses (`MonitorBank.sizes`: 2 or 3 for most, not the 5 the bank pads to)."""
+
+    pair: torch.Tensor  # [slots] the pair a slot belongs to
+    state: torch.Tensor  # [slots] the monitor state it holds
+    targets: torch.Tensor  # [4 · slots] where the mass of (class c, slot) goes, c-major
+    accepting: torch.Tensor  # [slots] float, 1 where the state accepts
+
+    @classmethod
+    def of(cls, bank: MonitorBank, monitor: torch.Tensor) -> _Slots:
+        device = monitor.device
+        sizes = torch.as_tensor(bank.sizes, device=device)[monitor]
+        start = torch.cumsum(sizes, 0) - sizes
+        pair = torch.repeat_interleave(torch.arange(len(monitor), device=device), sizes)
+        state = torch.arange(len(pair), device=device) - start[pair]
+        table = torch.as_tensor(bank.tables, device=device)  # [M, S, 4]
+        moved_to = table[monitor[pair], state]  # [slots, 4]: the next state on each class
+        targets = (start[pair][:, None] + moved_to).t().flatten()
+        accepting = torch.as_tensor(bank.accepting, device=device)[monitor[pair], state]
+        return cls(pair, state, targets, accepting.float())

@@ -132,6 +132,14 @@ class MonitorBank:
         self.monitors = monitors
         self.tables = np.stack([m.table for m in monitors])  # [M, S, 4]
         self.accepting = np.stack([m.accepting for m in monitors])  # [M, S]
+        # [M]: how many states each monitor uses (its template's; the rest is padding that no
+        # state reaches), so that a walk can skip the padding
+        reach = np.zeros((len(monitors), STATES), dtype=bool)
+        reach[:, 0] = True
+        for _ in range(STATES):
+            m, s = np.nonzero(reach)
+            reach[m[:, None], self.tables[m, s]] = True
+        self.sizes = STATES - np.argmax(reach[:, ::-1], axis=1)  # 1 + the last state reached
         # steps[m, c, s, s'] = 1 where monitor m goes s -> s' on class c
         self.steps = np.zeros((len(monitors), 4, STATES, STATES))
         mm, ss, cc = np.meshgrid(*(np.arange(k) for k in self.tables.shape), indexing="ij")
