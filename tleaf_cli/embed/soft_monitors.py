@@ -85,9 +85,7 @@ def soft_monitor_features_weighted(
         moved = torch.zeros_like(state).index_add(0, slots.targets, mass.flatten())
         state = torch.where(running[t], moved, state)
     per_pair = state.new_zeros(len(trace)).index_add(0, slots.pair, state * slots.accepting)
-    accepted = torch.zeros((n, m), dtype=dtype, device=device).index_put(
-        (trace, monitor), per_pair
-    )
+    accepted = torch.zeros((n, m), dtype=dtype, device=device).index_put((trace, monitor), per_pair)
     # in the trace's length range (logic.monitors.MonitorBank.range_of), the others 0
     ranges = ((lengths - 1) * bank.ranges // bank.max_length).clamp(max=bank.ranges - 1)
     at_range = torch.nn.functional.one_hot(ranges, bank.ranges).to(dtype)
