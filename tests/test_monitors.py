@@ -279,3 +279,19 @@ def test_the_rest_walk_of_a_large_dfa_is_the_dense_product():
     np.add.at(counts, (np.arange(n)[:, None], table), 1.0)
     beta = rng.random((7, 2, n))
     np.testing.assert_allclose(_rest_walk(counts)(beta), beta @ counts.T, rtol=1e-12)
+
+
+def test_shares_are_kept_per_automaton_whatever_its_atoms() -> None:
+    """`of_dfa` of the same automaton over other atoms is the first one's (kept, not
+    recomputed), a caller's edits do not reach the kept copy, and another automaton over the
+    same atoms gets its own shares."""
+    bank = MonitorBank(2, max_length=5)
+    first = compile_formula("G(a -> F b)", "one-hot")
+    renamed = compile_formula("G(c -> F d)", "one-hot")
+    other = compile_formula("F(a & X b)", "one-hot")
+    assert np.array_equal(first.table, renamed.table) and first.atoms != renamed.atoms
+    shares = bank.of_dfa(first)
+    shares[:] = -1.0  # the caller's copy
+    again = bank.of_dfa(renamed)
+    np.testing.assert_allclose(again, bank.of_dfa(first, general=True), rtol=1e-6, atol=1e-7)
+    assert (again >= 0).all() and not np.array_equal(again, bank.of_dfa(other))

@@ -48,6 +48,9 @@ STATES = 5  # every monitor padded to this many states (the positional ones need
 # raise whenever `MonitorBank.of_dfa` computes other shares from the same bank and DFA: the
 # on-disk cache of shares (data/monitor_cache.py) keys on it
 SHARES_VERSION = 1
+# `MonitorBank.of_dfa` results kept per bank (a trainer's rule sets repeat a few dozen automata
+# over ever new atoms): 1,024 of 13 KB each for a 10-slot bank
+SHARES_KEPT = 1024
 
 # Templates: (transition rows [states][class], accepting states); class = p + 2 q of a letter.
 _ONE_ATOM: dict[str, tuple[list[list[int]], list[int]]] = {
@@ -147,6 +150,7 @@ class MonitorBank:
         self._classes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # per alphabet
         self._layouts: dict[tuple, _Layout] = {}  # per alphabet
         self._plans: dict[tuple, _OneHotPlan | None] = {}  # per one-hot alphabet
+        self._shares: dict[tuple, np.ndarray] = {}  # `of_dfa` per automaton, SHARES_KEPT at most
 
     @property
     def width(self) -> int:
@@ -210,6 +214,12 @@ class MonitorBank:
         action-recognition rule sets); other alphabets, or `general=True` (the tests' oracle),
         go through `_hits_general`. Both give the same shares up to float rounding."""
         truth = dfa.alphabet.truth()
+        # the shares read the DFA's table and its alphabet's truth table, never the atoms'
+        # names: rule sets over other atoms with the same automaton share them
+        key = (_alphabet_key(truth), dfa.table.shape, dfa.table.tobytes(),
+               dfa.accepting.tobytes(), dfa.initial, general)  # fmt: skip
+        if key in self._shares:
+            return self._shares[key].copy()
         _, present = self.classes(truth)
         a, n = dfa.alphabet.size, dfa.num_states
         # the DFA alone: P(at u after t uniform letters), for each length's accepted mass
@@ -226,7 +236,11 @@ class MonitorBank:
             hit = self._hits_one_hot(dfa, plan, ends, onehot.sum(axis=0))
         else:
             hit = self._hits_general(dfa, onehot, ends)
-        return self._averaged(hit, mass, present)
+        shares = self._averaged(hit, mass, present)
+        if len(self._shares) >= SHARES_KEPT:
+            self._shares.pop(next(iter(self._shares)))  # the oldest
+        self._shares[key] = shares
+        return shares.copy()
 
     def _hits_general(self, dfa: DFA, onehot: np.ndarray, ends: np.ndarray) -> np.ndarray:
         """[lengths, 2, M]: P(a uniform word of length t + 1 ends in the DFA's accepting
