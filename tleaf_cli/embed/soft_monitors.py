@@ -9,9 +9,10 @@ differentiable in P throughout. Laid out as a trace's crisp features are: these,
 
 Every (trace, monitor) pair whose atoms the trace's alphabet has moves together, the others
 being 0: the letters' classes are one batched matrix product ([N, T, L] by [N, L, M·4]), and
-each step is one product of class and state probabilities ([4, S, P]) and one index-add of it
-into the next states (a monitor's move on a class is a table: state s goes to one state u); the
-Python loop runs over the T steps only.
+each step is one product of class and state probabilities over the pairs' state slots ([4,
+slots]: each pair holds only the states its monitor uses) and one index-add of it into the next
+states (a monitor's move on a class is a table: state s goes to one state u); the Python loop
+runs over the T steps only.
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ def soft_monitor_features_weighted(
 
     Only the (trace, monitor) pairs whose atoms the trace's alphabet has are run: the others'
     features are 0 whatever the trace (a rule set of k atoms fills 7 k + 18 k (k − 1) of the
-    bank's monitors, a fifth of a 10-slot bank's at k = 4)."""
+    bank's monitors, a seventh of a 10-slot bank's at k = 4)."""
     device, dtype = probs.device, probs.dtype
     n, steps, _ = probs.shape
     m = bank.width
