@@ -44,9 +44,11 @@ def exact_loss(
     alpha = letters.new_full((states,), NEG).index_fill(0, initial, 0.0)
     steps = int(lengths.max())
     running = torch.arange(steps, device=letters.device)[:, None] < lengths[row_of]  # [T, states]
-    # the steps unbound once: indexing step t in the loop would give a full-size gradient each
-    for t, at_t in enumerate(letters[:, :steps].unbind(1)):
-        terms = alpha[source] + at_t.flatten()[letter]  # [arcs]
+    # every step's arc letters in one gather [T, arcs], unbound once: indexing step t in the
+    # loop would give a full-size gradient each
+    on_arcs = letters[:, :steps].transpose(0, 1).flatten(1)[:, letter]
+    for t, at_t in enumerate(on_arcs.unbind(0)):
+        terms = alpha[source] + at_t  # [arcs]
         top = letters.new_full((states,), NEG).scatter_reduce(0, target, terms.detach(), "amax")
         sums = letters.new_zeros(states).scatter_add(0, target, (terms - top[target]).exp())
         step = top + sums.clamp(min=1.0).log()  # a reached state's sum is >= 1
