@@ -9,7 +9,12 @@ import numpy as np
 import pytest
 import torch
 
-from tleaf_cli.embed.soft_monitors import monitor_classes, soft_monitor_features
+from tleaf_cli.embed.soft_monitors import (
+    AlphabetWalk,
+    monitor_classes,
+    soft_monitor_features,
+    soft_monitor_walk,
+)
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.compile import compile_formula
 from tleaf_cli.logic.formulas import parse
@@ -147,6 +152,26 @@ def test_soft_features_of_mixed_alphabets_are_each_monitors_own_walk():
             want = float(state @ bank.accepting[m]) if present[row, m] else 0.0
             assert float(out[row, m]) == pytest.approx(want, abs=1e-12)
     assert present.sum() < present.numel()  # some monitors are missing, and read 0 above
+
+
+def test_soft_walk_gradients_are_the_numerical_ones():
+    """The walk's hand-written backward (`soft_monitor_walk`) against finite differences, on
+    traces over alphabets of 1..3 atoms, one-hot and powerset, some shorter than the batch."""
+    bank = MonitorBank(3, max_length=6, ranges=2)
+    alphabets = [Alphabet(("a", "b", "c")[:k], kind) for k, kind in
+                 [(1, "one-hot"), (3, "one-hot"), (2, "powerset"), (3, "one-hot")]]  # fmt: skip
+    walks = [AlphabetWalk.of(bank, *monitor_classes(bank, a.truth())) for a in alphabets]
+    rng = np.random.default_rng(7)
+    width = max(a.size for a in alphabets)
+    probs = torch.zeros(len(alphabets), 4, width, dtype=torch.float64)
+    for row, a in enumerate(alphabets):
+        probs[row, :, : a.size] = torch.from_numpy(rng.dirichlet(np.ones(a.size), size=4))
+    probs.requires_grad_()
+    lengths = torch.tensor([4, 2, 3, 1])
+    weights = torch.from_numpy(rng.normal(size=2 * bank.features))  # a random readout of them
+    torch.autograd.gradcheck(
+        lambda p: soft_monitor_walk(bank, p, lengths, walks) @ weights, probs, atol=1e-8
+    )
 
 
 @pytest.fixture(scope="module")

@@ -37,7 +37,7 @@ from tleaf_cli.embed.meta_data import (
     trace_inputs,
 )
 from tleaf_cli.embed.soft_monitors import (
-    class_weights,
+    AlphabetWalk,
     monitor_classes,
     soft_monitor_features,
 )
@@ -64,10 +64,9 @@ class Embedder:
         # formula -> (q(A_φ) [d], q_e of its one-hot letters [L, d_e]), on q's device: q is
         # frozen, so a rule set's vectors never change once computed
         self._rule_sets: dict[str, tuple[torch.Tensor, torch.Tensor]] = {}
-        # (atoms k, letters L, device) -> the monitors' class weights of a one-hot alphabet of
-        # k atoms padded to L letters [L, M·4], and which monitors its atoms fill [M]: they
-        # depend on the number of atoms only (monitors read atoms by position)
-        self._monitor_tables: dict[tuple[int, int, str], tuple[torch.Tensor, torch.Tensor]] = {}
+        # (atoms k, device) -> the soft monitor walk of a one-hot alphabet of k atoms: it
+        # depends on the number of atoms only (monitors read atoms by position)
+        self._monitor_walks: dict[tuple[int, str], AlphabetWalk] = {}
 
     @property
     def device(self) -> torch.device:
@@ -168,41 +167,22 @@ class Embedder:
         )
         return torch.stack([vector for vector, _ in embedded]), tables
 
-    def monitor_classes(
-        self, rule_sets: Sequence[RuleSet], letters: int
-    ) -> tuple[torch.Tensor, torch.Tensor] | None:
-        """Each rule set's monitor classes of its one-hot letters, padded to `letters` [R, M,
-        letters] (padded letters class 0), and which monitors its atoms fill [R, M]; None for a q
-        without monitors."""
-        bank = self.model.trace.monitor_bank
-        if bank is None:
-            return None
-        tables = [monitor_classes(bank, _one_hot_truth(len(r.atoms))) for r in rule_sets]
-        classes = torch.zeros((len(tables), bank.width, letters), dtype=torch.long, device="cpu")
-        for j, (c, _) in enumerate(tables):
-            classes[j, :, : c.shape[1]] = c
-        return classes, torch.stack([p for _, p in tables])
-
-    def monitor_weights(
-        self, rule_sets: Sequence[RuleSet], letters: int
-    ) -> tuple[torch.Tensor, torch.Tensor] | None:
-        """`monitor_classes` as the class weights `soft_monitor_features_weighted` reads: [R,
-        letters, M·4] (padded letters 0) and [R, M], on q's device; built once per number of
-        atoms and kept. None for a q without monitors."""
+    def monitor_walks(self, rule_sets: Sequence[RuleSet]) -> list[AlphabetWalk] | None:
+        """Each rule set's soft monitor walk over its one-hot letters (`AlphabetWalk`, what
+        `soft_monitor_walk` reads), on q's device; built once per number of atoms (monitors
+        read atoms by position) and kept. None for a q without monitors."""
         bank = self.model.trace.monitor_bank
         if bank is None:
             return None
         device = self.device
-        parts = []
+        walks = []
         for r in rule_sets:
-            key = (len(r.atoms), letters, str(device))
-            if key not in self._monitor_tables:
+            key = (len(r.atoms), str(device))
+            if key not in self._monitor_walks:
                 classes, present = monitor_classes(bank, _one_hot_truth(len(r.atoms)))
-                weights = class_weights(classes, torch.float32)  # [k + 1, M·4]
-                weights = torch.nn.functional.pad(weights, (0, 0, 0, letters - len(weights)))
-                self._monitor_tables[key] = (weights.to(device), present.to(device))
-            parts.append(self._monitor_tables[key])
-        return torch.stack([w for w, _ in parts]), torch.stack([p for _, p in parts])
+                self._monitor_walks[key] = AlphabetWalk.of(bank, classes, present).to(device)
+            walks.append(self._monitor_walks[key])
+        return walks
 
     def _encode(self, encode, graphs, batch: int) -> torch.Tensor:
         device = self.device

@@ -7,22 +7,23 @@ probability that it accepts the trace — exactly ψ(w) when every P_t is one-ho
 differentiable in P throughout. Laid out as a trace's crisp features are: these, then zeros
 (a trace has no rejected words).
 
-Every (trace, monitor) pair whose atoms the trace's alphabet has moves together, the others
-being 0: the letters' classes are one batched matrix product ([N, T, L] by [N, L, M·4]), and
-each step is one product of class and state probabilities over the pairs' state slots ([4,
-slots]: each pair holds only the states its monitor uses) and one index-add of it into the next
-states (a monitor's move on a class is a table: state s goes to one state u); the Python loop
-runs over the T steps only.
+What depends on the alphabet only is built once per alphabet (`AlphabetWalk`): which monitors
+its atoms fill, the state slots they use (2 or 3 for most, not the 5 the bank pads to), and the
+edges between slots that its letters take, each with a 0/1 column of the letters that take it.
+A batch is then one matrix product per alphabet (every step's edge weights, [T, edges]) and,
+per step, one gather, product and index-add over all traces' edges together (`_Walk`, with its
+backward written out): the Python loop runs over the T steps only.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 import torch
 
-from tleaf_cli.logic.monitors import MonitorBank
+from tleaf_cli.logic.monitors import STATES, MonitorBank
 
 
 def monitor_classes(bank: MonitorBank, truth: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
@@ -33,11 +34,56 @@ def monitor_classes(bank: MonitorBank, truth: np.ndarray) -> tuple[torch.Tensor,
     return torch.tensor(classes, device="cpu"), torch.tensor(present, device="cpu")
 
 
-def class_weights(classes: torch.Tensor, dtype: torch.dtype) -> torch.Tensor:
-    """[..., L, M·4]: 1 where letter l is of class c for monitor m (column m·4 + c), from classes
-    [..., M, L]; a soft trace's class probabilities are then `probs @ class_weights`."""
-    onehot = torch.nn.functional.one_hot(classes.long(), 4).to(dtype)  # [..., M, L, 4]
-    return onehot.transpose(-3, -2).flatten(-2)
+class AlphabetWalk(NamedTuple):
+    """The soft monitor walk of one alphabet's traces: the state slots of the monitors its atoms
+    fill, laid end to end (each monitor with as many as it uses, `MonitorBank.sizes`), and the
+    edges between them: one per (slot, next slot) that some letter leads to, weighted at each
+    step by the probability of the letters that take it (an edge merges the classes that lead
+    to the same state: 1.7 edges a slot on one-hot alphabets, not 4 classes)."""
+
+    weights: torch.Tensor  # [letters, edges] 1 where the letter takes the edge
+    source: torch.Tensor  # [edges] the slot an edge leaves
+    target: torch.Tensor  # [edges] the slot it enters
+    start: torch.Tensor  # [slots] 1 at each monitor's state 0
+    accepting: torch.Tensor  # [slots] 1 where the state accepts
+    monitor: torch.Tensor  # [slots] the bank's monitor each slot belongs to
+
+    @property
+    def letters(self) -> int:
+        return self.weights.shape[0]
+
+    @property
+    def slots(self) -> int:
+        return self.start.shape[0]
+
+    @classmethod
+    def of(cls, bank: MonitorBank, classes: torch.Tensor, present: torch.Tensor) -> AlphabetWalk:
+        """The walk of an alphabet whose monitors read classes [M, letters] and whose atoms
+        fill the monitors `present` [M] (`monitor_classes`)."""
+        monitors = torch.as_tensor(present).bool().cpu().nonzero(as_tuple=True)[0]
+        sizes = torch.as_tensor(bank.sizes)[monitors]
+        first = torch.cumsum(sizes, 0) - sizes  # each monitor's first slot
+        pair = torch.repeat_interleave(torch.arange(len(monitors)), sizes)
+        state = torch.arange(len(pair)) - first[pair]
+        monitor = monitors[pair]
+        # [slots, letters]: the state each letter leads each slot to
+        letter_classes = torch.as_tensor(classes).cpu()[monitor].long()
+        moved = torch.as_tensor(bank.tables)[monitor, state].gather(1, letter_classes)
+        edges = torch.unique(torch.arange(len(pair))[:, None] * STATES + moved)
+        source, to = edges // STATES, edges % STATES
+        weights = (moved[source] == to[:, None]).t()
+        accepting = torch.as_tensor(bank.accepting)[monitor, state]
+        return cls(
+            weights.float(),
+            source,
+            first[pair[source]] + to,
+            (state == 0).float(),
+            accepting.float(),
+            monitor,
+        )
+
+    def to(self, device: torch.device | str) -> AlphabetWalk:
+        return AlphabetWalk(*(t.to(device) for t in self))
 
 
 def soft_monitor_features(
@@ -50,68 +96,104 @@ def soft_monitor_features(
     """[N, 2 R F] for soft traces `probs` [N, T, letters] (rows past `lengths` [N] ignored), trace n
     read with `classes` [N, M, letters] and `present` [N, M] (`monitor_classes` of its
     alphabet, padded letters with any class: their probability is 0)."""
-    weights = class_weights(classes.to(probs.device), probs.dtype)
-    return soft_monitor_features_weighted(bank, probs, lengths, weights, present)
+    walks: dict[bytes, AlphabetWalk] = {}
+    per_trace = []
+    for c, p in zip(classes.cpu(), present.cpu(), strict=True):
+        key = c.numpy().tobytes() + p.numpy().tobytes()
+        if key not in walks:
+            walks[key] = AlphabetWalk.of(bank, c, p).to(probs.device)
+        per_trace.append(walks[key])
+    return soft_monitor_walk(bank, probs, lengths, per_trace)
 
 
-def soft_monitor_features_weighted(
+def soft_monitor_walk(
     bank: MonitorBank,
     probs: torch.Tensor,
     lengths: torch.Tensor,
-    weights: torch.Tensor,
-    present: torch.Tensor,
+    walks: Sequence[AlphabetWalk],
 ) -> torch.Tensor:
-    """`soft_monitor_features` with each trace's classes given as `class_weights` [N, L, M·4]
-    (what a caller that reads the same alphabets again keeps, instead of the classes).
+    """`soft_monitor_features` with trace n read by `walks[n]` (on probs' device; what a caller
+    that reads the same alphabets again keeps). Trace n's letters beyond walks[n].letters must
+    have probability 0.
 
-    Only the (trace, monitor) pairs whose atoms the trace's alphabet has are run: the others'
-    features are 0 whatever the trace (a rule set of k atoms fills 7 k + 18 k (k − 1) of the
-    bank's monitors, a seventh of a 10-slot bank's at k = 4)."""
+    Only the monitors whose atoms a trace's alphabet has are run: the others' features are 0
+    whatever the trace (a rule set of k atoms fills 7 k + 18 k (k − 1) of the bank's
+    monitors, a seventh of a 10-slot bank's at k = 4)."""
     device, dtype = probs.device, probs.dtype
     n, steps, _ = probs.shape
-    m = bank.width
     lengths = lengths.to(device)
-    trace, monitor = present.to(device).bool().nonzero(as_tuple=True)  # the P pairs run
-    slots = _Slots.of(bank, monitor)
-    # [T, 4, slots]: each step's class probabilities per state slot (one product per trace for
-    # all its monitors, then each pair's value on each of its slots), slots innermost so that
-    # every elementwise product below runs over one long contiguous row
-    per_class = torch.bmm(probs, weights.to(device, dtype)).view(n, steps, m, 4)
-    per_class = per_class[trace, :, monitor].permute(1, 2, 0)[:, :, slots.pair]
-    state = (slots.state == 0).to(dtype)  # every monitor starts in its state 0
-    running = (torch.arange(steps, device=device)[:, None] < lengths[trace])[:, slots.pair]
-    # unbound once: indexing step t inside the loop would give a full-size gradient per step
-    for t, step in enumerate(per_class.unbind(0)):
-        mass = step * state[None, :]  # [4, slots]
-        moved = torch.zeros_like(state).index_add(0, slots.targets, mass.flatten())
-        state = torch.where(running[t], moved, state)
-    per_pair = state.new_zeros(len(trace)).index_add(0, slots.pair, state * slots.accepting)
-    accepted = torch.zeros((n, m), dtype=dtype, device=device).index_put((trace, monitor), per_pair)
+    groups: dict[int, list[int]] = {}  # traces by walk (alphabet)
+    for row, walk in enumerate(walks):
+        groups.setdefault(id(walk), []).append(row)
+    if not n:
+        return probs.new_zeros((0, 2 * bank.features))
+    weights, source, target, start, accepting, column, length = ([] for _ in range(7))
+    offset = 0
+    for rows in groups.values():
+        walk, k = walks[rows[0]], len(rows)
+        index = torch.tensor(rows, device=device)
+        # [T, k · edges]: each step's edge weights, traces one after the other
+        letters = probs[index, :, : walk.letters].transpose(0, 1)
+        weights.append((letters @ walk.weights.to(dtype)).flatten(1))
+        shift = offset + walk.slots * torch.arange(k, device=device)[:, None]
+        source.append((walk.source[None, :] + shift).flatten())
+        target.append((walk.target[None, :] + shift).flatten())
+        start.append(walk.start.repeat(k))
+        accepting.append(walk.accepting.repeat(k))
+        column.append((index[:, None] * bank.width + walk.monitor[None, :]).flatten())
+        length.append(lengths[index].repeat_interleave(walk.slots))
+        offset += k * walk.slots
+    running = torch.arange(steps, device=device)[:, None] < torch.cat(length)[None, :]
+    state = _Walk.apply(
+        torch.cat(weights, dim=1),
+        torch.cat(source),
+        torch.cat(target),
+        torch.cat(start).to(dtype),
+        running,
+    )
+    accepted = state.new_zeros(n * bank.width).index_add(
+        0, torch.cat(column), state * torch.cat(accepting).to(dtype)
+    )
     # in the trace's length range (logic.monitors.MonitorBank.range_of), the others 0
     ranges = ((lengths - 1) * bank.ranges // bank.max_length).clamp(max=bank.ranges - 1)
     at_range = torch.nn.functional.one_hot(ranges, bank.ranges).to(dtype)
-    placed = (at_range[:, :, None] * accepted[:, None, :]).flatten(1)
+    placed = (at_range[:, :, None] * accepted.view(n, bank.width)[:, None, :]).flatten(1)
     return torch.cat([placed, torch.zeros_like(placed)], dim=1)
 
 
-class _Slots(NamedTuple):
-    """The state slots of P (trace, monitor) pairs laid end to end, each pair with as many as
-    its monitor uses (`MonitorBank.sizes`: 2 or 3 for most, not the 5 the bank pads to)."""
+class _Walk(torch.autograd.Function):
+    """The states after the last step [slots] of a walk from `start` [slots] whose step t moves
+    mass weights[t, e] · state[source[e]] along each edge e into target[e], for the slots
+    `running[t]` (the others keep theirs). Written out backwards so that a step costs a few
+    operations over the edges both ways (autograd's own graph of the loop had twice as many),
+    and the weights' gradient comes out as one product after the loop."""
 
-    pair: torch.Tensor  # [slots] the pair a slot belongs to
-    state: torch.Tensor  # [slots] the monitor state it holds
-    targets: torch.Tensor  # [4 · slots] where the mass of (class c, slot) goes, c-major
-    accepting: torch.Tensor  # [slots] float, 1 where the state accepts
+    @staticmethod
+    def forward(
+        ctx: Any,
+        weights: torch.Tensor,
+        source: torch.Tensor,
+        target: torch.Tensor,
+        start: torch.Tensor,
+        running: torch.Tensor,
+    ) -> torch.Tensor:
+        states = [start]
+        for t in range(weights.shape[0]):
+            state = states[-1]
+            mass = weights[t] * state.index_select(0, source)
+            moved = torch.zeros_like(state).index_add_(0, target, mass)
+            states.append(torch.where(running[t], moved, state))
+        ctx.save_for_backward(weights, source, target, torch.stack(states[:-1]), running)
+        return states[-1]
 
-    @classmethod
-    def of(cls, bank: MonitorBank, monitor: torch.Tensor) -> _Slots:
-        device = monitor.device
-        sizes = torch.as_tensor(bank.sizes, device=device)[monitor]
-        start = torch.cumsum(sizes, 0) - sizes
-        pair = torch.repeat_interleave(torch.arange(len(monitor), device=device), sizes)
-        state = torch.arange(len(pair), device=device) - start[pair]
-        table = torch.as_tensor(bank.tables, device=device)  # [M, S, 4]
-        moved_to = table[monitor[pair], state]  # [slots, 4]: the next state on each class
-        targets = (start[pair][:, None] + moved_to).t().flatten()
-        accepting = torch.as_tensor(bank.accepting, device=device)[monitor[pair], state]
-        return cls(pair, state, targets, accepting.float())
+    @staticmethod
+    @torch.autograd.function.once_differentiable
+    def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
+        weights, source, target, states, running = ctx.saved_tensors
+        into = torch.empty_like(weights)  # [T, edges]: the gradient of each step's moved mass
+        zero = grad.new_zeros(())
+        for t in range(weights.shape[0] - 1, -1, -1):
+            moved = torch.where(running[t], grad, zero)
+            torch.index_select(moved, 0, target, out=into[t])
+            grad = torch.where(running[t], zero, grad).index_add_(0, source, into[t] * weights[t])
+        return into * states[:, source], None, None, None, None

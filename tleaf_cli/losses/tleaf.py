@@ -7,8 +7,8 @@ letters — exactly the discrete letter's vector when P_t is one-hot, and differ
 throughout. Gradients reach the model through P_t only; q's weights never change.
 
 What does not depend on the outputs is computed once per rule set and kept by the embedder:
-q(A_φ), the letters' q_e vectors, the monitors' class weights (the same for every rule set with
-as many atoms). A batch is then a few batched products (expected letters, monitor classes), the
+q(A_φ), the letters' q_e vectors, the monitors' walk (the same for every rule set with as many
+atoms). A batch is then a few batched products (expected letters, monitor classes), the
 monitors' steps, and one q_m call on all the rows' chains together.
 """
 
@@ -17,7 +17,7 @@ from __future__ import annotations
 import torch
 
 from tleaf_cli.embed.soft import Embedder, soft_trace_vectors
-from tleaf_cli.embed.soft_monitors import soft_monitor_features_weighted
+from tleaf_cli.embed.soft_monitors import soft_monitor_walk
 from tleaf_cli.losses.packed import PackedRuleSets
 
 
@@ -41,10 +41,10 @@ def tleaf_loss(
         table = torch.nn.functional.pad(table, (0, 0, 0, width - table.shape[1]))
     expected = torch.bmm(probs, table[:, :width])
     monitor = None
-    weights = embedder.monitor_weights(packed.rule_sets, width)
-    if weights is not None:  # a q with monitors reads the soft trace's monitor features too
+    walks = embedder.monitor_walks(packed.rule_sets)
+    if walks is not None:  # a q with monitors reads the soft trace's monitor features too
         bank = embedder.model.trace.monitor_bank
-        class_weights, present = (w.to(device)[rows] for w in weights)
-        monitor = soft_monitor_features_weighted(bank, probs, lengths, class_weights, present)
+        walks = [walks[r] for r in rows.tolist()]
+        monitor = soft_monitor_walk(bank, probs, lengths, walks)
     z_trace = soft_trace_vectors(embedder.model, expected, lengths, monitor)
     return (z_trace - formula_vectors.to(device)[rows]).pow(2).sum(dim=1)
