@@ -320,3 +320,20 @@ def test_shares_are_kept_per_automaton_whatever_its_atoms() -> None:
     again = bank.of_dfa(renamed)
     np.testing.assert_allclose(again, bank.of_dfa(first, general=True), rtol=1e-6, atol=1e-7)
     assert (again >= 0).all() and not np.array_equal(again, bank.of_dfa(other))
+
+
+def test_automata_over_other_atoms_share_readout_weights_and_embed_as_alone(monitor_q) -> None:
+    """The readout weights kept per automaton (`DFA.structure`) give each DFA the vector a q
+    that never saw the other gives it; guards over other atoms still get their own q_e."""
+    import tleaf_cli as tl
+    from tleaf_cli.embed.soft import load_embedder
+
+    ab = tl.RuleSet("G(a -> F(b))", ["a", "b", "c"]).dfa
+    ac = tl.RuleSet("G(a -> F(c))", ["a", "b", "c"]).dfa  # the same automaton over (a, c)
+    assert ab.structure == ac.structure and ab.atoms != ac.atoms
+    q = load_embedder(monitor_q[0])
+    both = q.embed_dfas([ab, ac])
+    assert len(q._run_weights) == 1
+    for k, dfa in enumerate((ab, ac)):
+        torch.testing.assert_close(both[k], load_embedder(monitor_q[0]).embed_dfas([dfa])[0])
+    assert not torch.allclose(both[0], both[1])

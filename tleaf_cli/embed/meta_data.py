@@ -33,26 +33,33 @@ Key = tuple[tuple[str, ...], tuple[tuple[int, ...], ...]]
 
 
 class GuardVectors:
-    """q_e(guard) for (atoms, cnf) keys, computed in batches and cached."""
+    """q_e(guard) for (atoms, cnf) keys, computed in batches and cached.
+
+    The cache is keyed by the guard as it reads atoms' names (`_named`): q_e's graph of a
+    guard holds only the atoms it mentions, so the same guard inside formulas over other atom
+    lists (the rule sets a loss builds from ever new predictions) is computed once."""
 
     def __init__(self, model: PropositionEncoder, vocabulary: Sequence[str], batch: int = 1024):
         self.model = model.eval()
         self.index = {a: i for i, a in enumerate(vocabulary)}
         self.batch = batch
-        self.cache: dict[Key, torch.Tensor] = {}
+        self.cache: dict[tuple, torch.Tensor] = {}
         self.dim = model.head.out_features
 
     def __call__(self, keys: Sequence[Key]) -> torch.Tensor:
-        missing = list(dict.fromkeys(k for k in keys if k not in self.cache))
+        named = [_named(k) for k in keys]
+        missing = list(
+            {n: k for n, k in zip(named, keys, strict=True) if n not in self.cache}.items()
+        )
         for i in range(0, len(missing), self.batch):
             part = missing[i : i + self.batch]
-            graphs = cnf_graph_batch([(cnf, self.ids(atoms)) for atoms, cnf in part])
+            graphs = cnf_graph_batch([(cnf, self.ids(atoms)) for _, (atoms, cnf) in part])
             with torch.no_grad():
                 vectors = self.model(graphs)
-            self.cache.update(zip(part, vectors, strict=True))
+            self.cache.update(zip((n for n, _ in part), vectors, strict=True))
         if not keys:
             return torch.zeros((0, self.dim))
-        return torch.stack([self.cache[k] for k in keys])
+        return torch.stack([self.cache[n] for n in named])
 
     def ids(self, atoms: Sequence[str]) -> list[int]:
         """Vocabulary indices of `atoms`; InputError naming any the edge model never saw."""
@@ -63,6 +70,13 @@ class GuardVectors:
                 "that contain them"
             )
         return [self.index[a] for a in atoms]
+
+
+def _named(key: Key) -> tuple:
+    """A guard's clauses as (sign, atom name) literals: the same key for the same guard over
+    any atom list (q_e's graph of it is the same)."""
+    atoms, cnf = key
+    return tuple(tuple((lit > 0, atoms[abs(lit) - 1]) for lit in clause) for clause in cnf)
 
 
 def _with_edge_vectors(graph: Data, vectors: torch.Tensor) -> Data:

@@ -42,14 +42,14 @@ from tleaf_cli.embed.soft_monitors import (
     soft_monitor_features,
 )
 from tleaf_cli.embed.train_edge import load_edge_model
-from tleaf_cli.embed.train_meta import TripletEmbedder, build_model
+from tleaf_cli.embed.train_meta import TripletEmbedder, build_model, store_run_weights
 from tleaf_cli.embed.training import read_model_config
 from tleaf_cli.errors import ArgumentError, ArgumentTypeError, InputError, SettingError
 from tleaf_cli.logic.alphabet import ALPHABET_KINDS, Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
 from tleaf_cli.rule_set import RuleSet
-from tleaf_cli.settings.meta import recommended_lambda, settings_from_config
+from tleaf_cli.settings.meta import RUN_READOUTS, recommended_lambda, settings_from_config
 
 
 class Embedder:
@@ -67,6 +67,7 @@ class Embedder:
         # (atoms k, device) -> the soft monitor walk of a one-hot alphabet of k atoms: it
         # depends on the number of atoms only (monitors read atoms by position)
         self._monitor_walks: dict[tuple[int, str], AlphabetWalk] = {}
+        self._run_weights: dict[tuple, torch.Tensor] = {}  # DFA.structure -> [nodes, parts]
 
     @property
     def device(self) -> torch.device:
@@ -102,7 +103,20 @@ class Embedder:
             raise InputError(f"a q of kind {self.kind!r} does not read DFAs")
         bank = self.model.trace.monitor_bank
         graphs = featured_dfa_graphs(dfas, self.vectors, bank, cache_shares=cache_shares)
+        if self.model.formula.readout in RUN_READOUTS:
+            self._give_run_weights(dfas, graphs)
         return self._encode(self.model.embed_formulas, graphs, batch)
+
+    def _give_run_weights(self, dfas: Sequence[DFA], graphs: list) -> None:
+        """Each DFA graph's readout weights (`AutomatonEncoder.run_weights`), computed once per
+        automaton (they never read the atoms' names: a loss's fresh rule sets repeat a few
+        dozen automata over ever new atoms) and kept on the CPU."""
+        first = {d.structure: g for d, g in zip(dfas, graphs, strict=True)}
+        fresh = [key for key in first if key not in self._run_weights]
+        store_run_weights(self.model.formula, [first[key] for key in fresh])
+        self._run_weights.update((key, first[key].run_weights) for key in fresh)
+        for d, g in zip(dfas, graphs, strict=True):
+            g.run_weights = self._run_weights[d.structure]
 
     def embed_traces(
         self,

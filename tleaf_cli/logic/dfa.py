@@ -54,6 +54,21 @@ class DFA:
     def num_states(self) -> int:
         return int(self.table.shape[0])
 
+    @property
+    def structure(self) -> tuple:
+        """The automaton up to its atoms' names, hashable: what is computed from the table
+        alone (monitor shares, graph layouts, readout weights) can be kept under it for every
+        DFA that differs only in the names of its atoms."""
+        kind, atoms = self.alphabet.kind, len(self.atoms)
+        return (
+            kind,
+            atoms,
+            self.table.shape,
+            self.table.tobytes(),
+            self.accepting.tobytes(),
+            self.initial,
+        )
+
     # ------------------------------------------------------------------ running
     def run(self, letters: Sequence[int] | np.ndarray) -> int:
         """The state reached from the initial state on letter indices."""

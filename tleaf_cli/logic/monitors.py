@@ -216,8 +216,7 @@ class MonitorBank:
         truth = dfa.alphabet.truth()
         # the shares read the DFA's table and its alphabet's truth table, never the atoms'
         # names: rule sets over other atoms with the same automaton share them
-        key = (_alphabet_key(truth), dfa.table.shape, dfa.table.tobytes(),
-               dfa.accepting.tobytes(), dfa.initial, general)  # fmt: skip
+        key = (dfa.structure, general)
         if key in self._shares:
             return self._shares[key].copy()
         _, present = self.classes(truth)
