@@ -127,33 +127,31 @@ def soft_monitor_walk(
         groups.setdefault(id(walk), []).append(row)
     if not n:
         return probs.new_zeros((0, 2 * bank.features))
-    weights, source, target, start, accepting, column, length = ([] for _ in range(7))
-    offset = 0
+    # traces one after the other, those of one alphabet together; edge weights [T, edges]
+    # from one product per alphabet
+    weights = []
     for rows in groups.values():
-        walk, k = walks[rows[0]], len(rows)
-        index = torch.tensor(rows, device=device)
-        # [T, k · edges]: each step's edge weights, traces one after the other
-        letters = probs[index, :, : walk.letters].transpose(0, 1)
+        walk = walks[rows[0]]
+        letters = probs[rows, :, : walk.letters].transpose(0, 1)  # [T, traces, letters]
         weights.append((letters @ walk.weights.to(dtype)).flatten(1))
-        shift = offset + walk.slots * torch.arange(k, device=device)[:, None]
-        source.append((walk.source[None, :] + shift).flatten())
-        target.append((walk.target[None, :] + shift).flatten())
-        start.append(walk.start.repeat(k))
-        accepting.append(walk.accepting.repeat(k))
-        column.append((index[:, None] * bank.width + walk.monitor[None, :]).flatten())
-        length.append(lengths[index].repeat_interleave(walk.slots))
-        offset += k * walk.slots
-    running = torch.arange(steps, device=device)[:, None] < torch.cat(length)[None, :]
+    order = [row for rows in groups.values() for row in rows]
+    laid = [walks[row] for row in order]
+    slots = torch.tensor([w.slots for w in laid], device=device)
+    edges = torch.tensor([len(w.source) for w in laid], device=device)
+    shift = torch.repeat_interleave(torch.cumsum(slots, 0) - slots, edges)
+    rows = torch.tensor(order, device=device)
+    running = torch.arange(steps, device=device)[:, None] < lengths[rows].repeat_interleave(slots)
     state = _Walk.apply(
         torch.cat(weights, dim=1),
-        torch.cat(source),
-        torch.cat(target),
-        torch.cat(start).to(dtype),
+        torch.cat([w.source for w in laid]) + shift,
+        torch.cat([w.target for w in laid]) + shift,
+        torch.cat([w.start for w in laid]).to(dtype),
         running,
     )
-    accepted = state.new_zeros(n * bank.width).index_add(
-        0, torch.cat(column), state * torch.cat(accepting).to(dtype)
-    )
+    column = torch.repeat_interleave(rows * bank.width, slots)
+    column = column + torch.cat([w.monitor for w in laid])
+    accepting = torch.cat([w.accepting for w in laid]).to(dtype)
+    accepted = state.new_zeros(n * bank.width).index_add(0, column, state * accepting)
     # in the trace's length range (logic.monitors.MonitorBank.range_of), the others 0
     ranges = ((lengths - 1) * bank.ranges // bank.max_length).clamp(max=bank.ranges - 1)
     at_range = torch.nn.functional.one_hot(ranges, bank.ranges).to(dtype)
