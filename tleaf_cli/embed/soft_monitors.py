@@ -121,12 +121,12 @@ def soft_monitor_walk(
     monitors, a seventh of a 10-slot bank's at k = 4)."""
     device, dtype = probs.device, probs.dtype
     n, steps, _ = probs.shape
+    if not n:
+        return probs.new_zeros((0, 2 * bank.features))
     lengths = lengths.to(device)
     groups: dict[int, list[int]] = {}  # traces by walk (alphabet)
     for row, walk in enumerate(walks):
         groups.setdefault(id(walk), []).append(row)
-    if not n:
-        return probs.new_zeros((0, 2 * bank.features))
     # traces one after the other, those of one alphabet together; edge weights [T, edges]
     # from one product per alphabet
     weights = []
