@@ -5,7 +5,7 @@ backwards, one torch thread: where a training step's loss time goes.
 
 Reads the action-recognition data and q that `benchmarks/speed.py` prepares (SYNTHETIC
 activities, a q trained one epoch on their rule sets). The batch: 16 videos of `--steps` steps
-(lengths drawn from steps/2 to steps), random outputs, and the 16 rule sets of 3-10 drawn
+(lengths drawn from steps/2 to steps), random outputs, and the 16 rule sets of `--atoms` (3-10) drawn
 knowledge-base atoms, as the model's predictions would bring up, each already embedded (as
 after its first batch). Prints, per part, the mean over `--repeat` calls after 5 warm-up calls:
 
@@ -54,6 +54,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=12, help="steps per video")
     parser.add_argument("--repeat", type=int, default=50)
     parser.add_argument("--fresh", type=int, default=12, help="fresh rule sets per batch")
+    parser.add_argument("--atoms", default="3-10", help="knowledge-base atoms drawn per rule set")
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     torch.set_num_threads(1)
@@ -67,7 +68,8 @@ def main() -> None:
     q = load_embedder(args.data / "meta")
     rng = random.Random(args.seed)
     atoms = sorted({a for r in kb for a in r.atoms})
-    drawn = [set(rng.sample(atoms, rng.randint(3, 10))) for _ in range(1500)]
+    low, high = (int(x) for x in args.atoms.split("-"))
+    drawn = [set(rng.sample(atoms, rng.randint(low, high))) for _ in range(1500)]
     sets = list({g[0].formula: g[0] for g in rules.for_atoms(drawn) if g}.values())
     batch, fresh = sets[:16], sets[16:]
 

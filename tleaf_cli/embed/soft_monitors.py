@@ -23,7 +23,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import torch
 
-from tleaf_cli.logic.monitors import STATES, MonitorBank
+from tleaf_cli.logic.monitors import MonitorBank
 
 
 def monitor_classes(bank: MonitorBank, truth: np.ndarray) -> tuple[torch.Tensor, torch.Tensor]:
@@ -36,14 +36,16 @@ def monitor_classes(bank: MonitorBank, truth: np.ndarray) -> tuple[torch.Tensor,
 
 class AlphabetWalk(NamedTuple):
     """The soft monitor walk of one alphabet's traces: the state slots of the monitors its atoms
-    fill, laid end to end (each monitor with as many as it uses, `MonitorBank.sizes`), and the
-    edges between them: one per (slot, next slot) that some letter leads to, weighted at each
-    step by the probability of the letters that take it (an edge merges the classes that lead
-    to the same state: 1.7 edges a slot on one-hot alphabets, not 4 classes)."""
+    fill, laid end to end (each monitor with as many as it uses, `MonitorBank.sizes`), and each
+    slot's edges in: one per slot that some letter leads to it from, weighted at each step by
+    the probability of the letters that take it (an edge merges the classes that lead to the
+    same state). No monitor state is entered from more than `in_edges` states (2 for the bank's
+    templates), so the edges are laid out as [in_edges, slots], the k-th edge into each slot
+    (a slot with fewer has edges of weight 0): a step is then a gather, a product and a sum,
+    with no scatter."""
 
-    weights: torch.Tensor  # [letters, edges] 1 where the letter takes the edge
-    source: torch.Tensor  # [edges] the slot an edge leaves
-    target: torch.Tensor  # [edges] the slot it enters
+    weights: torch.Tensor  # [letters, in_edges · slots] 1 where the letter takes the edge
+    source: torch.Tensor  # [in_edges · slots] the slot an edge leaves
     start: torch.Tensor  # [slots] 1 at each monitor's state 0
     accepting: torch.Tensor  # [slots] 1 where the state accepts
     monitor: torch.Tensor  # [slots] the bank's monitor each slot belongs to
@@ -56,6 +58,10 @@ class AlphabetWalk(NamedTuple):
     def slots(self) -> int:
         return self.start.shape[0]
 
+    @property
+    def in_edges(self) -> int:
+        return self.source.shape[0] // self.slots if self.slots else 0
+
     @classmethod
     def of(cls, bank: MonitorBank, classes: torch.Tensor, present: torch.Tensor) -> AlphabetWalk:
         """The walk of an alphabet whose monitors read classes [M, letters] and whose atoms
@@ -66,24 +72,34 @@ class AlphabetWalk(NamedTuple):
         pair = torch.repeat_interleave(torch.arange(len(monitors)), sizes)
         state = torch.arange(len(pair)) - first[pair]
         monitor = monitors[pair]
+        slots = len(pair)
         # [slots, letters]: the state each letter leads each slot to
         letter_classes = torch.as_tensor(classes).cpu()[monitor].long()
         moved = torch.as_tensor(bank.tables)[monitor, state].gather(1, letter_classes)
-        edges = torch.unique(torch.arange(len(pair))[:, None] * STATES + moved)
-        source, to = edges // STATES, edges % STATES
-        weights = (moved[source] == to[:, None]).t()
+        # the edges, ordered by the slot they enter: (target slot, source slot) pairs
+        target = first[pair][:, None] + moved  # [slots, letters]
+        edges = torch.unique(target * slots + torch.arange(slots)[:, None])
+        into, source = edges // slots, edges % slots
+        rank = torch.arange(len(edges)) - torch.searchsorted(into, into)  # k-th edge into
+        width = in_edges(bank)
+        laid = rank * slots + into  # the edge's place in [in_edges, slots]
+        sources = torch.arange(slots).repeat(width)  # padding edges read their own slot
+        sources[laid] = source
+        weights = torch.zeros(letter_classes.shape[1], width * slots)
+        weights[:, laid] = (target[source] == into[:, None]).t().float()
         accepting = torch.as_tensor(bank.accepting)[monitor, state]
-        return cls(
-            weights.float(),
-            source,
-            first[pair[source]] + to,
-            (state == 0).float(),
-            accepting.float(),
-            monitor,
-        )
+        return cls(weights, sources, (state == 0).float(), accepting.float(), monitor)
 
     def to(self, device: torch.device | str) -> AlphabetWalk:
         return AlphabetWalk(*(t.to(device) for t in self))
+
+
+def in_edges(bank: MonitorBank) -> int:
+    """The most states any monitor state of the bank is entered from, over all classes: the
+    walk's edges into a slot (`AlphabetWalk`)."""
+    m, s, c = np.meshgrid(*(np.arange(k) for k in bank.tables.shape), indexing="ij")
+    arcs = np.unique(np.stack([m.ravel(), bank.tables[m, s, c].ravel(), s.ravel()]), axis=1)
+    return int(np.unique(arcs[:2], axis=1, return_counts=True)[1].max())
 
 
 def soft_monitor_features(
@@ -121,32 +137,34 @@ def soft_monitor_walk(
     monitors, a seventh of a 10-slot bank's at k = 4)."""
     device, dtype = probs.device, probs.dtype
     n, steps, _ = probs.shape
-    if not n:
-        return probs.new_zeros((0, 2 * bank.features))
     lengths = lengths.to(device)
-    groups: dict[int, list[int]] = {}  # traces by walk (alphabet)
+    groups: dict[int, list[int]] = {}  # traces by walk (alphabet); those with no monitor read 0
     for row, walk in enumerate(walks):
-        groups.setdefault(id(walk), []).append(row)
-    # traces one after the other, those of one alphabet together; edge weights [T, edges]
-    # from one product per alphabet
+        if walk.slots:
+            groups.setdefault(id(walk), []).append(row)
+    if not groups:
+        return probs.new_zeros((n, 2 * bank.features))
+    # traces one after the other, those of one alphabet together; edge weights [T, in_edges,
+    # slots] from one product per alphabet
+    order = [row for rows in groups.values() for row in rows]
+    laid = [walks[row] for row in order]
+    slots = torch.tensor([w.slots for w in laid], device=device)
+    width = laid[0].in_edges
     weights = []
     for rows in groups.values():
         walk = walks[rows[0]]
         letters = probs[rows, :, : walk.letters].transpose(0, 1)  # [T, traces, letters]
-        weights.append((letters @ walk.weights.to(dtype)).flatten(1))
-    order = [row for rows in groups.values() for row in rows]
-    laid = [walks[row] for row in order]
-    slots = torch.tensor([w.slots for w in laid], device=device)
-    edges = torch.tensor([len(w.source) for w in laid], device=device)
-    shift = torch.repeat_interleave(torch.cumsum(slots, 0) - slots, edges)
+        per_edge = (letters @ walk.weights.to(dtype)).view(steps, len(rows), width, walk.slots)
+        weights.append(per_edge.transpose(1, 2).flatten(2))  # [T, in_edges, traces · slots]
+    shift = torch.repeat_interleave(torch.cumsum(slots, 0) - slots, slots)
     rows = torch.tensor(order, device=device)
     running = torch.arange(steps, device=device)[:, None] < lengths[rows].repeat_interleave(slots)
+    source = torch.cat([w.source.view(width, w.slots) for w in laid], dim=1) + shift
     state = _Walk.apply(
-        torch.cat(weights, dim=1),
-        torch.cat([w.source for w in laid]) + shift,
-        torch.cat([w.target for w in laid]) + shift,
+        torch.cat(weights, dim=2),
+        source.flatten(),
         torch.cat([w.start for w in laid]).to(dtype),
-        running,
+        running.to(dtype),
     )
     column = torch.repeat_interleave(rows * bank.width, slots)
     column = column + torch.cat([w.monitor for w in laid])
@@ -161,37 +179,42 @@ def soft_monitor_walk(
 
 class _Walk(torch.autograd.Function):
     """The states after the last step [slots] of a walk from `start` [slots] whose step t moves
-    mass weights[t, e] · state[source[e]] along each edge e into target[e], for the slots
-    `running[t]` (the others keep theirs). Written out backwards so that a step costs a few
-    operations over the edges both ways (autograd's own graph of the loop had twice as many),
-    and the weights' gradient comes out as one product after the loop."""
+    into each slot u the mass Σ_k weights[t, k, u] · state[source[k, u]] (its k-th edge in),
+    for the slots where `running[t]` is 1 (the others keep theirs: `running` is 0 or 1).
+    Written out backwards so that a step costs a few operations both ways (autograd's own
+    graph of the loop had twice as many), and the weights' gradient comes out as one product
+    after the loop."""
 
     @staticmethod
     def forward(
         ctx: Any,
         weights: torch.Tensor,
         source: torch.Tensor,
-        target: torch.Tensor,
         start: torch.Tensor,
         running: torch.Tensor,
     ) -> torch.Tensor:
-        states = [start]
-        for t in range(weights.shape[0]):
-            state = states[-1]
-            mass = weights[t] * state.index_select(0, source)
-            moved = torch.zeros_like(state).index_add_(0, target, mass)
-            states.append(torch.where(running[t], moved, state))
-        ctx.save_for_backward(weights, source, target, torch.stack(states[:-1]), running)
-        return states[-1]
+        steps, width, slots = weights.shape
+        keep = 1 - running
+        state = start
+        # [T, in_edges, slots]: the state each edge reads at each step (what the weights'
+        # gradient multiplies), written in place step by step
+        read = weights.new_empty((steps, width, slots))
+        for t in range(steps):
+            torch.index_select(state, 0, source, out=read[t].view(-1))
+            moved = weights[t, 0] * read[t, 0]
+            for k in range(1, width):  # the slots' other edges in
+                moved.addcmul_(weights[t, k], read[t, k])
+            state = torch.addcmul(state * keep[t], moved, running[t])
+        ctx.save_for_backward(weights, source, read, running)
+        return state
 
     @staticmethod
     @torch.autograd.function.once_differentiable
     def backward(ctx: Any, grad: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
-        weights, source, target, states, running = ctx.saved_tensors
-        into = torch.empty_like(weights)  # [T, edges]: the gradient of each step's moved mass
-        zero = grad.new_zeros(())
+        weights, source, read, running = ctx.saved_tensors
+        keep = 1 - running
+        into = torch.empty_like(running)  # [T, slots]: the gradient of each step's moved mass
         for t in range(weights.shape[0] - 1, -1, -1):
-            moved = torch.where(running[t], grad, zero)
-            torch.index_select(moved, 0, target, out=into[t])
-            grad = torch.where(running[t], zero, grad).index_add_(0, source, into[t] * weights[t])
-        return into * states[:, source], None, None, None, None
+            torch.mul(grad, running[t], out=into[t])
+            grad = (grad * keep[t]).index_add_(0, source, (weights[t] * into[t]).flatten())
+        return read * into[:, None, :], None, None, None
