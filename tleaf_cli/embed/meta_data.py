@@ -7,6 +7,7 @@ gets its node features (`edge_vec`) when it is built.
 
 from __future__ import annotations
 
+import copy
 import functools
 from collections.abc import Collection, Sequence
 
@@ -79,6 +80,31 @@ def _named(key: Key) -> tuple:
     return tuple(tuple((lit > 0, atoms[abs(lit) - 1]) for lit in clause) for clause in cnf)
 
 
+# `dfa_graph` per automaton (`DFA.structure`: the graph and its guards, CNFs over atom
+# positions, never read the atoms' names): a loss's fresh rule sets repeat a few dozen
+# automata over ever new atoms. At most GRAPHS_KEPT, the oldest dropped first.
+GRAPHS_KEPT = 1024
+_GRAPHS: dict[tuple, tuple[Data, list]] = {}
+
+
+def guard_keys(dfa: DFA) -> list[Key]:
+    """The q_e keys of a DFA's guards, as `featured_dfa_graphs` reads them: for a caller that
+    puts them through q_e together with other keys (`GuardVectors` keeps them)."""
+    return [(dfa.atoms, g) for g in _dfa_graph(dfa)[1]]
+
+
+def _dfa_graph(dfa: DFA) -> tuple[Data, list]:
+    """`dfa_graph(dfa)`, built once per automaton; a shallow copy, so that the fields a caller
+    adds (edge vectors, monitor shares) stay its own."""
+    key = dfa.structure
+    if key not in _GRAPHS:
+        if len(_GRAPHS) >= GRAPHS_KEPT:
+            _GRAPHS.pop(next(iter(_GRAPHS)))
+        _GRAPHS[key] = dfa_graph(dfa)
+    graph, guards = _GRAPHS[key]
+    return copy.copy(graph), guards
+
+
 def _with_edge_vectors(graph: Data, vectors: torch.Tensor) -> Data:
     edge_vec = torch.zeros((graph.num_nodes, vectors.shape[1]))
     on_edges = graph.guard >= 0
@@ -101,10 +127,11 @@ def featured_dfa_graphs(
     (`data.monitor_cache`), for a whole dfas.parquet that train-meta and every evaluation read
     again. Off for sets that do not come back whole (a loss's fresh rule sets in one batch):
     each would leave a file never read."""
-    built = [dfa_graph(dfa) for dfa in dfas]
+    built = [_dfa_graph(dfa) for dfa in dfas]
     keys = [[(dfa.atoms, g) for g in guards] for dfa, (_, guards) in zip(dfas, built, strict=True)]
-    vectors([k for ks in keys for k in ks])  # fills the cache
-    graphs = [_with_edge_vectors(g, vectors(ks)) for (g, _), ks in zip(built, keys, strict=True)]
+    every = vectors([k for ks in keys for k in ks])  # every new guard in one q_e batch
+    per_graph = torch.split(every, [len(ks) for ks in keys])
+    graphs = [_with_edge_vectors(g, v) for (g, _), v in zip(built, per_graph, strict=True)]
     if monitors is not None:
         shares = monitor_shares(dfas, monitors, use_cache=cache_shares)
         for graph, one in zip(graphs, shares, strict=True):

@@ -34,6 +34,7 @@ from tleaf_cli.embed.meta_data import (
     GuardVectors,
     chain_batch,
     featured_dfa_graphs,
+    guard_keys,
     trace_inputs,
 )
 from tleaf_cli.embed.soft_monitors import (
@@ -160,8 +161,11 @@ class Embedder:
         Raises InputError for atoms q's edge model never saw.
         """
         fresh = list({r.formula: r for r in rule_sets if r.formula not in self._rule_sets}.values())
-        if fresh:
-            self.vectors([k for r in fresh for k in self.letter_keys(r.atoms, "one-hot")[1]])
+        if fresh:  # their letters' and guards' new q_e vectors in one q_e call
+            keys = [k for r in fresh for k in self.letter_keys(r.atoms, "one-hot")[1]]
+            if self.kind == "dfa":
+                keys += [k for r in fresh for k in guard_keys(r.dfa)]
+            self.vectors(keys)
             if self.kind == "dfa":
                 vectors = self.embed_dfas([r.dfa for r in fresh])
             else:  # the syntax-tree baseline reads the formula's text
