@@ -10,6 +10,7 @@ acceptance of the initial state gives fewer states.
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass
 from functools import reduce
@@ -56,18 +57,14 @@ class DFA:
 
     @property
     def structure(self) -> tuple:
-        """The automaton up to its atoms' names, hashable: what is computed from the table
-        alone (monitor shares, graph layouts, readout weights) can be kept under it for every
-        DFA that differs only in the names of its atoms."""
+        """The automaton up to its atoms' names, hashable and small (the table and accepting
+        states as a 16-byte digest): what is computed from the table alone (monitor shares,
+        graph layouts, readout weights) can be kept under it for every DFA that differs only
+        in the names of its atoms."""
+        digest = hashlib.blake2b(self.table.tobytes(), digest_size=16)
+        digest.update(self.accepting.tobytes())
         kind, atoms = self.alphabet.kind, len(self.atoms)
-        return (
-            kind,
-            atoms,
-            self.table.shape,
-            self.table.tobytes(),
-            self.accepting.tobytes(),
-            self.initial,
-        )
+        return kind, atoms, self.table.shape, self.initial, digest.digest()
 
     # ------------------------------------------------------------------ running
     def run(self, letters: Sequence[int] | np.ndarray) -> int:
