@@ -128,9 +128,9 @@ def soft_monitor_walk(
     lengths: torch.Tensor,
     walks: Sequence[AlphabetWalk],
 ) -> torch.Tensor:
-    """`soft_monitor_features` with trace n read by `walks[n]` (on probs' device; what a caller
-    that reads the same alphabets again keeps). Trace n's letters beyond walks[n].letters must
-    have probability 0.
+    """`soft_monitor_features` with trace n read by `walks[n]` (`AlphabetWalk.of(bank, ...)`, on
+    probs' device: what a caller that reads the same alphabets again keeps). Trace n's letters
+    beyond walks[n].letters must have probability 0.
 
     Only the monitors whose atoms a trace's alphabet has are run: the others' features are 0
     whatever the trace (a rule set of k atoms fills 7 k + 18 k (k − 1) of the bank's
