@@ -337,3 +337,17 @@ def test_automata_over_other_atoms_share_readout_weights_and_embed_as_alone(moni
     for k, dfa in enumerate((ab, ac)):
         torch.testing.assert_close(both[k], load_embedder(monitor_q[0]).embed_dfas([dfa])[0])
     assert not torch.allclose(both[0], both[1])
+
+
+def test_guard_vectors_are_kept_by_the_names_a_guard_reads(monitor_q) -> None:
+    """A guard over positions of different atom lists is one q_e vector when it reads the same
+    atoms (computed once), and another when it reads others."""
+    from tleaf_cli.embed.soft import load_embedder
+
+    vectors = load_embedder(monitor_q[0]).vectors
+    a_not_b = ((1,), (-2,))  # a & !b over (a, b, ...), by position
+    first = vectors([(("a", "b"), a_not_b)])
+    again = vectors([(("a", "b", "c"), a_not_b)])
+    assert len(vectors.cache) == 1 and torch.equal(first, again)
+    swapped = vectors([(("b", "a"), a_not_b)])  # b & !a
+    assert len(vectors.cache) == 2 and not torch.allclose(first, swapped)
