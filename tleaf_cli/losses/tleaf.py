@@ -8,7 +8,7 @@ throughout. Gradients reach the model through P_t only; q's weights never change
 
 What does not depend on the outputs is computed once per rule set and kept by the embedder:
 q(A_φ), the letters' q_e vectors, the monitors' walk (the same for every rule set with as many
-atoms). A batch is then a few batched products (expected letters, monitor classes), the
+atoms). A batch is then a few batched products (expected letters, monitor edge weights), the
 monitors' steps, and one q_m call on all the rows' chains together.
 """
 
