@@ -81,8 +81,8 @@ def _named(key: Key) -> tuple:
 
 
 # `dfa_graph` per automaton (`DFA.structure`: the graph and its guards, CNFs over atom
-# positions, never read the atoms' names): a loss's fresh rule sets repeat a few dozen
-# automata over ever new atoms. At most GRAPHS_KEPT, the oldest dropped first.
+# positions, never read the atoms' names): a loss's fresh rule sets often repeat an automaton
+# over other atoms. At most GRAPHS_KEPT, the oldest dropped first.
 GRAPHS_KEPT = 1024
 _GRAPHS: dict[tuple, tuple[Data, list]] = {}
 

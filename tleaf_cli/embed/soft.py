@@ -110,8 +110,8 @@ class Embedder:
 
     def _give_run_weights(self, dfas: Sequence[DFA], graphs: list) -> None:
         """Each DFA graph's readout weights (`AutomatonEncoder.run_weights`), computed once per
-        automaton (they never read the atoms' names: a loss's fresh rule sets repeat a few
-        dozen automata over ever new atoms) and kept on the CPU."""
+        automaton (they never read the atoms' names: a loss's fresh rule sets often repeat an
+        automaton over other atoms) and kept on the CPU."""
         first = {d.structure: g for d, g in zip(dfas, graphs, strict=True)}
         fresh = [key for key in first if key not in self._run_weights]
         store_run_weights(self.model.formula, [first[key] for key in fresh])

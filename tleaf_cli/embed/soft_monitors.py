@@ -39,7 +39,7 @@ class AlphabetWalk(NamedTuple):
     fill, laid end to end (each monitor with as many as it uses, `MonitorBank.sizes`), and each
     slot's edges in: one per slot that some letter leads to it from, weighted at each step by
     the probability of the letters that take it (an edge merges the classes that lead to the
-    same state). No monitor state is entered from more than `in_edges` states (2 for the bank's
+    same state). No monitor state is entered from more than `bank.in_edges` states (2 for its
     templates), so the edges are laid out as [in_edges, slots], the k-th edge into each slot
     (a slot with fewer has edges of weight 0): a step is then a gather, a product and a sum,
     with no scatter."""
@@ -81,7 +81,7 @@ class AlphabetWalk(NamedTuple):
         edges = torch.unique(target * slots + torch.arange(slots)[:, None])
         into, source = edges // slots, edges % slots
         rank = torch.arange(len(edges)) - torch.searchsorted(into, into)  # k-th edge into
-        width = in_edges(bank)
+        width = bank.in_edges
         laid = rank * slots + into  # the edge's place in [in_edges, slots]
         sources = torch.arange(slots).repeat(width)  # padding edges read their own slot
         sources[laid] = source
@@ -92,14 +92,6 @@ class AlphabetWalk(NamedTuple):
 
     def to(self, device: torch.device | str) -> AlphabetWalk:
         return AlphabetWalk(*(t.to(device) for t in self))
-
-
-def in_edges(bank: MonitorBank) -> int:
-    """The most states any monitor state of the bank is entered from, over all classes: the
-    walk's edges into a slot (`AlphabetWalk`)."""
-    m, s, c = np.meshgrid(*(np.arange(k) for k in bank.tables.shape), indexing="ij")
-    arcs = np.unique(np.stack([m.ravel(), bank.tables[m, s, c].ravel(), s.ravel()]), axis=1)
-    return int(np.unique(arcs[:2], axis=1, return_counts=True)[1].max())
 
 
 def soft_monitor_features(

@@ -147,6 +147,9 @@ class MonitorBank:
         self.steps = np.zeros((len(monitors), 4, STATES, STATES))
         mm, ss, cc = np.meshgrid(*(np.arange(k) for k in self.tables.shape), indexing="ij")
         self.steps[mm, cc, ss, self.tables[mm, ss, cc]] = 1.0
+        # the most states any monitor state is entered from, over all classes (2 for these
+        # templates): how many edges in a soft walk lays out per state (embed/soft_monitors.py)
+        self.in_edges = int(self.steps.any(axis=1).sum(axis=1).max())
         self._classes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # per alphabet
         self._layouts: dict[tuple, _Layout] = {}  # per alphabet
         self._plans: dict[tuple, _OneHotPlan | None] = {}  # per one-hot alphabet
