@@ -12,6 +12,7 @@ import pytest
 from tests.conftest import all_traces
 from tleaf_cli.data.random_formulas import random_formula
 from tleaf_cli.errors import InputError
+from tleaf_cli.logic import dfa as dfa_module
 from tleaf_cli.logic.alphabet import Alphabet, LetterError
 from tleaf_cli.logic.checker import check
 from tleaf_cli.logic.compile import compile_formula
@@ -197,6 +198,23 @@ def test_conjoin_nonempty_sinks_and_large_products(texts: list[str]) -> None:
     SMALL_TABLE entries ("F x" each: 2**10 states) takes the pairwise route: the same DFA."""
     dfas = [compile_formula(t, "one-hot") for t in texts]
     assert conjoin_nonempty(dfas) == _folded(dfas)
+
+
+def test_conjoin_nonempty_keeps_conjunctions_by_structure() -> None:
+    """Rules over other atoms whose names sort into the same letters reuse the kept table; names
+    that sort into another layout ("a" before "y", "z") are conjoined anew: either way the same
+    DFA as folding, and the returned table is a copy (changing it changes nothing kept)."""
+    one_hot = functools.partial(compile_formula, alphabet="one-hot")
+    first = [one_hot("a U b"), one_hot("G(c -> X !c)")]
+    renamed = [one_hot("p U q"), one_hot("G(r -> X !r)")]  # p < q < r: as a < b < c
+    permuted = [one_hot("y U z"), one_hot("G(a -> X !a)")]  # a < y < z: other letters
+    dfa_module._CONJUNCTIONS.clear()
+    conjoined = [conjoin_nonempty(dfas) for dfas in (first, renamed, permuted)]
+    assert len(dfa_module._CONJUNCTIONS) == 2  # `renamed` was a repeat
+    for dfas, got in zip((first, renamed, permuted), conjoined, strict=True):
+        assert got == _folded(dfas)
+    conjoined[0].table[:] = 0
+    assert conjoin_nonempty(renamed) == _folded(renamed)
 
 
 def test_conjoin_nonempty_rejects_shared_atoms_and_powersets() -> None:

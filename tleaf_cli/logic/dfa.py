@@ -23,6 +23,8 @@ from tleaf_cli.logic.guards import Guard, cnf_holds, row_guards
 
 # Tables of at most this many entries (states x letters) are minimised in plain Python.
 SMALL_TABLE = 4096
+# Conjunctions kept by `conjoin_nonempty`, per automata and letter layout (the oldest dropped).
+CONJUNCTIONS_KEPT = 4096
 
 
 @dataclass(frozen=True, eq=False)
@@ -285,6 +287,12 @@ def conjoin_nonempty(dfas: Sequence[DFA]) -> DFA:
     takes the pairwise route. The result is the canonical minimal DFA of the conjunction, so it
     does not depend on the route (nor on the order of `dfas`).
 
+    The table is a function of the DFAs' `structure`s and of which (DFA, letter) each sorted
+    atom is, not of the atoms' names: a trainer that builds rule sets from predictions meets
+    the same rules over other ingredients again and again (a third of its conjunctions are
+    new), so small conjunctions are kept under that key (CONJUNCTIONS_KEPT of them) and a
+    repeat is a copy.
+
     Raises InputError for no DFAs, a powerset alphabet, or an atom in two of the DFAs.
     """
     if not dfas:
@@ -298,17 +306,29 @@ def conjoin_nonempty(dfas: Sequence[DFA]) -> DFA:
                 raise InputError(f"atom {atom} is in two of the DFAs (they must be disjoint)")
             owner[atom] = (g, p)
     alphabet = Alphabet(tuple(sorted(owner)), "one-hot")
-    small = _disjoint_product_small(
-        [d.table.tolist() for d in dfas],
-        [d.initial for d in dfas],
-        [d.accepting.tolist() for d in dfas],
-        [owner[a] for a in alphabet.atoms],
-    )
-    if small is None:
-        return reduce(lambda a, b: a.product(b, canonical=False), dfas).minimize_nonempty()
-    rows, initial, accepting = _minimize_small(*small)
-    rows, initial, accepting = _nonempty_small(rows, initial, accepting)
-    return DFA(alphabet, np.array(rows, dtype=np.int32), initial, accepting)
+    letters = [owner[a] for a in alphabet.atoms]
+    key = (tuple(d.structure for d in dfas), tuple(letters))
+    kept = _CONJUNCTIONS.get(key)
+    if kept is None:
+        small = _disjoint_product_small(
+            [d.table.tolist() for d in dfas],
+            [d.initial for d in dfas],
+            [d.accepting.tolist() for d in dfas],
+            letters,
+        )
+        if small is None:
+            return reduce(lambda a, b: a.product(b, canonical=False), dfas).minimize_nonempty()
+        rows, initial, accepting = _nonempty_small(*_minimize_small(*small))
+        kept = (np.array(rows, dtype=np.int32), initial, np.array(accepting, dtype=bool))
+        if len(_CONJUNCTIONS) >= CONJUNCTIONS_KEPT:
+            _CONJUNCTIONS.pop(next(iter(_CONJUNCTIONS)))  # the oldest
+        _CONJUNCTIONS[key] = kept
+    table, initial, accepting = kept
+    return DFA(alphabet, table.copy(), initial, accepting.copy())
+
+
+# conjoin_nonempty's small conjunctions: (structures, letter layout) -> table, initial, accepting
+_CONJUNCTIONS: dict[tuple, tuple[np.ndarray, int, np.ndarray]] = {}
 
 
 def _disjoint_product_small(
