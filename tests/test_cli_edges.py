@@ -1,11 +1,14 @@
 """Command-line edges, one test (or two) per case: a byte-order mark at the start of a `.ltl` file,
 invisible characters in error lines, MONA's failures told by their cause, a damaged Parquet file
 named in `inspect`'s error, upper-case argument names in usage lines, no pydantic "Value error, "
-in a refused value, and docs/decoding.md describing the cooking shield as it is."""
+in a refused value, docs/decoding.md describing the cooking shield as it is, and the entry point's
+garbage collector settings."""
 
 from __future__ import annotations
 
+import gc
 import re
+import sys
 from pathlib import Path
 
 import pytest
@@ -264,3 +267,35 @@ def test_decoding_doc_describes_the_cooking_shield_as_it_is() -> None:
     assert "--shield" in _flat(tleaf("train-task", "cooking", "--help").output)
     source = (DOCS.parent / "tleaf_cli" / "tasks" / "cooking" / "shield.py").read_text()
     assert "return Shield([RuleSet(" in source
+
+
+def _full_collections() -> int:
+    """Full collections while long-lived containers are built (as importing torch and reading a
+    run's data build them): as many as the process has, at least 200,000; Python's defaults take
+    a full collection once they have grown by a quarter (and 70,000 allocations have passed)."""
+    count = [0]
+
+    def seen(phase: str, info: dict) -> None:
+        count[0] += phase == "stop" and info["generation"] == 2
+
+    gc.collect()
+    gc.callbacks.append(seen)
+    try:
+        kept = [[i] for i in range(max(200_000, len(gc.get_objects())))]
+    finally:
+        gc.callbacks.remove(seen)
+    del kept
+    return count[0]
+
+
+def test_the_entry_point_spares_full_collections_while_a_command_builds(monkeypatch) -> None:
+    before = gc.get_threshold()
+    monkeypatch.setattr(sys, "argv", ["tleaf", "--version"])
+    try:
+        gc.set_threshold(700, 10, 10)  # Python's defaults: the same build takes full collections
+        assert _full_collections() > 0
+        with pytest.raises(SystemExit):
+            cli.main()
+        assert _full_collections() == 0
+    finally:
+        gc.set_threshold(*before)
