@@ -8,12 +8,13 @@ training batches (formula DFAs and trace chains joined, as the encoder reads the
 the epoch's batches; then, on those batches, one torch thread, prints per batch and scaled to the
 epoch:
 
+* the epoch as the run timed it (training only, its first epoch);
 * the encoder (`AutomatonEncoder`) forwards and backwards, all of it;
 * only its matrix products, on the same shapes: per GCN layer and direction the dense product
   X·W and the sparse Â·(XW) forwards, and backwards Âᵀ·G, the weight gradient Xᵀ·(ÂᵀG) and
   (after the first layer) the input gradient; the head's three products.
 
-No epoch of this q can be faster than the second figure in float32 on this core, whatever the
+No epoch of this q can be faster than the last figure in float32 on this core, whatever the
 rest of the step costs.
 """
 
@@ -36,9 +37,9 @@ from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, train_meta
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def capture(data: Path, keep: int) -> tuple[torch.nn.Module, list, int]:
-    """Train q_m one epoch; its encoder, its first `keep` training batches (joined), and how
-    many batches the epoch has."""
+def capture(data: Path, keep: int) -> tuple[torch.nn.Module, list, int, float]:
+    """Train q_m one epoch; its encoder, its first `keep` training batches (joined), how many
+    batches the epoch has, and the epoch's training seconds."""
     kept, seen, encoder = [], [0], []
     original = TripletEmbedder.embed_both
 
@@ -54,7 +55,7 @@ def capture(data: Path, keep: int) -> tuple[torch.nn.Module, list, int]:
     out = Path(tempfile.mkdtemp(prefix="meta-products-"))
     try:
         low = data / "low"
-        train_meta(
+        metrics = train_meta(
             low / "dfas.parquet",
             low / "traces.parquet",
             data / "runs" / "this-cpu" / "edge",
@@ -64,7 +65,7 @@ def capture(data: Path, keep: int) -> tuple[torch.nn.Module, list, int]:
     finally:
         TripletEmbedder.embed_both = original
         shutil.rmtree(out, ignore_errors=True)
-    return encoder[0], kept, seen[0]
+    return encoder[0], kept, seen[0], metrics["history"][0]["seconds"]
 
 
 def products(encoder: torch.nn.Module, batch) -> Callable[[], None]:
@@ -114,9 +115,10 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(1)
     torch.manual_seed(0)
-    encoder, batches, epoch = capture(args.data, args.batches)
+    encoder, batches, epoch, seconds = capture(args.data, args.batches)
     nodes = sum(int(b.num_nodes) for b in batches) / len(batches)
     print(f"{epoch} batches an epoch; {len(batches)} timed, {nodes:.0f} nodes each on average")
+    print(f"{'the epoch, all of it':32s} {seconds / epoch * 1e3:7.2f} ms a batch, {seconds:6.2f} s")
 
     def whole(batch) -> Callable[[], None]:
         def call() -> None:
