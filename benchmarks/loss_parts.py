@@ -5,9 +5,9 @@ backwards, one torch thread: where a training step's loss time goes.
 
 Reads the action-recognition data and q that `benchmarks/speed.py` prepares (SYNTHETIC
 activities, a q trained one epoch on their rule sets). The batch: 16 videos of `--steps` steps
-(lengths drawn from steps/2 to steps), random outputs, and the 16 rule sets of `--atoms` (3-10) drawn
-knowledge-base atoms, as the model's predictions would bring up, each already embedded (as
-after its first batch). Prints, per part, the mean over `--repeat` calls after 5 warm-up calls:
+(lengths drawn from steps/2 to steps), random outputs, and the 16 rule sets of `--atoms` (3-10)
+drawn knowledge-base atoms, as the model's predictions would bring up, each already embedded
+(as after its first batch). Prints, per part, the mean over `--repeat` calls after 5 warm-up calls:
 
 * the soft monitor walk (`soft_monitor_walk`: every monitor's state distribution over the
   soft trace) and q_m over the soft trace chains (`soft_trace_vectors`), each alone;
