@@ -12,6 +12,8 @@ import typer
 from typer.testing import CliRunner
 
 from tleaf_cli import cli
+from tleaf_cli.cli import action_recognition, generate, knowledge, model_checking
+from tleaf_cli.cli.options import SETTINGS_COMMANDS
 from tleaf_cli.defaults import TIERS
 from tleaf_cli.settings import DEVICES, PRECISIONS
 from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS
@@ -93,19 +95,19 @@ def test_every_choice_option_is_typed_with_its_choices() -> None:
 def test_choice_types_match_the_library() -> None:
     """The CLI's Literal types name exactly the values the library accepts."""
     pairs = [
-        (cli.Tier, tuple(TIERS)),
-        (cli.KbFormulaFrom, KB_FORMULA_SOURCES),
-        (cli.RuleSets, RULE_SET_SPLITS),
-        (cli.PairFeatures, PAIR_FEATURES),
-        (cli.EvalDevice, DEVICES),
-        (cli.Precision, PRECISIONS),
-        (cli.Decoding, DECODINGS),
+        (generate.Tier, tuple(TIERS)),
+        (knowledge.KbFormulaFrom, KB_FORMULA_SOURCES),
+        (knowledge.RuleSets, RULE_SET_SPLITS),
+        (model_checking.PairFeatures, PAIR_FEATURES),
+        (model_checking.EvalDevice, DEVICES),
+        (model_checking.Precision, PRECISIONS),
+        (action_recognition.Decoding, DECODINGS),
     ]
     for literal, values in pairs:
         assert set(get_args(literal)) == set(values), (literal, values)
 
 
-@pytest.mark.parametrize("command", cli.SETTINGS_COMMANDS, ids=lambda c: c.name)
+@pytest.mark.parametrize("command", SETTINGS_COMMANDS, ids=lambda c: c.name)
 def test_a_training_command_has_one_option_per_setting(command) -> None:
     """Each setting of a trainer's settings dataclass is an option of its command, with the
     setting's help and its values: the option is written once, in the dataclass."""

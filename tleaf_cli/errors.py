@@ -12,7 +12,7 @@ kinds say what went wrong, not how the CLI reports it:
 * `RulesError`    rules that cannot do what was asked (no sequence of the given length meets them);
 * `TleafError` itself: the machine cannot do it (MONA or Graphviz missing or failing).
 
-Only `tleaf_cli/cli.py` turns them into exit codes and messages; it renders a `SettingError`'s
+Only the command line (`tleaf_cli/cli/`) turns them into exit codes and messages; it renders a `SettingError`'s
 setting as the flag that sets it (``logic_loss`` → ``--logic-loss``).
 """
 

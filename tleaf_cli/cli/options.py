@@ -5,7 +5,7 @@ the settings class it runs; `with_settings` adds one option per setting of that 
 setting's help, bounds and values, its default shown as the default preset's value. The command
 then gets the values the user gave (`given`) and builds its settings from a preset plus those.
 `settings_table` writes the same options as the Markdown rows of docs/cli.md;
-`python -m tleaf_cli.cli_options docs/cli.md` rewrites every table between its markers, and a
+`python -m tleaf_cli.cli.options docs/cli.md` rewrites every table between its markers, and a
 test checks that docs/cli.md is up to date.
 
 Only the command line knows flags: a setting's flag is `--` + its name with dashes, except where
@@ -25,6 +25,10 @@ from typing import Annotated, Any, Literal
 import typer
 
 from tleaf_cli.settings import default_of, options
+from tleaf_cli.settings.action_recognition import TaskSettings
+from tleaf_cli.settings.edge import EdgeSettings
+from tleaf_cli.settings.gail import GailSettings
+from tleaf_cli.settings.meta import MetaSettings
 
 # The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
 FLAGS = {
@@ -143,6 +147,15 @@ def given(ctx: typer.Context, values: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+# The commands whose options come from settings dataclasses: each command module decorates its
+# function with `with_settings(ONE_OF_THESE)`, and docs/cli.md has a table for each.
+EDGE = SettingsCommand(EdgeSettings, "train-edge")
+META = SettingsCommand(MetaSettings, "train-meta")
+TASK = SettingsCommand(TaskSettings, "train-task action-recognition")
+GAIL = SettingsCommand(GailSettings, "train-task cooking")
+SETTINGS_COMMANDS = [EDGE, META, TASK, GAIL]
+
+
 # ---- docs/cli.md's option tables
 
 
@@ -166,18 +179,11 @@ def settings_table(command: SettingsCommand) -> str:
     return "\n".join(rows)
 
 
-def commands() -> list[SettingsCommand]:
-    """The commands whose options come from settings dataclasses (the CLI registers these)."""
-    from tleaf_cli import cli
-
-    return list(cli.SETTINGS_COMMANDS)
-
-
 def render_docs(text: str) -> str:
     """`text` (docs/cli.md) with each table between `<!-- settings: NAME -->` and
     `<!-- /settings -->` rewritten from the settings."""
     out = text
-    for command in commands():
+    for command in SETTINGS_COMMANDS:
         begin, end = f"<!-- settings: {command.name} -->", "<!-- /settings -->"
         if begin not in out:
             raise ValueError(f"no '{begin}' marker")
@@ -187,6 +193,6 @@ def render_docs(text: str) -> str:
     return out
 
 
-if __name__ == "__main__":  # python -m tleaf_cli.cli_options docs/cli.md
+if __name__ == "__main__":  # python -m tleaf_cli.cli.options docs/cli.md
     path = Path(sys.argv[1])
     path.write_text(render_docs(path.read_text()))

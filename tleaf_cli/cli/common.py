@@ -1,0 +1,152 @@
+"""What every command shares: the options several commands take (--quiet, --jobs, --cluster, ...),
+the mapping of tleaf's errors to one stderr line and an exit status, and the checks a command makes
+before any work (outputs writable, scheduler reachable, no option given that would be ignored).
+
+Exit status (docs/design.md): 0 all good; 1 some inputs failed (the rest was written, each failure
+recorded with its reason); 2 the call itself is unusable.
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+from typing import Annotated, Literal
+
+import typer
+
+from tleaf_cli import ui
+from tleaf_cli.cli.options import flag
+from tleaf_cli.errors import InputError, SettingError, TleafError
+
+Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
+Jobs = Annotated[int, typer.Option("--jobs", "-j", min=1, help="Parallel worker processes.")]
+Cluster = Annotated[
+    str | None,
+    typer.Option(
+        envvar="TLEAF_CLUSTER",
+        metavar="ADDRESS",
+        help="Run the parallel work on this dask.distributed scheduler (tcp://host:8786; "
+        "needs tleaf\\[cluster]) instead of local processes; --jobs is then unused.",
+    ),
+]
+Seed = Annotated[int, typer.Option(help="Random seed; the same seed writes the same file.")]
+MinLen = Annotated[int, typer.Option(min=1, help="Shortest trace length.")]
+MaxLen = Annotated[int, typer.Option(min=1, help="Longest trace length.")]
+CacheDir = Annotated[
+    Path | None,
+    typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
+]
+NoCache = Annotated[bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")]
+CompileEngine = Literal["auto", "progression", "mona"]  # logic/compile.py ENGINES
+Engine = Annotated[
+    CompileEngine,
+    typer.Option(
+        help="auto: build the DFA in this process by formula progression, and hand a "
+        "formula to MONA when that passes its limits (2,000 states); progression: never "
+        "MONA (such formulas fail); mona: MONA for every formula. All give the same "
+        "minimal DFA."
+    ),
+]
+Resume = Annotated[
+    bool, typer.Option("--resume", help="Continue from the model directory's last epoch.")
+]
+
+
+def compile_settings(
+    one_hot: bool,
+    timeout: float,
+    cache_dir,
+    no_cache: bool,
+    jobs: int,
+    cluster: str | None = None,
+    engine: CompileEngine = "auto",
+):
+    """The compile settings that --one-hot, --timeout, --cache-dir, --no-cache, --jobs,
+    --cluster and --engine ask for."""
+    from tleaf_cli.data.compile_dfas import CompileSettings, default_cache_dir
+
+    return CompileSettings(
+        alphabet="one-hot" if one_hot else "powerset",
+        timeout=timeout,
+        cache_dir=None if no_cache else (cache_dir or default_cache_dir()),
+        jobs=jobs,
+        engine=engine,
+        cluster=cluster or None,
+    )
+
+
+def exits(func):
+    """Turn a TleafError into one stderr line and its exit status, never a traceback; a
+    SettingError is told by the flag that sets it."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        try:
+            return func(*args, **kwargs)
+        except SettingError as e:
+            ui.fatal(f"{flag(e.setting)}: {e.args[0]}")
+            raise typer.Exit(e.exit_code) from None
+        except TleafError as e:
+            ui.fatal(str(e))
+            raise typer.Exit(e.exit_code) from None
+        except OSError as e:  # the environment, not tleaf: a full disk, a vanished folder
+            ui.fatal(f"{e.filename or ''}: {e.strerror or e}".lstrip(": "))
+            raise typer.Exit(2) from None
+        except KeyboardInterrupt:
+            ui.fatal("interrupted; nothing was written")
+            raise typer.Exit(130) from None
+
+    return wrapper
+
+
+def targets(inputs, files=(), folders=()) -> None:
+    """Refuse the call (exit 2, nothing written) when an output cannot be written or would
+    overwrite an input or another output; called first thing, before any work."""
+    from tleaf_cli.data.artifacts import check_targets
+
+    check_targets(inputs, files, folders)
+
+
+def reachable(cluster: str | None) -> None:
+    """Refuse the call (exit 2, nothing written) when --cluster names no scheduler that answers."""
+    from tleaf_cli.data.parallel import check_cluster
+
+    check_cluster(cluster)
+
+
+def given_flags(ctx: typer.Context, *names: str) -> list[str]:
+    """The flags among `names` (parameter names) given on the command line, not defaulted."""
+    sources = [ctx.get_parameter_source(name) for name in names]
+    return [
+        flag(name)
+        for name, source in zip(names, sources, strict=True)
+        if source is not None and source.name in ("COMMANDLINE", "PROMPT")
+    ]
+
+
+def refuse(given: list[str], reason: str) -> None:
+    """InputError when options that would be ignored were given: `reason` says why."""
+    if given:
+        raise InputError(f"{', '.join(given)}: {reason}")
+
+
+def finish(failures: list[tuple[str, str]], summary: str, quiet: bool) -> None:
+    """One stderr line per failure, the summary line, and exit status 1 if anything failed."""
+    ui.failures(failures)
+    ui.summary(summary, quiet)
+    if failures:
+        raise typer.Exit(1)
+
+
+def epoch_printer(update, epochs: int, scored_on: str, quiet: bool):
+    """A training callback: advance the bar and print one line per epoch."""
+
+    def on_epoch(r) -> None:
+        update(r.epoch, epochs)
+        ui.summary(
+            f"epoch {r.epoch}: loss {r.loss:.4f}, train acc {r.train_accuracy:.3f}, "
+            f"{scored_on} acc {r.heldout_accuracy:.3f} ({r.seconds:.0f} s)",
+            quiet,
+        )
+
+    return on_epoch

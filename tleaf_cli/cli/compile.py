@@ -1,0 +1,115 @@
+"""compile-dfa (LTLf formulas to minimal DFAs) and inspect (show any artifact)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from tleaf_cli import ui
+from tleaf_cli.cli.common import (
+    Cluster,
+    Engine,
+    Jobs,
+    Quiet,
+    compile_settings,
+    exits,
+    finish,
+    reachable,
+    refuse,
+    targets,
+)
+from tleaf_cli.defaults import COMPILE_TIMEOUT
+from tleaf_cli.errors import InputError
+
+
+@exits
+def compile_dfa(
+    formulas: Annotated[
+        Path, typer.Argument(help="A .ltl file, or Parquet with formula_id, formula.")
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The dfas.parquet to write.")] = Path(
+        "dfas.parquet"
+    ),
+    one_hot: Annotated[
+        bool,
+        typer.Option(
+            "--one-hot",
+            help="One atom of the domain per step: letters are single atoms or none; "
+            "DFAs minimal over that alphabet, guards simplified under it.",
+        ),
+    ] = False,
+    jobs: Jobs = 1,
+    cluster: Cluster = None,
+    timeout: Annotated[
+        float, typer.Option(min=0.1, help="Seconds MONA may spend on one formula.")
+    ] = COMPILE_TIMEOUT,
+    engine: Engine = "auto",
+    graphs: Annotated[
+        Path | None, typer.Option(help="Also write <id>.graphml and <id>.dot per DFA here.")
+    ] = None,
+    cache_dir: Annotated[
+        Path | None,
+        typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
+    ] = None,
+    no_cache: Annotated[
+        bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")
+    ] = False,
+    quiet: Quiet = False,
+) -> None:
+    """Compile LTLf formulas to minimal DFAs, one row per formula.
+
+    A formula that fails (syntax, timeout) gets a row whose `error` says why; the others are still
+    compiled, and the exit status is 1.
+    """
+    from tleaf_cli.data.compile_dfas import compile_file
+
+    settings = compile_settings(one_hot, timeout, cache_dir, no_cache, jobs, cluster, engine)
+    reachable(cluster)
+    with ui.progress("compiling", quiet) as update:
+        report = compile_file(formulas, out, settings, graphs, update)
+    finish(
+        report.failures,
+        f"{out}: {report.compiled} of {len(report.rows)} formulas compiled "
+        f"({report.unique} distinct, {report.cache_hits} from cache, "
+        f"{len(report.rows) - report.compiled} failed) in {report.seconds:.2f} s",
+        quiet,
+    )
+
+
+@exits
+def inspect(
+    path: Annotated[Path, typer.Argument(help="Any tleaf artifact (.parquet).")],
+    formula_id: Annotated[
+        str | None, typer.Option("--id", help="Show one DFA of a dfas.parquet.")
+    ] = None,
+    dot: Annotated[
+        bool, typer.Option("--dot", help="With --id: print Graphviz DOT (also with --draw).")
+    ] = False,
+    draw: Annotated[
+        Path | None, typer.Option(help="With --id: draw to .png/.svg/.pdf (Graphviz) or .dot.")
+    ] = None,
+    rows: Annotated[
+        int | None, typer.Option(min=0, help="How many first rows to show. \\[default: 10]")
+    ] = None,
+    stats: Annotated[
+        bool, typer.Option("--stats", help="Distributions: DFA sizes; trace labels and lengths.")
+    ] = False,
+) -> None:
+    """Show an artifact: kind, schema, provenance, row count, first rows; or one DFA with --id."""
+    from tleaf_cli import views
+
+    targets([path], [draw])
+    if formula_id is None:
+        if dot or draw:
+            raise InputError("--dot and --draw need --id (which DFA to draw)")
+        if stats:
+            refuse(["--rows"] if rows is not None else [], "not with --stats")
+            views.show_stats(path)
+        else:
+            views.show_artifact(path, 10 if rows is None else rows)
+    else:
+        refuse(["--rows"] if rows is not None else [], "not with --id (one DFA is shown)")
+        refuse(["--stats"] if stats else [], "not with --id")
+        views.show_dfa(path, formula_id, dot, draw)

@@ -1,0 +1,75 @@
+"""How tleaf's commands show themselves: the click command and group classes behind --help and
+usage lines, and the plain wording of a refused value."""
+
+from __future__ import annotations
+
+import functools
+
+import typer
+
+
+def _shown_params(params: list) -> list:
+    """`params` as --help and usage lines should show them: every on/off flag with an empty
+    metavar (typer's help would show a flag as taking a `<bool>` value, which it does not), and
+    every positional argument named in upper case, `FORMULAS` (typer writes its name as it is,
+    and `{formulas}` in usage lines); `REPORTS...` for one that takes several."""
+    for param in params:
+        if getattr(param, "is_flag", False) and param.metavar is None:
+            param.metavar = ""
+        elif isinstance(param, typer.core.TyperArgument) and param.metavar is None:
+            param.metavar = param.name.upper() + ("..." if param.nargs != 1 else "")
+    return params
+
+
+def _usage_pieces(command: typer.core.TyperCommand | typer.core.TyperGroup, ctx) -> list[str]:
+    """The usage line after the command's name, as click writes it: `[OPTIONS] FORMULAS`, an
+    optional argument in brackets (typer wraps a required one in braces, `{formulas}`)."""
+    pieces = [command.options_metavar] if command.options_metavar else []
+    for param in command.get_params(ctx):
+        if isinstance(param, typer.core.TyperArgument):
+            pieces.append(param.metavar if param.required else f"[{param.metavar}]")
+        else:
+            pieces.extend(param.get_usage_pieces(ctx))
+    return pieces
+
+
+def _plain_errors(parse_args):
+    """`parse_args` whose refusal of a value reads as click's own: typer checks a `Literal`'s
+    values through pydantic, whose message for the ValueError it raises starts with "Value
+    error, " ("Invalid value for '--tier': Value error, 'extreme' is not one of ...")."""
+
+    @functools.wraps(parse_args)
+    def wrapper(self, ctx, args):
+        try:
+            return parse_args(self, ctx, args)
+        except typer.BadParameter as e:  # typer's own click, not the click package
+            e.message = e.message.removeprefix("Value error, ")
+            raise
+
+    return wrapper
+
+
+class Command(typer.core.TyperCommand):
+    """A tleaf command: its flags show no type in --help, its arguments upper-case names, its
+    refusals of a value no pydantic prefix."""
+
+    def get_params(self, ctx) -> list:
+        return _shown_params(super().get_params(ctx))
+
+    def collect_usage_pieces(self, ctx) -> list[str]:
+        return _usage_pieces(self, ctx)
+
+    parse_args = _plain_errors(typer.core.TyperCommand.parse_args)
+
+
+class Group(typer.core.TyperGroup):
+    """tleaf and its sub-apps (eval, train-task): their flags show no type in --help, their
+    refusals of a value no pydantic prefix."""
+
+    def get_params(self, ctx) -> list:
+        return _shown_params(super().get_params(ctx))
+
+    def collect_usage_pieces(self, ctx) -> list[str]:
+        return [*_usage_pieces(self, ctx), self.subcommand_metavar]
+
+    parse_args = _plain_errors(typer.core.TyperGroup.parse_args)

@@ -1,0 +1,315 @@
+"""The SYNTHETIC data generators: gen-formulas, gen-traces, gen-activities, gen-demos."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+import typer
+
+from tleaf_cli import ui
+from tleaf_cli.cli.common import (
+    CacheDir,
+    Cluster,
+    Jobs,
+    MaxLen,
+    MinLen,
+    NoCache,
+    Quiet,
+    Seed,
+    compile_settings,
+    exits,
+    finish,
+    given_flags,
+    reachable,
+    refuse,
+    targets,
+)
+from tleaf_cli.defaults import CANDIDATE_TIMEOUT, MAX_LEN, MIN_LEN, TIERS
+from tleaf_cli.errors import SettingError
+
+Tier = Literal["low", "moderate", "high"]
+
+
+@exits
+def gen_formulas(
+    ctx: typer.Context,
+    out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
+        "formulas.ltl"
+    ),
+    tier: Annotated[
+        Tier | None,
+        typer.Option(
+            help="The paper's settings: low (3 atoms, size 10), moderate (3, 20), "
+            "high (6, 20). Overrides --atoms and --size."
+        ),
+    ] = None,
+    atoms: Annotated[int, typer.Option(help="Distinct atoms in every formula (a, b, c, ...).")] = 3,
+    size: Annotated[
+        int, typer.Option(help="Syntax-tree nodes (operators + atom occurrences).")
+    ] = 10,
+    n: Annotated[int, typer.Option("-n", min=1, help="Formulas to keep.")] = 100,
+    seed: Seed = 0,
+    min_len: MinLen = MIN_LEN,
+    max_len: MaxLen = MAX_LEN,
+    pairs: Annotated[
+        int,
+        typer.Option(
+            min=1,
+            help="Keep formulas with at least this many distinct "
+            "(satisfying, violating) pairs of equal length: gen-traces' --per-formula.",
+        ),
+    ] = 20,
+    one_hot: Annotated[
+        bool, typer.Option("--one-hot", help="Judge formulas on one-hot traces.")
+    ] = False,
+    prefix: Annotated[
+        str | None, typer.Option(help="Formula id prefix \\[default: the tier, or f].")
+    ] = None,
+    jobs: Jobs = 1,
+    cluster: Cluster = None,
+    timeout: Annotated[
+        float, typer.Option(min=0.001, help="MONA seconds per candidate; slower ones are rejected.")
+    ] = CANDIDATE_TIMEOUT,
+    cache_dir: CacheDir = None,
+    no_cache: NoCache = False,
+    quiet: Quiet = False,
+) -> None:
+    """Draw SYNTHETIC random LTLf formulas worth learning from.
+
+    Rejects unsatisfiable and valid formulas, formulas with fewer than --pairs distinct
+    (satisfying, violating) pairs of equal length in [--min-len, --max-len], repeats of a
+    language already kept, and candidates MONA cannot finish within --timeout.
+    """
+    from tleaf_cli.data.formula_gen import FormulaSettings, generate_formulas, write_formula_file
+
+    targets([], [out])
+    reachable(cluster)
+    if tier is not None:
+        refuse(given_flags(ctx, "atoms", "size"), "set by --tier; give --tier or these, not both")
+        if tier not in TIERS:
+            raise SettingError("tier", f"must be one of {', '.join(TIERS)}, not '{tier}'")
+        atoms, size = TIERS[tier]
+    settings = FormulaSettings(
+        n=n,
+        atoms=atoms,
+        size=size,
+        seed=seed,
+        min_len=min_len,
+        max_len=max_len,
+        pairs=pairs,
+        one_hot=one_hot,
+        prefix=prefix or (f"{tier}-" if tier else "f"),
+        compile=compile_settings(one_hot, timeout, cache_dir, no_cache, jobs, cluster),
+    )
+    with ui.progress("generating", quiet) as update:
+        report = generate_formulas(settings, update)
+    write_formula_file(report, settings, out)
+    reasons = ", ".join(f"{k}: {v}" for k, v in report.rejected.most_common()) or "none"
+    ui.summary(
+        f"{out}: kept {len(report.kept)} of {report.drawn} drawn "
+        f"({atoms} atoms, size {size}); rejected {sum(report.rejected.values())} ({reasons})",
+        quiet,
+    )
+    if len(report.kept) < n:
+        ui.fatal(f"only {len(report.kept)} of {n} formulas found before the draw limit")
+        raise typer.Exit(1)
+
+
+def _fractions(text: str | None) -> tuple[float, float, float] | None:
+    if text is None:
+        return None
+    try:
+        parts = tuple(float(x) for x in text.split(","))
+    except ValueError:
+        parts = ()
+    if len(parts) != 3:
+        raise SettingError("split", f"takes three fractions like 0.8,0.1,0.1, not '{text}'")
+    return parts  # type: ignore[return-value]
+
+
+@exits
+def gen_traces(
+    ctx: typer.Context,
+    dfas: Annotated[Path, typer.Argument(help="A dfas.parquet from compile-dfa.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="The traces.parquet to write.")] = Path(
+        "traces.parquet"
+    ),
+    per_formula: Annotated[
+        int, typer.Option(min=1, help="K: satisfying and K violating traces per formula.")
+    ] = 20,
+    min_len: MinLen = MIN_LEN,
+    max_len: MaxLen = MAX_LEN,
+    hard_fraction: Annotated[
+        float, typer.Option(help="Share of violating traces that are hard negatives.")
+    ] = 0.5,
+    one_hot: Annotated[
+        bool, typer.Option("--one-hot", help="One-hot letters only (a single atom, or none).")
+    ] = False,
+    once_each: Annotated[
+        bool,
+        typer.Option(
+            "--once-each",
+            help="Traces that read every atom of the formula exactly once (plus 0..--max-none "
+            "'none' steps), like a labelled video under its own rule set; implies --one-hot "
+            "letters; ignores --min-len, --max-len, --hard-fraction.",
+        ),
+    ] = False,
+    max_none: Annotated[
+        int,
+        typer.Option(
+            min=0,
+            help="With --once-each: at most this many 'none' steps (other pairs of the video; "
+            "more for per-ingredient rule sets).",
+        ),
+    ] = 3,
+    split: Annotated[
+        str | None, typer.Option(help="Add a split column by formula: train,val,test fractions.")
+    ] = None,
+    seed: Seed = 0,
+    jobs: Jobs = 1,
+    cluster: Cluster = None,
+    quiet: Quiet = False,
+) -> None:
+    """Sample SYNTHETIC satisfying and violating traces for every DFA, paired by length.
+
+    Satisfying traces are uniform among accepted words of a length; violating ones are uniform
+    rejected words or hard negatives (a satisfying trace with the fewest steps changed). Every
+    label is checked with the exact checker. Exit 1 if some DFA cannot give K of each.
+    """
+    from tleaf_cli.data.traces import TraceSettings, generate_traces
+
+    targets([dfas], [out])
+    reachable(cluster)
+    if once_each:
+        ignored = given_flags(ctx, "min_len", "max_len", "hard_fraction")
+        refuse(ignored, "ignored with --once-each (a video's length is set by its atoms)")
+    else:
+        refuse(given_flags(ctx, "max_none"), "only with --once-each")
+    settings = TraceSettings(
+        per_formula=per_formula,
+        min_len=min_len,
+        max_len=max_len,
+        hard_fraction=hard_fraction,
+        one_hot=one_hot or once_each,
+        once_each=once_each,
+        max_none=max_none,
+        seed=seed,
+        split=_fractions(split),
+        jobs=jobs,
+        cluster=cluster or None,
+    )
+    with ui.progress("sampling", quiet) as update:
+        report = generate_traces(dfas, out, settings, update)
+    skipped = f", {report.skipped} rows without a DFA skipped" if report.skipped else ""
+    finish(
+        [(str(dfas), f"formula {fid}: {why}") for fid, why in report.short],
+        f"{out}: {report.rows} traces for {report.formulas} formulas "
+        f"({report.hard} hard negatives; {len(report.short)} formulas short of {per_formula} "
+        f"pairs{skipped})",
+        quiet,
+    )
+
+
+@exits
+def gen_activities(
+    out: Annotated[
+        Path, typer.Option("--out", "-o", help="The activities.parquet to write.")
+    ] = Path("activities.parquet"),
+    kb_out: Annotated[
+        Path, typer.Option(help="Where to write the knowledge base that generated the data.")
+    ] = Path("kb.ltl"),
+    actions: Annotated[int, typer.Option(help="Actions (at most the paper's 64).")] = 16,
+    ingredients: Annotated[int, typer.Option(help="Ingredients (at most the paper's 155).")] = 24,
+    feature_dim: Annotated[
+        int, typer.Option(help="Feature size per step (2048 like ResNet).")
+    ] = 128,
+    noise: Annotated[float, typer.Option(help="Std of the per-step Gaussian noise.")] = 1.0,
+    confusable: Annotated[
+        float, typer.Option(help="0..1: how far paired classes' means are pulled together.")
+    ] = 0.5,
+    ingredient_scale: Annotated[
+        float,
+        typer.Option(help="Ingredient means' norm relative to actions' (>1: easier to see)."),
+    ] = 1.5,
+    train: Annotated[int, typer.Option(help="Training videos.")] = 60,
+    val: Annotated[int, typer.Option(help="Validation videos.")] = 40,
+    test: Annotated[int, typer.Option(help="Test videos.")] = 200,
+    unlabelled: Annotated[
+        int,
+        typer.Option(help="Unlabelled videos (split 'unlabelled'; only logic losses use them)."),
+    ] = 0,
+    min_steps: Annotated[int, typer.Option(help="Fewest steps in a video.")] = 5,
+    max_steps: Annotated[int, typer.Option(help="Most steps in a video.")] = 15,
+    seed: Seed = 0,
+    quiet: Quiet = False,
+) -> None:
+    """Generate SYNTHETIC procedural activity videos and the knowledge base they satisfy.
+
+    A hidden process (affordances, recipe-stage orderings) yields labelled (action, ingredient)
+    steps; features are class-conditional Gaussians with confusable class pairs.
+    """
+    from tleaf_cli.tasks.action_recognition.activity_gen import (
+        ActivitySettings,
+        generate_activities,
+    )
+
+    targets([], [out, kb_out])
+    settings = ActivitySettings(
+        actions=actions,
+        ingredients=ingredients,
+        feature_dim=feature_dim,
+        noise=noise,
+        confusable=confusable,
+        ingredient_scale=ingredient_scale,
+        train=train,
+        val=val,
+        test=test,
+        unlabelled=unlabelled,
+        min_steps=min_steps,
+        max_steps=max_steps,
+        seed=seed,
+    )
+    with ui.progress("generating videos", quiet) as update:
+        report = generate_activities(settings, out, kb_out, update)
+    ui.summary(
+        f"{out}: {report.videos} synthetic videos ({train} train, {val} val, {test} test, "
+        f"{unlabelled} unlabelled), "
+        f"{report.rows} steps; {kb_out}: {report.affordances} affordances, "
+        f"{report.orderings} orderings ({report.seconds:.1f} s)",
+        quiet,
+    )
+
+
+@exits
+def gen_demos(
+    out: Annotated[Path, typer.Option("--out", "-o", help="The demos.parquet to write.")] = Path(
+        "demos.parquet"
+    ),
+    episodes: Annotated[int, typer.Option(min=1, help="Expert episodes to record.")] = 32,
+    domain: Annotated[
+        Path | None,
+        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
+    ] = None,
+    seed: Seed = 0,
+    quiet: Quiet = False,
+) -> None:
+    """Record expert demonstrations in the SYNTHETIC Creative Cooking environment.
+
+    The expert plans each episode optimally (A* over the environment's exact rules) and its plan
+    is played in tleaf/CreativeCooking-v0; one row per step. Success rate and mean return go to
+    the artifact's params and the summary line.
+    """
+    from tleaf_cli.tasks.cooking.demos import DemoSettings, generate_demos
+    from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN
+
+    targets([domain], [out])
+    settings = DemoSettings(episodes=episodes, seed=seed, domain=domain or DEFAULT_DOMAIN)
+    with ui.progress("planning and playing", quiet) as update:
+        report = generate_demos(out, settings, update)
+    ui.summary(
+        f"{out}: {report.episodes} synthetic expert episodes, {report.rows} steps; success rate "
+        f"{100 * report.success_rate:.1f}%, mean return {report.mean_return:.2f}, mean length "
+        f"{report.mean_length:.2f} (planning {report.planning_seconds:.2f} s)",
+        quiet,
+    )
