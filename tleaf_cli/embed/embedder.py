@@ -1,4 +1,7 @@
-"""A trained q (frozen q_e + q_m), and differentiable embeddings of soft traces.
+"""A trained q (frozen q_e + q_m) at work: formulas, DFAs, discrete and soft traces to vectors.
+
+`load.load_embedder` reads a model folder into an `Embedder`; the logic loss (losses/tleaf.py),
+`tleaf embed` and the evaluations use it. Nothing here trains.
 
 A soft trace is a [T, k] tensor of per-step probabilities over named atoms (`columns`). Each
 step's letter distribution over a formula's atoms is
@@ -16,18 +19,13 @@ from __future__ import annotations
 
 import functools
 import itertools
-import json
-import os
 from collections.abc import Collection, Sequence
-from dataclasses import asdict
-from pathlib import Path
 
 import numpy as np
 import torch
 from torch_geometric.data import Batch
 
 from tleaf_cli import arguments
-from tleaf_cli.arguments import given
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.embed.graphs import letter_cnf, syntax_graph
 from tleaf_cli.embed.meta_data import (
@@ -42,15 +40,13 @@ from tleaf_cli.embed.soft_monitors import (
     monitor_classes,
     soft_monitor_features,
 )
-from tleaf_cli.embed.train_edge import load_edge_model
-from tleaf_cli.embed.train_meta import TripletEmbedder, build_model, store_run_weights
-from tleaf_cli.embed.training import read_model_config
-from tleaf_cli.errors import ArgumentError, ArgumentTypeError, InputError, SettingError
+from tleaf_cli.embed.model import TripletEmbedder, store_run_weights
+from tleaf_cli.errors import ArgumentError, InputError, SettingError
 from tleaf_cli.logic.alphabet import ALPHABET_KINDS, Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
 from tleaf_cli.rule_set import RuleSet
-from tleaf_cli.settings.meta import RUN_READOUTS, recommended_lambda, settings_from_config
+from tleaf_cli.settings.meta import RUN_READOUTS
 
 
 class Embedder:
@@ -81,7 +77,7 @@ class Embedder:
 
     @property
     def recommended_lambda(self) -> float:
-        """The tleaf loss's λ that fits this q (`train_meta.recommended_lambda`): the loss term
+        """The tleaf loss's λ that fits this q (`settings.meta.recommended_lambda`): the loss term
         is then about 1 at q's own satisfy/violate boundary."""
         return float(self.config["recommended_lambda"])
 
@@ -298,47 +294,6 @@ def soft_trace_vectors(
     is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
     valid = torch.arange(expected.shape[1], device=expected.device)[None, :] < lengths[:, None]
     return model.embed_traces(chain_batch(model.trace, expected[valid], lengths.tolist(), monitor))
-
-
-def edge_model_dir(model_dir: Path, config: dict) -> Path:
-    """Where a meta model's edge model is: relative to the meta folder where it is there (the
-    tree was moved or copied whole), else at the absolute path recorded when it was trained."""
-    relative = config.get("edge_model_relative")
-    if relative is not None and (model_dir / relative / "config.json").exists():
-        return model_dir / relative
-    return Path(config["edge_model"])
-
-
-def load_embedder(model_dir: str | Path) -> Embedder:
-    """A trained meta embedder directory (with its edge model) as an `Embedder`."""
-    if not isinstance(model_dir, str | os.PathLike):
-        raise ArgumentTypeError(
-            "model_dir", f"must be a path (str or Path), not {given(model_dir)}"
-        )
-    model_dir = Path(model_dir)
-    config = read_model_config(model_dir, "meta-embedder")
-    settings = settings_from_config(config, model_dir / "config.json")
-    if "recommended_lambda" not in config:  # written before q carried its λ: from its metrics
-        config["recommended_lambda"] = _lambda_from_metrics(model_dir)
-    config["settings"] = asdict(settings)
-    edge_model, edge_config = load_edge_model(edge_model_dir(model_dir, config))
-    vectors = GuardVectors(edge_model, edge_config["vocabulary"])
-    model = build_model(settings, vectors.dim, edge_model.atom_table)
-    model.load_state_dict(
-        torch.load(model_dir / "weights.pt", map_location="cpu", weights_only=True)
-    )
-    return Embedder(model, vectors, config)
-
-
-def _lambda_from_metrics(model_dir: Path) -> float:
-    """`recommended_lambda` of a model folder written before config.json carried it, from the
-    test split's distances its metrics.json records."""
-    path = model_dir / "metrics.json"
-    try:
-        test = json.loads(path.read_text())["test"]
-        return recommended_lambda(test)
-    except (OSError, ValueError, KeyError) as e:
-        raise InputError(f"{path}: cannot read q's distances to choose its λ ({e})") from None
 
 
 @functools.lru_cache(maxsize=64)
