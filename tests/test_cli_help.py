@@ -12,13 +12,11 @@ import typer
 from typer.testing import CliRunner
 
 from tleaf_cli import cli
-from tleaf_cli.cli import action_recognition, generate, knowledge, model_checking
+from tleaf_cli.cli import action_recognition, generate, knowledge
 from tleaf_cli.cli.options import SETTINGS_COMMANDS
 from tleaf_cli.defaults import TIERS
-from tleaf_cli.settings import DEVICES, PRECISIONS
 from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS
 from tleaf_cli.tasks.action_recognition.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
-from tleaf_cli.tasks.model_checking import PAIR_FEATURES
 
 runner = CliRunner()
 # Options that take one of a fixed set of values, by flag: every one must list its values.
@@ -98,9 +96,6 @@ def test_choice_types_match_the_library() -> None:
         (generate.Tier, tuple(TIERS)),
         (knowledge.KbFormulaFrom, KB_FORMULA_SOURCES),
         (knowledge.RuleSets, RULE_SET_SPLITS),
-        (model_checking.PairFeatures, PAIR_FEATURES),
-        (model_checking.EvalDevice, DEVICES),
-        (model_checking.Precision, PRECISIONS),
         (action_recognition.Decoding, DECODINGS),
     ]
     for literal, values in pairs:
@@ -108,9 +103,10 @@ def test_choice_types_match_the_library() -> None:
 
 
 @pytest.mark.parametrize("command", SETTINGS_COMMANDS, ids=lambda c: c.name)
-def test_a_training_command_has_one_option_per_setting(command) -> None:
-    """Each setting of a trainer's settings dataclass is an option of its command, with the
-    setting's help and its values: the option is written once, in the dataclass."""
+def test_a_settings_command_has_one_option_per_setting(command) -> None:
+    """Each setting of a command's settings dataclass (trainers, evaluations, generators) is an
+    option of its command, with the setting's help and its values: the option is written once,
+    in the dataclass."""
     path = command.name.split()
     found = {" ".join(p): c for p, c in COMMANDS}[" ".join(path)]
     params = {p.name: p for p in found.params}

@@ -25,8 +25,10 @@ from tleaf_cli.cli.common import (
     refuse,
     targets,
 )
+from tleaf_cli.cli.options import ACTIVITIES, DEMOS, with_settings
 from tleaf_cli.defaults import CANDIDATE_TIMEOUT, MAX_LEN, MIN_LEN, TIERS
 from tleaf_cli.errors import SettingError
+from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 
 Tier = Literal["low", "moderate", "high"]
 
@@ -212,6 +214,7 @@ def gen_traces(
 
 
 @exits
+@with_settings(ACTIVITIES)
 def gen_activities(
     out: Annotated[
         Path, typer.Option("--out", "-o", help="The activities.parquet to write.")
@@ -219,80 +222,36 @@ def gen_activities(
     kb_out: Annotated[
         Path, typer.Option(help="Where to write the knowledge base that generated the data.")
     ] = Path("kb.ltl"),
-    actions: Annotated[int, typer.Option(help="Actions (at most the paper's 64).")] = 16,
-    ingredients: Annotated[int, typer.Option(help="Ingredients (at most the paper's 155).")] = 24,
-    feature_dim: Annotated[
-        int, typer.Option(help="Feature size per step (2048 like ResNet).")
-    ] = 128,
-    noise: Annotated[float, typer.Option(help="Std of the per-step Gaussian noise.")] = 1.0,
-    confusable: Annotated[
-        float, typer.Option(help="0..1: how far paired classes' means are pulled together.")
-    ] = 0.5,
-    ingredient_scale: Annotated[
-        float,
-        typer.Option(help="Ingredient means' norm relative to actions' (>1: easier to see)."),
-    ] = 1.5,
-    train: Annotated[int, typer.Option(help="Training videos.")] = 60,
-    val: Annotated[int, typer.Option(help="Validation videos.")] = 40,
-    test: Annotated[int, typer.Option(help="Test videos.")] = 200,
-    unlabelled: Annotated[
-        int,
-        typer.Option(help="Unlabelled videos (split 'unlabelled'; only logic losses use them)."),
-    ] = 0,
-    min_steps: Annotated[int, typer.Option(help="Fewest steps in a video.")] = 5,
-    max_steps: Annotated[int, typer.Option(help="Most steps in a video.")] = 15,
-    seed: Seed = 0,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Generate SYNTHETIC procedural activity videos and the knowledge base they satisfy.
 
     A hidden process (affordances, recipe-stage orderings) yields labelled (action, ingredient)
     steps; features are class-conditional Gaussians with confusable class pairs.
     """
-    from tleaf_cli.tasks.action_recognition.activity_gen import (
-        ActivitySettings,
-        generate_activities,
-    )
+    from tleaf_cli.tasks.action_recognition.activity_gen import generate_activities
 
     targets([], [out, kb_out])
-    settings = ActivitySettings(
-        actions=actions,
-        ingredients=ingredients,
-        feature_dim=feature_dim,
-        noise=noise,
-        confusable=confusable,
-        ingredient_scale=ingredient_scale,
-        train=train,
-        val=val,
-        test=test,
-        unlabelled=unlabelled,
-        min_steps=min_steps,
-        max_steps=max_steps,
-        seed=seed,
-    )
+    s = ActivitySettings(**values)
     with ui.progress("generating videos", quiet) as update:
-        report = generate_activities(settings, out, kb_out, update)
+        report = generate_activities(s, out, kb_out, update)
     ui.summary(
-        f"{out}: {report.videos} synthetic videos ({train} train, {val} val, {test} test, "
-        f"{unlabelled} unlabelled), "
-        f"{report.rows} steps; {kb_out}: {report.affordances} affordances, "
-        f"{report.orderings} orderings ({report.seconds:.1f} s)",
+        f"{out}: {report.videos} synthetic videos ({s.train} train, {s.val} val, {s.test} test, "
+        f"{s.unlabelled} unlabelled), {report.rows} steps; {kb_out}: {report.affordances} "
+        f"affordances, {report.orderings} orderings ({report.seconds:.1f} s)",
         quiet,
     )
 
 
 @exits
+@with_settings(DEMOS)
 def gen_demos(
     out: Annotated[Path, typer.Option("--out", "-o", help="The demos.parquet to write.")] = Path(
         "demos.parquet"
     ),
-    episodes: Annotated[int, typer.Option(min=1, help="Expert episodes to record.")] = 32,
-    domain: Annotated[
-        Path | None,
-        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
-    ] = None,
-    seed: Seed = 0,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Record expert demonstrations in the SYNTHETIC Creative Cooking environment.
 
@@ -300,11 +259,10 @@ def gen_demos(
     is played in tleaf/CreativeCooking-v0; one row per step. Success rate and mean return go to
     the artifact's params and the summary line.
     """
-    from tleaf_cli.tasks.cooking.demos import DemoSettings, generate_demos
-    from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN
+    from tleaf_cli.tasks.cooking.demos import generate_demos
 
-    targets([domain], [out])
-    settings = DemoSettings(episodes=episodes, seed=seed, domain=domain or DEFAULT_DOMAIN)
+    settings = DemoSettings(**values)
+    targets([settings.domain], [out])
     with ui.progress("planning and playing", quiet) as update:
         report = generate_demos(out, settings, update)
     ui.summary(

@@ -27,7 +27,9 @@ import typer
 from tleaf_cli.settings import default_of, options
 from tleaf_cli.settings.action_recognition import TaskSettings
 from tleaf_cli.settings.edge import EdgeSettings
+from tleaf_cli.settings.evaluation import EvalSettings, FigureSettings
 from tleaf_cli.settings.gail import GailSettings
+from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 from tleaf_cli.settings.meta import MetaSettings
 
 # The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
@@ -37,6 +39,7 @@ FLAGS = {
     "total_steps": "--steps",  # train-task cooking
     "n_envs": "--envs",
     "n_steps": "--rollout",
+    "formula_id": "--formula",  # eval tsne
 }
 
 
@@ -60,6 +63,8 @@ class SettingsCommand:
 def _shown(value: Any) -> str:
     if isinstance(value, bool):
         return "on" if value else "off"
+    if value == "":
+        return "none"
     return str(value)
 
 
@@ -153,7 +158,11 @@ EDGE = SettingsCommand(EdgeSettings, "train-edge")
 META = SettingsCommand(MetaSettings, "train-meta")
 TASK = SettingsCommand(TaskSettings, "train-task action-recognition")
 GAIL = SettingsCommand(GailSettings, "train-task cooking")
-SETTINGS_COMMANDS = [EDGE, META, TASK, GAIL]
+EVAL = SettingsCommand(EvalSettings, "eval model-checking")
+FIGURE = SettingsCommand(FigureSettings, "eval tsne")
+ACTIVITIES = SettingsCommand(ActivitySettings, "gen-activities")
+DEMOS = SettingsCommand(DemoSettings, "gen-demos")
+SETTINGS_COMMANDS = [ACTIVITIES, EDGE, META, TASK, GAIL, EVAL, FIGURE, DEMOS]
 
 
 # ---- docs/cli.md's option tables

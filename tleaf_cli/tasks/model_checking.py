@@ -44,22 +44,8 @@ from tleaf_cli.embed.soft import load_embedder
 from tleaf_cli.embed.training import adam, device_for
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings import PRECISIONS
+from tleaf_cli.settings.evaluation import PAIR_FEATURES, EvalSettings
 from tleaf_cli.settings.meta import MetaSettings
-
-
-@dataclass(frozen=True)
-class EvalSettings:
-    pair_features: str = "concat"  # or "rich"
-    hidden: tuple[int, int] = (512, 128)
-    lr: float = 1e-3
-    batch_size: int = 256
-    epochs: int = 100
-    patience: int = 10
-    seed: int = 0
-    label: str = ""  # e.g. the tier, for the report's table
-    all_negatives: bool = False  # also fit and report the MLP on all negatives (hard ones too)
-    device: str = "cpu"  # where the MLPs train ("cuda": a GPU)
-    precision: str = "float32"  # "bfloat16": the MLPs' products under autocast; "auto"
 
 
 @dataclass
@@ -71,7 +57,6 @@ class Split:
     source: list[str]
 
 
-PAIR_FEATURES = ("concat", "rich")
 ALL = "mlp_all_negatives"  # the report's second MLP, fitted on all negatives (all_negatives)
 
 

@@ -10,7 +10,6 @@ just twenty dots — as pairs of equal length: satisfying, uniform violating and
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +20,7 @@ from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import TraceSettings, read_traces, traces_for_dfa
 from tleaf_cli.embed.soft import load_embedder
 from tleaf_cli.errors import InputError
+from tleaf_cli.settings.evaluation import FigureSettings
 from tleaf_cli.tasks.figures import pyplot, save_png
 
 STYLE = {  # kind of point -> (marker, colour, legend)
@@ -28,14 +28,6 @@ STYLE = {  # kind of point -> (marker, colour, legend)
     "uniform": ("x", "tab:red", "violating (uniform)"),
     "hard": ("^", "tab:orange", "violating (hard: one edit)"),
 }
-
-
-@dataclass(frozen=True)
-class FigureSettings:
-    formula_id: str | None = None  # default: the test formula with the most traces
-    pairs: int = 150  # satisfying/violating pairs drawn for the picture
-    perplexity: float = 20.0
-    seed: int = 0
 
 
 def pick_test_formula(traces_path: str | Path, rows: dict[str, dict]) -> str:

@@ -34,11 +34,14 @@ from tleaf_cli.knowledge.base import (
     ordering_rule,
     write_knowledge_base,
 )
+from tleaf_cli.settings.generators import (  # the bounds: re-exported for tests and users
+    MAX_ACTIONS,  # noqa: F401
+    MAX_INGREDIENTS,  # noqa: F401
+    ActivitySettings,
+)
 from tleaf_cli.tasks.action_recognition.activities import KIND, SCHEMA_VERSION, activities_table
 
 # The paper's Tasty Videos vocabulary: 64 actions, 155 ingredients.
-MAX_ACTIONS = 64
-MAX_INGREDIENTS = 155
 MAX_INGREDIENTS_PER_VIDEO = 4
 STAGES = ("prepare", "cut", "cook", "season", "finish")
 # Built-in names per stage; listed round-robin so a small vocabulary still spans every stage.
@@ -66,52 +69,6 @@ MIN_AFFORDED = 3
 # Norm scale of the class means relative to the per-dimension noise: chosen so the defaults give
 # a per-step logistic regression about 65% action accuracy (docs/activities.md).
 MEAN_RADIUS = 4.0
-
-
-@dataclass(frozen=True)
-class ActivitySettings:
-    actions: int = 16
-    ingredients: int = 24
-    feature_dim: int = 128
-    noise: float = 1.0
-    confusable: float = 0.5
-    ingredient_scale: float = 1.5
-    train: int = 60
-    val: int = 40
-    test: int = 200
-    unlabelled: int = 0
-    min_steps: int = 5
-    max_steps: int = 15
-    seed: int = 0
-
-    def check(self) -> None:
-        """SettingError for settings no process can satisfy."""
-        if not 2 <= self.actions <= MAX_ACTIONS:
-            raise SettingError("actions", f"must be in 2..{MAX_ACTIONS}, got {self.actions}")
-        if not 1 <= self.ingredients <= MAX_INGREDIENTS:
-            raise SettingError(
-                "ingredients", f"must be in 1..{MAX_INGREDIENTS}, got {self.ingredients}"
-            )
-        if self.feature_dim < 1:
-            raise SettingError("feature_dim", f"must be at least 1, got {self.feature_dim}")
-        if self.noise < 0:
-            raise SettingError("noise", f"must be >= 0, got {self.noise}")
-        if not 0 <= self.confusable <= 1:
-            raise SettingError("confusable", f"must be in [0, 1], got {self.confusable}")
-        if self.ingredient_scale <= 0:
-            raise SettingError("ingredient_scale", f"must be > 0, got {self.ingredient_scale}")
-        sizes = {"train": self.train, "val": self.val, "test": self.test}
-        sizes["unlabelled"] = self.unlabelled
-        for name, size in sizes.items():
-            if size < 0:
-                raise SettingError(name, f"must be >= 0, got {size}")
-        if sum(sizes.values()) == 0:
-            raise SettingError("train", "no videos at all: every split's count is 0")
-        if not 1 <= self.min_steps <= self.max_steps:
-            raise SettingError(
-                "min_steps",
-                f"must be between 1 and the most steps ({self.max_steps}), got {self.min_steps}",
-            )
 
 
 @dataclass(frozen=True)

@@ -20,6 +20,7 @@ import numpy as np
 import pyarrow as pa
 
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_artifact
+from tleaf_cli.settings.generators import DemoSettings
 from tleaf_cli.tasks.cooking import ENV_ID, MAX_EPISODE_STEPS
 from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
 from tleaf_cli.tasks.cooking.expert import plan
@@ -40,13 +41,6 @@ DEMO_SCHEMA = pa.schema(
 
 
 @dataclass(frozen=True)
-class DemoSettings:
-    episodes: int = 32
-    seed: int = 0
-    domain: Path = DEFAULT_DOMAIN
-
-
-@dataclass(frozen=True)
 class DemoReport:
     episodes: int
     rows: int
@@ -62,7 +56,8 @@ def generate_demos(
     update: Callable[[int, int], None] = lambda done, total: None,
 ) -> DemoReport:
     """Plan and play `settings.episodes` expert episodes; write them to `out` (kind `demos`)."""
-    domain = load_domain(settings.domain)
+    domain_path = settings.domain or DEFAULT_DOMAIN
+    domain = load_domain(domain_path)
     check_writable(out)
     env = gym.make(ENV_ID, domain=domain)
     ties = np.random.default_rng(settings.seed)  # which of the equally short plans is shown
@@ -98,7 +93,7 @@ def generate_demos(
     params = {
         "episodes": settings.episodes,
         "seed": settings.seed,
-        "domain": str(settings.domain),
+        "domain": str(domain_path),
         "env": ENV_ID,
         "max_episode_steps": MAX_EPISODE_STEPS,
         "expert": "A* shortest plans over the exact rules, ties broken at random (seeded)",
@@ -114,6 +109,6 @@ def generate_demos(
         kind=KIND,
         schema=SCHEMA,
         params=params,
-        inputs=describe_inputs([settings.domain]),
+        inputs=describe_inputs([domain_path]),
     )
     return report
