@@ -254,3 +254,18 @@ def test_balanced_accuracy_and_class_weights() -> None:
     assert _balanced_accuracy(pred, label) == (0.75 + 1.0) / 2
     w = _class_weights(torch.tensor(label, dtype=torch.float32))
     assert torch.isclose(w[:20].sum(), w[20:].sum()) and torch.isclose(w.mean(), torch.tensor(1.0))
+
+
+def test_the_summary_line_gives_balanced_accuracy(chain, chain_cli, meta_model, tmp_path) -> None:
+    """The one line a run prints names and gives the balanced accuracy, the figure Table I and
+    the docs compare, not the plain accuracy over twice as many satisfying traces."""
+    out = tmp_path / "report"
+    result = chain_cli(
+        "eval", "model-checking", chain["dfas"], chain["traces"], "--embedder", meta_model,
+        "-o", out,
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    report = json.loads((out / "report.json").read_text())
+    mlp, distance = (100 * report[c]["balanced_accuracy"] for c in ("mlp", "distance"))
+    line = " ".join(result.output.split())
+    assert f"balanced accuracy MLP {mlp:.2f}%, distance rule {distance:.2f}%" in line, line
