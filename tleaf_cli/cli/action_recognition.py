@@ -17,10 +17,12 @@ from tleaf_cli.cli.common import (
     refuse,
     targets,
 )
-from tleaf_cli.cli.options import TASK, with_settings
+from tleaf_cli.cli.options import TASK, given, with_settings
 from tleaf_cli.settings.action_recognition import DECODINGS, TaskSettings
 
 Decoding = Literal[DECODINGS]  # test-time decoding
+TaskPreset = Literal[tuple(TaskSettings.PRESETS)]
+DEFAULT_TASK_PRESET = TaskSettings.default_preset()
 
 
 @exits
@@ -33,6 +35,14 @@ def train_task_action_recognition(
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
+    preset: Annotated[
+        TaskPreset,
+        typer.Option(
+            help="Settings to start from; options given on the command line override them. "
+            + "; ".join(f"{name}: {text}" for name, text in TaskSettings.PRESET_HELP.items())
+            + "."
+        ),
+    ] = DEFAULT_TASK_PRESET,
     resume: Resume = False,
     quiet: Quiet = False,
     **values,
@@ -41,15 +51,22 @@ def train_task_action_recognition(
 
     Writes config.json, weights.pt and metrics.json (per epoch: task and logic loss, seconds,
     val action accuracy; test: action / ingredient / pair accuracy, violation fraction, and with
-    --decode constrained the same under constrained decoding, with its time per video).
+    --decode constrained the same under constrained decoding, with its time per video; the λ
+    used and where it came from). Prints the λ and its source before the first epoch.
     """
     from tleaf_cli.tasks.action_recognition.train import train_action_recognition
 
     targets([activities, kb, embedder], folders=[out])
-    settings = TaskSettings(**values)
+    settings = TaskSettings.preset(preset, **given(ctx, values))
     if settings.decode != "constrained":
         refuse(given_flags(ctx, "decode_top_k"), "only with --decode constrained")
     model, logic_loss, epochs = settings.model, settings.logic_loss, settings.epochs
+
+    def on_setup(setup) -> None:  # before the first epoch (every candidate's, with --lambdas)
+        ui.summary(setup.lam.text(given="given with --lambda"), quiet)
+        if setup.coverage is not None and setup.coverage.left_out:
+            ui.summary(f"warning: {setup.coverage.left_out_text()}", quiet)
+
     with ui.progress(f"training h ({model}, {logic_loss})", quiet) as update:
 
         def on_epoch(r) -> None:
@@ -62,8 +79,12 @@ def train_task_action_recognition(
             )
 
         metrics = train_action_recognition(
-            activities, kb, embedder, out, settings, on_epoch, resume=resume
+            activities, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup
         )
+    if settings.lambdas is not None:
+        from tleaf_cli.tasks.action_recognition.lambda_choice import LambdaChoice
+
+        ui.summary(LambdaChoice(**metrics["lambda"]).text(), quiet)
     test = metrics["test"]
     ui.summary(
         f"{out}: test action {100 * test['action_accuracy']:.2f}%, ingredient "

@@ -9,6 +9,8 @@ from the same weights and saw the same batches — and the relative change in ac
 the paper's measure. The report gives every run, every pair, a summary per (model, loss) — mean
 Δ, how many of the pairs improved, the per-epoch time ratio against the reference — as
 report.json and report.md, and boxplots of Δ per model and loss (report.png, like Fig. 4B).
+A tleaf run whose q could read none of the knowledge base's rules trained without a logic loss;
+it is refused, not listed as a tleaf run.
 """
 
 from __future__ import annotations
@@ -42,6 +44,12 @@ def read_run(run_dir: Path, decode: str = "argmax") -> dict:
             f"{run_dir}: a '{config.get('kind')}' directory, expected a train-task run"
         )
     s, test = config["settings"], metrics["test"]
+    if s["logic_loss"] == "tleaf" and _read_no_rule(metrics.get("rule_sets", {})):
+        raise InputError(
+            f"{run_dir}: its q could read none of the knowledge base's rules, so its tleaf loss "
+            "was 0 throughout and it trained without one; leave it out, or train it again with "
+            "a q trained on this knowledge base's rules"
+        )
     constrained = test.get("constrained")
     if decode == "constrained":
         if constrained is None:
@@ -65,6 +73,7 @@ def read_run(run_dir: Path, decode: str = "argmax") -> dict:
         "mean_epoch_seconds": metrics["mean_epoch_seconds"],
         "epochs": len(metrics["history"]),
         "best_epoch": metrics["best"]["epoch"],
+        "kb_rules_unknown_to_q": metrics.get("rule_sets", {}).get("kb_rules_unknown_to_q", 0),
     }
     if constrained is not None:
         keep = (*MEASURES, "violation_fraction")
@@ -76,6 +85,17 @@ def read_run(run_dir: Path, decode: str = "argmax") -> dict:
             },
         }
     return row
+
+
+def _read_no_rule(rule_sets: dict) -> bool:
+    """Whether a tleaf run's loss compiled no rule because its q knew none of their atoms
+    (runs written before training refused such a q)."""
+    if "kb_rules" in rule_sets:
+        return (
+            rule_sets["kb_rules"] > 0
+            and rule_sets["kb_rules_unknown_to_q"] == rule_sets["kb_rules"]
+        )
+    return rule_sets.get("compiled", 1) == 0 and rule_sets.get("rules_left_out_unknown_to_q", 0) > 0
 
 
 def pair_with_references(runs: Sequence[dict]) -> list[dict]:

@@ -23,14 +23,17 @@ by λ. Either way their loss is weighted by epoch/`unlabelled_warmup` over the f
 knowledge needs no labels, so this is where it could add what a few labelled videos do not
 show. The reference (none) and checker (no gradient) do not read them.
 
-Adam (lr 1e-4 as in the paper); after every epoch, action accuracy on the val split; the best
-epoch's weights are kept and training stops after `patience` epochs without a better one. The
-test split then gives action, ingredient and pair accuracy and the share of test videos whose
-predicted sequence violates the rules relevant to its predicted pairs (the exact checker).
+Adam (lr 1e-3 by default; the paper's 1e-4 is preset `paper`); after every epoch, action
+accuracy on the val split; the best epoch's weights are kept and training stops after
+`patience` epochs without a better one. The test split then gives action, ingredient and pair
+accuracy and the share of test videos whose predicted sequence violates the rules relevant to
+its predicted pairs (the exact checker).
 
 Same seed, same run: h's initial weights, batch order and dropout masks depend on the seed
 only, so runs that differ only in the logic loss start from the same point (and the checker
 loss, which has no gradient, reproduces the reference run).
+
+`LogicObjective` (objective.py) gives ℓ_logic; `lambda_choice` the λ and where it came from.
 
 Model directory (docs/design.md): `config.json`, `weights.pt` (best epoch), `metrics.json`, and
 `checkpoint.pt` (last epoch, for `resume`: `embed.training.fit`).
@@ -49,20 +52,14 @@ import torch
 from torch.nn import functional as F
 
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_to, write_text_atomic
-from tleaf_cli.embed.soft import Embedder, load_embedder
+from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
-from tleaf_cli.losses import (
-    logic_loss,
-    pair_log_probs,
-    pair_vocabulary,
-    violates,
-)
+from tleaf_cli.losses import pair_log_probs, pair_vocabulary, violates
 from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.settings.action_recognition import (  # noqa: F401  (TaskSettings re-exported)
-    EXACT_LAMBDA,
     FORMULA_SOURCES,
     TaskSettings,
 )
@@ -72,10 +69,20 @@ from tleaf_cli.tasks.action_recognition.activities import (
     Video,
     read_activities,
 )
+from tleaf_cli.tasks.action_recognition.batch import Batch
 from tleaf_cli.tasks.action_recognition.decoding import decode_pairs, own_labels
+from tleaf_cli.tasks.action_recognition.lambda_choice import (
+    RunSetup,
+    resolve_lambda,
+    train_choosing_lambda,
+)
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
-
-GRADIENT_LOSSES = ("tleaf", "exact")  # the losses unlabelled videos can teach through
+from tleaf_cli.tasks.action_recognition.objective import (
+    GRADIENT_LOSSES,
+    LogicObjective,
+    predicted_atoms,
+)
+from tleaf_cli.tasks.q_coverage import check_q_covers
 
 
 @dataclass
@@ -88,119 +95,6 @@ class EpochRecord:
     val_action_accuracy: float
 
 
-@dataclass
-class Batch:
-    """Padded videos: features [B, T, D], labels [B, T] (-100 on padding), lengths [B]."""
-
-    videos: list[Video]
-    features: torch.Tensor
-    actions: torch.Tensor
-    ingredients: torch.Tensor
-    lengths: torch.Tensor
-
-    @classmethod
-    def of(cls, videos: Sequence[Video], device: torch.device) -> Batch:
-        lengths = torch.tensor([len(v) for v in videos], dtype=torch.long)
-        width, dim = int(lengths.max()), videos[0].features.shape[1]
-        features = torch.zeros((len(videos), width, dim))
-        actions = torch.full((len(videos), width), -100, dtype=torch.long)
-        ingredients = torch.full((len(videos), width), -100, dtype=torch.long)
-        for b, v in enumerate(videos):
-            features[b, : len(v)] = torch.from_numpy(v.features)
-            actions[b, : len(v)] = torch.from_numpy(v.actions)
-            ingredients[b, : len(v)] = torch.from_numpy(v.ingredients)
-        return cls(
-            list(videos),
-            features.to(device),
-            actions.to(device),
-            ingredients.to(device),
-            lengths.to(device),
-        )
-
-
-def predicted_atoms(data: Activities, actions: np.ndarray, ingredients: np.ndarray) -> set[str]:
-    """The atoms of a predicted sequence (action and ingredient indices per step)."""
-    return {data.atom(int(a), int(i)) for a, i in zip(actions, ingredients, strict=True)}
-
-
-class LogicObjective:
-    """ℓ_logic for batches: picks each video's rule sets and calls `losses.logic_loss` [B].
-
-    With one rule set per ingredient, ℓ(φ) = Σ_x ℓ(φ_x): the video's outputs are repeated once
-    per set, so every set is one row of a single `logic_loss` call.
-    """
-
-    def __init__(
-        self,
-        settings: TaskSettings,
-        data: Activities,
-        rules: KnowledgeRuleSets,
-        embedder: Embedder | None = None,
-    ) -> None:
-        self.settings = settings
-        self.data = data
-        self.rules = rules
-        self.embedder = embedder
-        kind = settings.logic_loss
-        self.per_ingredient = settings.rule_sets == "ingredient" and kind in GRADIENT_LOSSES
-        self.fixed: dict[str, list[RuleSet]] = {}  # rule sets from labels, labelled videos only
-        self.whole: list[RuleSet] | None = None  # the guarded knowledge base, every video's
-        if settings.formula_from == "kb" and kind != "none":
-            self.whole = rules.whole()
-            if embedder is not None and self.whole:
-                embedder.rule_set_vectors(self.whole)
-        if settings.formula_from == "labels" and kind != "none":
-            videos = [v for v in data.videos if v.split != UNLABELLED]
-            groups = self._groups([set(data.atoms(v)) for v in videos])
-            self.fixed = {v.video_id: g for v, g in zip(videos, groups, strict=True)}
-            fixed = [r for g in groups for r in g]
-            if embedder is not None and fixed:  # q(A_φ) of every fixed set now, not in epoch 1
-                embedder.rule_set_vectors(fixed)
-
-    def _groups(self, atoms_per_video: list[set[str]]) -> list[list[RuleSet]]:
-        return self.rules.for_atoms(atoms_per_video, self.per_ingredient)
-
-    def __call__(self, batch: Batch, actions: torch.Tensor, ingredients: torch.Tensor):
-        if self.settings.logic_loss == "none":
-            return actions.new_zeros(actions.shape[0])
-        if self.whole is not None:
-            return self._loss(batch, actions, ingredients, [self.whole] * len(batch.videos))
-        a = actions.detach().argmax(-1).cpu().numpy()
-        i = ingredients.detach().argmax(-1).cpu().numpy()
-        lengths = batch.lengths.tolist()
-        predicted = [b for b, v in enumerate(batch.videos) if v.video_id not in self.fixed]
-        from_predictions = self._groups(
-            [predicted_atoms(self.data, a[b, : lengths[b]], i[b, : lengths[b]]) for b in predicted]
-        )
-        groups = [self.fixed.get(v.video_id, []) for v in batch.videos]
-        for b, g in zip(predicted, from_predictions, strict=True):
-            groups[b] = g
-        return self._loss(batch, actions, ingredients, groups)
-
-    def _loss(
-        self,
-        batch: Batch,
-        actions: torch.Tensor,
-        ingredients: torch.Tensor,
-        groups: list[list[RuleSet]],
-    ) -> torch.Tensor:
-        """Σ over each video's rule sets `groups[b]` of ℓ_logic, one `logic_loss` call [B]."""
-        out = actions.new_zeros(actions.shape[0])
-        owner = [b for b, sets in enumerate(groups) for _ in sets]
-        if not owner:
-            return out
-        rows = torch.tensor(owner, device=actions.device)
-        per_set = logic_loss(
-            self.settings.logic_loss,
-            pair_log_probs(actions[rows], ingredients[rows]),
-            [r for sets in groups for r in sets],
-            batch.lengths[rows],
-            self.embedder,
-            reduction="none",
-        )
-        return out.index_add(0, rows, per_set)
-
-
 def train_action_recognition(
     activities_path: str | Path,
     kb_path: str | Path,
@@ -209,14 +103,25 @@ def train_action_recognition(
     settings: TaskSettings,
     on_epoch: Callable[[EpochRecord], None] | None = None,
     resume: bool = False,
+    on_setup: Callable[[RunSetup], None] | None = None,
 ) -> dict:
     """Train h, keep the best val epoch, score it on test; returns the metrics written.
 
     The epochs are `embed.training.fit`'s loop; `resume` continues from out_dir's
-    `checkpoint.pt` and ends as the run never interrupted would."""
+    `checkpoint.pt` and ends as the run never interrupted would. `on_setup` hears the run's λ
+    and its source, and what of the knowledge base q cannot read, before the first epoch
+    (`lambda_choice`). With `settings.lambdas`, one run per candidate λ and the best on val
+    kept (`lambda_choice.train_choosing_lambda`). SettingError when the tleaf loss's q can read
+    none of the knowledge base's rules (`q_coverage`)."""
     settings.check()
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
+    if settings.lambdas is not None:
+        return train_choosing_lambda(
+            train_action_recognition, out_dir, settings, on_setup,
+            activities_path=activities_path, kb_path=kb_path, embedder_dir=embedder_dir,
+            on_epoch=on_epoch, resume=resume,
+        )  # fmt: skip
     device = device_for(settings.device)
     data = read_activities(activities_path)
     kb = read_knowledge_base(kb_path)
@@ -229,18 +134,21 @@ def train_action_recognition(
     setup_start = time.perf_counter()
     vocabulary = pair_vocabulary(data.actions, data.ingredients)
     checker_rules = KnowledgeRuleSets(kb, vocabulary)  # the violation metric, for every loss
-    embedder = None
+    embedder, coverage = None, None
     if settings.logic_loss == "tleaf":
         if embedder_dir is None:
             raise SettingError("embedder", "the tleaf loss needs an embedder (a train-meta folder)")
         embedder = load_embedder(embedder_dir)
+        coverage = check_q_covers(kb, embedder.vectors.index, embedder_dir)
         embedder.model.to(device)
         loss_rules = KnowledgeRuleSets(kb, vocabulary, set(embedder.vectors.index))
     else:
         loss_rules = checker_rules
-    if settings.lam is None:  # the λ that fits q (train-meta wrote it), or the exact loss's
-        lam = embedder.recommended_lambda if embedder is not None else EXACT_LAMBDA
-        settings = replace(settings, lam=lam)
+    # the λ that fits q (train-meta wrote it), or the exact loss's, unless given
+    lam = resolve_lambda(settings, None if embedder is None else embedder.recommended_lambda)
+    settings = replace(settings, lam=lam.value)
+    if on_setup is not None:
+        on_setup(RunSetup(lam, coverage))
     if settings.logic_loss != "none":
         loss_rules.prepare()  # every KB rule compiled once now: epochs only build their products
     objective = LogicObjective(settings, data, loss_rules, embedder)
@@ -331,9 +239,11 @@ def train_action_recognition(
         "mean_epoch_seconds": float(np.mean([h["seconds"] for h in history])),
         "setup_seconds": setup_seconds,
         "test": test,
+        "lambda": lam.as_dict(),
         "rule_sets": {
             "compiled": loss_rules.compiled,
             "rules_left_out_unknown_to_q": loss_rules.skipped_rules,
+            **({} if coverage is None else coverage.as_dict()),
         },
     }
     config = {
