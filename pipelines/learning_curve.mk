@@ -3,7 +3,8 @@
 # videos at every size); a run at N training videos reads the first N of them, so a larger set
 # holds every smaller one (train-task --train-videos). Then:
 #   gen-activities -> (kb-extract ... train-meta: q, for tleaf; shared: activities_q.mk)
-#   -> per model and size: λ of each logic loss chosen on val (eval choose-lambda over a sweep)
+#   -> per model and size: λ of each logic loss chosen on val (eval choose-lambda over a sweep
+#      and the reference runs: λ 0, no logic loss, is always among the choices)
 #   -> train-task action-recognition x models x sizes x losses x seeds, each test set decoded by
 #      argmax and under the rules (--decode constrained)
 #   -> unlabelled videos: the same data with U more videos whose labels are never read
@@ -92,7 +93,7 @@ MODELS ?= lstm tcn
 UNLABELLED ?= 100 300
 UNLABELLED_SIZES ?= 20 80
 DATA := --train $(lastword $(SIZES))
-TASK := --lr 1e-3
+TASK :=
 EPOCHS := 150
 PATIENCE := 20
 FULL_AT := 80
@@ -163,11 +164,13 @@ $(OUT)/sweep/$(1)-$(2)-n$(3)-lam$(4)-seed$(5)/metrics.json: $(OUT)/activities.pa
 	$(call train,$(1),$(2),$(3),$(5),$(4),$$(@D))
 endef
 
-# λ of model $(1), loss $(2), size $(3): chosen on val from the sweep, or the one value given;
+# λ of model $(1), loss $(2), size $(3): chosen on val from the sweep and the reference runs
+# (no logic loss: λ 0, always among the choices, where a loss can hurt), or the one value given;
 # the file is only replaced when λ changes, so a wider sweep re-trains only the runs it moves
 define LAMBDA
 $(OUT)/lambda/$(1)-$(2)-n$(3).txt: $(foreach x,$(call grid,$(call swept,$(2))),\
-    $(foreach s,$(SWEEP_SEEDS),$(OUT)/sweep/$(1)-$(2)-n$(3)-lam$(x)-seed$(s)/metrics.json))
+    $(foreach s,$(SWEEP_SEEDS),$(OUT)/sweep/$(1)-$(2)-n$(3)-lam$(x)-seed$(s)/metrics.json)) \
+    $(if $(call swept,$(2)),$(foreach s,$(SWEEP_SEEDS),$(OUT)/runs/$(1)-none-n$(3)-seed$(s)/metrics.json))
 	@mkdir -p $$(@D)
 	$(if $(call swept,$(2)),$(TLEAF) eval choose-lambda $$(dir $$^) -o $$@.new -q,echo $(call grid,$(2)) > $$@.new)
 	cmp -s $$@.new $$@ && rm $$@.new || mv $$@.new $$@
@@ -187,6 +190,11 @@ endef
 
 $(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach n,$(call sizes_for,$(m),$(l)),\
 	$(foreach s,$(SEEDS),$(eval $(call RUN,$(m),$(l),$(n),$(s)))))))
+# the reference runs λ is chosen against (λ 0) where the loop above has none: model $(1), size
+# $(2), seed $(3)
+has_none = $(and $(filter none,$(LOSSES)),$(filter $(2),$(call sizes_for,$(1),none)),$(filter $(3),$(SEEDS)))
+$(foreach m,$(MODELS),$(foreach n,$(call sizes_of,$(m)),$(foreach s,$(SWEEP_SEEDS),\
+	$(if $(call has_none,$(m),$(n),$(s)),,$(eval $(call RUN,$(m),none,$(n),$(s)))))))
 $(foreach m,$(MODELS),$(foreach l,$(filter-out none,$(LOSSES)),$(foreach n,$(call sizes_for,$(m),$(l)),\
 	$(eval $(call LAMBDA,$(m),$(l),$(n))))))
 $(foreach m,$(MODELS),$(foreach l,$(LOSSES),$(foreach n,$(call sizes_for,$(m),$(l)),\

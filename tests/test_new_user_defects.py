@@ -227,7 +227,8 @@ def test_inspect_dot_and_draw_together_do_both(dfas: Path, tmp_path: Path) -> No
             "--bins: only",
         ),
         (
-            ["train-task", "action-recognition", "{dfas}", "--kb", "k.ltl", "--decode-top-k", "3"],
+            ["train-task", "action-recognition", "{dfas}", "--kb", "k.ltl", "--decode", "argmax",
+             "--decode-top-k", "3"],  # fmt: skip
             "--decode-top-k: only with --decode constrained",
         ),
     ],

@@ -22,7 +22,8 @@ Writes curve.md (the table), curve.json (every figure, every run) and curve.png 
 accuracy against training videos, log scale, mean ± s.e. per variant, one panel per model).
 
 `choose_lambda` picks a logic loss's λ from runs that differ only in λ and seed: the λ with the
-best mean val action accuracy (best epoch), ties to the smaller λ.
+best mean val action accuracy (best epoch), ties to the smaller λ; the reference runs (no logic
+loss) count as λ 0, so "no logic loss" is always among the choices.
 """
 
 from __future__ import annotations
@@ -118,19 +119,24 @@ def read_curve_run(run_dir: str | Path, both_decodings: bool = True) -> dict:
 def choose_lambda(runs: Sequence[dict]) -> dict:
     """The λ with the best mean val action accuracy among runs of one model, loss and size that
     differ only in λ and seed (ties: the smaller λ); InputError when they differ otherwise or
-    the λs were not run at the same seeds."""
+    the λs were not run at the same seeds. Reference runs (no logic loss) of the same model and
+    size count as λ 0: where a loss can hurt, "no logic loss" is among the choices (and wins a
+    tie)."""
     if not runs:
         raise InputError("give at least one run")
-    cells = {(r["model"], r["method"], r["train_videos"]) for r in runs}
+    losses = [r for r in runs if r["method"] != "none"] or runs
+    cells = {(r["model"], r["method"], r["train_videos"]) for r in losses}
+    cells |= {(r["model"], c[1], r["train_videos"]) for r in runs for c in cells}
     if len(cells) > 1:
         raise InputError(f"the runs differ in more than λ and seed: {sorted(cells)}")
     by_lambda: dict[float, dict[int, float]] = {}
     for r in runs:
-        if r["lambda"] is None:
+        lam = 0.0 if r["method"] == "none" else r["lambda"]
+        if lam is None:
             raise InputError(f"{r['run']}: no λ recorded")
-        seeds = by_lambda.setdefault(float(r["lambda"]), {})
+        seeds = by_lambda.setdefault(float(lam), {})
         if r["seed"] in seeds:
-            raise InputError(f"{r['run']}: λ {r['lambda']:g} at seed {r['seed']} twice")
+            raise InputError(f"{r['run']}: λ {lam:g} at seed {r['seed']} twice")
         seeds[r["seed"]] = r["val_action_accuracy"]
     seed_sets = {tuple(sorted(s)) for s in by_lambda.values()}
     if len(seed_sets) > 1:
@@ -259,7 +265,8 @@ def markdown(rows: Sequence[dict], choices: Sequence[dict], data: Sequence[str])
             "",
             "## λ chosen on validation",
             "",
-            "Mean best val action accuracy (%) per λ over the sweep's seeds; the chosen λ in bold.",
+            "Mean best val action accuracy (%) per λ over the sweep's seeds; the chosen λ in bold; "
+            "λ 0: the reference runs (no logic loss) of the same seeds.",
             "",
             "| model | loss | videos | seeds | val accuracy per λ |",
             "|---|---|---|---|---|",
@@ -407,17 +414,41 @@ def learning_curve(
         raise InputError("no reference run (no logic loss) among the runs")
     rows = curve(runs)
     sweep = [read_curve_run(d, both_decodings=False) for d in sweep_dirs]
-    cells = sorted({(r["model"], r["method"], r["train_videos"]) for r in sweep})
-    choices = [
-        choose_lambda([r for r in sweep if (r["model"], r["method"], r["train_videos"]) == c])
-        for c in cells
-    ]
+    choices = [_choice(cell, sweep, runs) for cell in _sweep_cells(sweep)]
     data = sorted({r["data"] for r in runs})
     result = {"data": data, "curve": rows, "lambda_choices": choices, "runs": runs}
     write_text_atomic(out_dir / "curve.json", json.dumps(result, indent=2))
     write_text_atomic(out_dir / "curve.md", markdown(rows, choices, data))
     figure(rows, out_dir / "curve.png")
     return result
+
+
+def _sweep_cells(sweep: Sequence[dict]) -> list[tuple[str, str, int]]:
+    """The (model, method, size) cells of the sweep's runs with a logic loss."""
+    return sorted(
+        {(r["model"], r["method"], r["train_videos"]) for r in sweep if r["method"] != "none"}
+    )
+
+
+def _choice(cell: tuple[str, str, int], sweep: Sequence[dict], runs: Sequence[dict]) -> dict:
+    """`choose_lambda` of one cell of the sweep, the reference runs (λ 0) of its model and size
+    at the sweep's seeds among the choices: from the sweep where it has them, else the curve's
+    (left out where they lack one of the sweep's seeds)."""
+    model, _, videos = cell
+    mine = [r for r in sweep if (r["model"], r["method"], r["train_videos"]) == cell]
+    seeds = {r["seed"] for r in mine}
+
+    def references(rows: Sequence[dict]) -> list[dict]:
+        return [
+            r for r in rows
+            if (r["model"], r["method"], r["train_videos"]) == (model, "none", videos)
+            and r["seed"] in seeds
+        ]  # fmt: skip
+
+    zero = references(sweep) or references(runs)
+    if {r["seed"] for r in zero} != seeds:  # not at every seed: no fair λ 0 to show
+        zero = []
+    return choose_lambda(mine + zero)
 
 
 def choose_lambda_file(run_dirs: Sequence[str | Path], out: str | Path) -> dict:
