@@ -24,7 +24,7 @@ import torch
 
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
-from tleaf_cli.embed.soft import load_embedder
+from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.tasks.model_checking import Split, _balanced_accuracy, _fit_threshold
 
 

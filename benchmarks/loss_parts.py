@@ -27,8 +27,9 @@ from pathlib import Path
 
 import torch
 
-from tleaf_cli.embed.soft import load_embedder, soft_trace_vectors
+from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.embed.soft_monitors import soft_monitor_walk
+from tleaf_cli.embed.soft_traces import soft_trace_vectors
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.losses import logic_loss, pair_log_probs, pair_vocabulary

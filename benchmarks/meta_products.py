@@ -32,7 +32,8 @@ import torch
 
 from tleaf_cli.embed.batches import join
 from tleaf_cli.embed.graphs import gcn_adjacency
-from tleaf_cli.embed.train_meta import MetaSettings, TripletEmbedder, train_meta
+from tleaf_cli.embed.model import TripletEmbedder
+from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
 ROOT = Path(__file__).resolve().parents[1]
 

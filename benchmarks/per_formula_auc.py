@@ -20,7 +20,7 @@ from sklearn.metrics import roc_auc_score
 
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
-from tleaf_cli.embed.soft import load_embedder
+from tleaf_cli.embed.load import load_embedder
 
 
 def per_formula_auc(tier: Path, model: Path) -> tuple[dict[str, float], float, dict[str, str]]:

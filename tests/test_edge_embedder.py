@@ -12,9 +12,12 @@ from torch_geometric.data import Batch
 from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
-from tleaf_cli.embed.encoders import PropositionEncoder, atom_features, triplet_loss
+from tleaf_cli.embed.atom_features import atom_features
 from tleaf_cli.embed.graphs import cnf_graph
-from tleaf_cli.embed.train_edge import EdgeSettings, load_edge_model, train_edge
+from tleaf_cli.embed.load import load_edge_model
+from tleaf_cli.embed.proposition_encoder import PropositionEncoder
+from tleaf_cli.embed.train_edge import EdgeSettings, train_edge
+from tleaf_cli.embed.triplets import triplet_loss
 
 runner = CliRunner()
 SMALL = EdgeSettings(hidden=32, out_dim=16, epochs=6, patience=6, per_guard=2, batch_size=64)

@@ -66,7 +66,7 @@ def evidence_q(chain, tmp_path_factory):
 def test_a_q_with_evidence_reloads_identically_and_reads_soft_traces(chain, evidence_q) -> None:
     from test_run_readout import _held_out_accuracy
 
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     out, metrics = evidence_q
     q = load_embedder(out)
@@ -86,7 +86,7 @@ def test_sphere_bounds_the_learned_part_and_leaves_the_block(chain, evidence_q) 
     """`--sphere` with `--evidence` (the model-checking pipeline's q): the learned part at unit
     length, the block unchanged at γ, for formulas and traces alike."""
     from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     q = load_embedder(evidence_q[0])
     dfas = [dfa_from_row(r) for r in read_dfas(chain["dfas"]).rows[:4]]

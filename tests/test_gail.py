@@ -378,7 +378,7 @@ def test_checker_trains_exactly_like_plain_gail(small_pipeline: Path) -> None:
 
 @pytest.mark.slow
 def test_tleaf_logic_term_sends_gradient_into_the_policy(small_pipeline: Path, domain) -> None:
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     ingredients = read_demo_episodes(small_pipeline / "demos.parquet", domain)[0].ingredients
     embedder = load_embedder(small_pipeline / "meta")

@@ -10,16 +10,17 @@ import numpy as np
 import pytest
 import torch
 
-from tleaf_cli.embed.encoders import PropositionEncoder
+from tleaf_cli.embed.embedder import Embedder
 from tleaf_cli.embed.meta_data import GuardVectors
-from tleaf_cli.embed.soft import Embedder
-from tleaf_cli.embed.train_meta import MetaSettings, build_model
+from tleaf_cli.embed.model import build_model
+from tleaf_cli.embed.proposition_encoder import PropositionEncoder
 from tleaf_cli.errors import ArgumentError, InputError, SettingError, TleafError
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.logic.compile import compile_formula
 from tleaf_cli.losses import logic_loss, pair_log_probs, pair_vocabulary, violates
 from tleaf_cli.rule_set import RuleSet
+from tleaf_cli.settings.meta import MetaSettings
 
 ACTIONS = ("cut", "fry", "rinse")
 INGREDIENTS = ("egg", "onion")

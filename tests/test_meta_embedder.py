@@ -12,8 +12,8 @@ from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
 from tleaf_cli.embed.automaton import walk_distributions, walk_weights
+from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.embed.meta_data import featured_trace_graph
-from tleaf_cli.embed.soft import load_embedder
 from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
 runner = CliRunner()
@@ -37,8 +37,8 @@ def test_walk_distributions_follow_a_chain_step_by_step() -> None:
 @pytest.mark.parametrize("options", [{"readout": "steps"}, {"directed": True}])
 def test_encoder_options_tell_a_trace_from_its_reverse(chain, options) -> None:
     from tleaf_cli.embed.automaton import AutomatonEncoder
+    from tleaf_cli.embed.load import load_edge_model
     from tleaf_cli.embed.meta_data import GuardVectors
-    from tleaf_cli.embed.train_edge import load_edge_model
 
     edge, config = load_edge_model(chain["edge"])
     vectors = GuardVectors(edge, config["vocabulary"])
@@ -204,13 +204,13 @@ def test_a_moved_tree_and_a_copied_meta_folder_still_load(chain, tmp_path: Path)
 def test_trace_inputs_equal_the_one_by_one_features(chain, one_hot) -> None:
     """The batched reading of many traces gives each trace the letter vectors and monitor
     features the one-trace functions give it."""
+    from tleaf_cli.embed.load import load_edge_model
     from tleaf_cli.embed.meta_data import (
         GuardVectors,
         trace_inputs,
         trace_letter_vectors,
         trace_monitor_features,
     )
-    from tleaf_cli.embed.train_edge import load_edge_model
     from tleaf_cli.logic.monitors import MonitorBank
 
     edge, config = load_edge_model(chain["edge"])

@@ -191,7 +191,7 @@ def monitor_q(chain, tmp_path_factory):
 def test_a_q_with_monitors_trains_saves_and_reloads_identically(chain, monitor_q) -> None:
     from test_run_readout import _held_out_accuracy
 
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     out, metrics = monitor_q
     assert metrics["history"][-1]["loss"] < metrics["history"][0]["loss"]
@@ -206,7 +206,7 @@ def test_a_q_with_monitors_trains_saves_and_reloads_identically(chain, monitor_q
 
 def test_soft_traces_and_the_tleaf_loss_read_the_monitors(monitor_q) -> None:
     import tleaf_cli as tl
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     q = load_embedder(monitor_q[0])
     atoms = ("a", "b", "c")
@@ -228,7 +228,7 @@ def test_only_whole_dfa_files_keep_their_shares_on_disk(chain, monitor_q, _isola
     (train-meta, every evaluation) write one, and embed the same when read back from it."""
     import tleaf_cli as tl
     from tleaf_cli.data.dfa_table import read_dfas
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     q = load_embedder(monitor_q[0])
     q.rule_set_vectors([tl.RuleSet("G(a -> F(b))", ["a", "b", "c"])])
@@ -326,7 +326,7 @@ def test_automata_over_other_atoms_share_readout_weights_and_embed_as_alone(moni
     """The readout weights kept per automaton (`DFA.structure`) give each DFA the vector a q
     that never saw the other gives it; guards over other atoms still get their own q_e."""
     import tleaf_cli as tl
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     ab = tl.RuleSet("G(a -> F(b))", ["a", "b", "c"]).dfa
     ac = tl.RuleSet("G(a -> F(c))", ["a", "b", "c"]).dfa  # the same automaton over (a, c)
@@ -342,7 +342,7 @@ def test_automata_over_other_atoms_share_readout_weights_and_embed_as_alone(moni
 def test_guard_vectors_are_kept_by_the_names_a_guard_reads(monitor_q) -> None:
     """A guard over positions of different atom lists is one q_e vector when it reads the same
     atoms (computed once), and another when it reads others."""
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     vectors = load_embedder(monitor_q[0]).vectors
     a_not_b = ((1,), (-2,))  # a & !b over (a, b, ...), by position

@@ -143,7 +143,7 @@ def test_an_older_model_folder_loads_with_the_same_vectors_and_a_lambda(chain, b
     """A folder written before settings carried a version (and before config.json carried λ)
     loads as it did: the same vectors; its λ from the test distances its metrics record."""
     from tleaf_cli.data.dfa_table import read_dfas
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
 
     old = tmp_path / "old"
     shutil.copytree(best_q, old)

@@ -123,7 +123,7 @@ def test_a_q_with_probes_trains_saves_and_reloads_identically(chain, tmp_path) -
     from test_run_readout import _held_out_accuracy
 
     from tleaf_cli.data.dfa_table import read_dfas
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
     from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
     settings = MetaSettings.preset(

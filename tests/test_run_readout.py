@@ -90,7 +90,7 @@ def _held_out_accuracy(q, dfas_path, traces_path) -> float:
     zipped with its violating ones in file order, as train-meta pairs them)."""
     from tleaf_cli.data.dfa_table import read_dfas
     from tleaf_cli.data.traces import read_traces
-    from tleaf_cli.embed.encoders import triplet_accuracy
+    from tleaf_cli.embed.triplets import triplet_accuracy
 
     rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
     sides: dict[str, dict[bool, list]] = {}
@@ -130,7 +130,7 @@ def test_a_small_q_separates_held_out_traces_and_reloads_identically(low_set, tm
     """q trained on the tiny chain ranks satisfying traces of formulas it never saw nearer than
     violating ones, well above an untrained q of the same shape; reloaded from its folder it
     scores exactly what train-meta reported."""
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
     from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
     settings = MetaSettings.preset(
@@ -191,7 +191,7 @@ def test_chain_weights_per_length_equal_the_batch_computation() -> None:
 def test_radius_classifier_learns_one_radius_between_the_two_sides() -> None:
     """RadiusClassifier alone: satisfying points within ~0.5 of their anchors, violating ones
     ~2 away (squared distances ~0.25 and ~4); its loss moves r between them."""
-    from tleaf_cli.embed.encoders import RadiusClassifier
+    from tleaf_cli.embed.radius import RadiusClassifier
 
     torch.manual_seed(0)
     anchor = torch.randn(256, 8)
@@ -209,7 +209,7 @@ def test_radius_classifier_learns_one_radius_between_the_two_sides() -> None:
 
 def test_radius_loss_is_trained_saved_and_loaded(low_set, tmp_path) -> None:
     """--radius-weight: train-meta fits the radius with q and saves it; the loaded q has it."""
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
     from tleaf_cli.embed.train_meta import MetaSettings, train_meta
 
     settings = MetaSettings.preset(

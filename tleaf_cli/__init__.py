@@ -35,7 +35,7 @@ _PUBLIC = {
     "logic_loss": "tleaf_cli.losses.logic_loss",
     "constrained_decode": "tleaf_cli.decode",
     "Shield": "tleaf_cli.shield",
-    "load_embedder": "tleaf_cli.embed.soft",
+    "load_embedder": "tleaf_cli.embed.load",
     "TleafError": "tleaf_cli.errors",
 }
 __all__ = [
@@ -52,7 +52,7 @@ __all__ = [
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` loads them
     from tleaf_cli.decode import constrained_decode
-    from tleaf_cli.embed.soft import load_embedder
+    from tleaf_cli.embed.load import load_embedder
     from tleaf_cli.errors import TleafError
     from tleaf_cli.logic.checker import check
     from tleaf_cli.logic.compile import compile_formula

@@ -3,31 +3,19 @@
 `load.load_embedder` reads a model folder into an `Embedder`; the logic loss (losses/tleaf.py),
 `tleaf embed` and the evaluations use it. Nothing here trains.
 
-A soft trace is a [T, k] tensor of per-step probabilities over named atoms (`columns`). Each
-step's letter distribution over a formula's atoms is
-
-* one-hot domain: P(atom a) for each of the formula's atoms, and the rest of the mass —
-  the domain's other atoms — on the empty letter;
-* powerset domain: independent probabilities,
-  P(letter) = prod_a (p_a if a is in the letter else 1 - p_a).
-
-The edge node of step t then carries the expected q_e vector sum_l P_t(l) q_e(l), which is
-exactly the discrete letter's vector when P_t is one-hot, and differentiable in P throughout.
+Soft traces (a model's per-step probabilities) are read as in `soft_traces.py`.
 """
 
 from __future__ import annotations
 
-import functools
-import itertools
 from collections.abc import Collection, Sequence
 
-import numpy as np
 import torch
 from torch_geometric.data import Batch
 
 from tleaf_cli import arguments
 from tleaf_cli.data.dfa_table import dfa_from_row
-from tleaf_cli.embed.graphs import letter_cnf, syntax_graph
+from tleaf_cli.embed.graphs import syntax_graph
 from tleaf_cli.embed.meta_data import (
     GuardVectors,
     chain_batch,
@@ -35,13 +23,19 @@ from tleaf_cli.embed.meta_data import (
     guard_keys,
     trace_inputs,
 )
+from tleaf_cli.embed.model import TripletEmbedder, store_run_weights
 from tleaf_cli.embed.soft_monitors import (
     AlphabetWalk,
     monitor_classes,
     soft_monitor_features,
 )
-from tleaf_cli.embed.model import TripletEmbedder, store_run_weights
-from tleaf_cli.errors import ArgumentError, InputError, SettingError
+from tleaf_cli.embed.soft_traces import (
+    letter_keys,
+    letter_probabilities,
+    one_hot_truth,
+    soft_trace_vectors,
+)
+from tleaf_cli.errors import ArgumentError, InputError
 from tleaf_cli.logic.alphabet import ALPHABET_KINDS, Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import parse
@@ -158,7 +152,7 @@ class Embedder:
         """
         fresh = list({r.formula: r for r in rule_sets if r.formula not in self._rule_sets}.values())
         if fresh:  # their letters' and guards' new q_e vectors in one q_e call
-            keys = [k for r in fresh for k in self.letter_keys(r.atoms, "one-hot")[1]]
+            keys = [k for r in fresh for k in letter_keys(r.atoms, "one-hot")[1]]
             if self.kind == "dfa":
                 keys += [k for r in fresh for k in guard_keys(r.dfa)]
             self.vectors(keys)
@@ -193,7 +187,7 @@ class Embedder:
         for r in rule_sets:
             key = (len(r.atoms), str(device))
             if key not in self._monitor_walks:
-                classes, present = monitor_classes(bank, _one_hot_truth(len(r.atoms)))
+                classes, present = monitor_classes(bank, one_hot_truth(len(r.atoms)))
                 self._monitor_walks[key] = AlphabetWalk.of(bank, classes, present).to(device)
             walks.append(self._monitor_walks[key])
         return walks
@@ -207,39 +201,10 @@ class Embedder:
             ]
         return torch.cat(parts) if parts else torch.zeros((0, 0), device=device)
 
-    def letter_keys(self, atoms: tuple[str, ...], domain: str) -> tuple[list, list]:
-        """The letters over `atoms` (one-hot: none, then each atom; powerset: every subset, bit
-        k = atoms[k]) and their q_e cache keys."""
-        if domain == "one-hot":
-            letters = [frozenset()] + [frozenset({a}) for a in atoms]
-        elif domain == "powerset":
-            letters = [
-                frozenset(a for k, a in enumerate(atoms) if i >> k & 1)
-                for i in range(1 << len(atoms))
-            ]
-        else:
-            raise SettingError("domain", f"must be one-hot or powerset, not {domain!r}")
-        one_hot = domain == "one-hot"
-        return letters, [(atoms, tuple(map(tuple, letter_cnf(x, atoms, one_hot)))) for x in letters]
-
     def letter_vectors(self, atoms: tuple[str, ...], domain: str) -> tuple[list, torch.Tensor]:
         """The letters over `atoms` (`letter_keys`) and their q_e vectors [letters, d]."""
-        letters, keys = self.letter_keys(atoms, domain)
+        letters, keys = letter_keys(atoms, domain)
         return letters, self.vectors(keys)
-
-    def letter_probabilities(
-        self, probs: torch.Tensor, columns: Sequence[str], atoms: tuple[str, ...], domain: str
-    ) -> torch.Tensor:
-        """[T, letters] distribution of each step over the letters of `letter_vectors`."""
-        p = probs[:, [list(columns).index(a) for a in atoms]]
-        if domain == "one-hot":
-            return torch.cat([(1 - p.sum(dim=1, keepdim=True)).clamp(min=0), p], dim=1)
-        out = []
-        for bits in itertools.product((0, 1), repeat=len(atoms)):
-            # letter index i has atom k iff bit k of i is set: product() varies the last fastest
-            chosen = torch.tensor(bits[::-1], dtype=torch.bool, device=probs.device)
-            out.append(torch.where(chosen, p, 1 - p).prod(dim=1))
-        return torch.stack(out, dim=1)
 
     def embed_soft_traces(
         self,
@@ -261,7 +226,7 @@ class Embedder:
             )
         traces = arguments.soft_traces(traces, len(columns))
         probs = torch.nn.utils.rnn.pad_sequence(
-            [self.letter_probabilities(p, columns, atoms, domain) for p in traces],
+            [letter_probabilities(p, columns, atoms, domain) for p in traces],
             batch_first=True,
         )
         device = probs.device
@@ -281,25 +246,3 @@ class Embedder:
     def embed_soft_trace(self, probs: torch.Tensor, atoms, columns=None, domain="one-hot"):
         """The vector of one soft trace [T, len(columns)] (see `embed_soft_traces`)."""
         return self.embed_soft_traces([probs], tuple(atoms), columns, domain)[0]
-
-
-def soft_trace_vectors(
-    model: torch.nn.Module,
-    expected: torch.Tensor,
-    lengths: torch.Tensor,
-    monitor: torch.Tensor | None = None,
-) -> torch.Tensor:
-    """q(w̃) [N, d] of soft traces whose step-t edge node carries expected[i, t] (t < lengths[i]),
-    with their monitor features [N, 2 R F] where q reads them (`soft_monitor_features`); `model`
-    is q's TripletEmbedder (embed_traces), all traces in one graph batch."""
-    valid = torch.arange(expected.shape[1], device=expected.device)[None, :] < lengths[:, None]
-    return model.embed_traces(chain_batch(model.trace, expected[valid], lengths.tolist(), monitor))
-
-
-@functools.lru_cache(maxsize=64)
-def _one_hot_truth(atoms: int) -> np.ndarray:
-    """The atom truth table of a one-hot alphabet of `atoms` atoms (letter 0 none, letter k + 1
-    atom k): monitors read atoms by position, so their classes depend on the count alone."""
-    truth = Alphabet(tuple(f"x{k:04d}" for k in range(atoms)), "one-hot").truth()
-    truth.setflags(write=False)
-    return truth

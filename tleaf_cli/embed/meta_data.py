@@ -17,7 +17,6 @@ from torch_geometric.data import Batch, Data
 
 from tleaf_cli.data.monitor_cache import monitor_shares
 from tleaf_cli.embed.automaton import RUN_READOUTS
-from tleaf_cli.embed.encoders import PropositionEncoder
 from tleaf_cli.embed.graphs import (
     cnf_graph_batch,
     dfa_graph,
@@ -25,6 +24,7 @@ from tleaf_cli.embed.graphs import (
     trace_graph,
     trace_graph_batch,
 )
+from tleaf_cli.embed.proposition_encoder import PropositionEncoder
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA

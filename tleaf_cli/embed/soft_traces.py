@@ -35,8 +35,7 @@ def letter_keys(atoms: tuple[str, ...], domain: str) -> tuple[list, list]:
         letters = [frozenset()] + [frozenset({a}) for a in atoms]
     elif domain == "powerset":
         letters = [
-            frozenset(a for k, a in enumerate(atoms) if i >> k & 1)
-            for i in range(1 << len(atoms))
+            frozenset(a for k, a in enumerate(atoms) if i >> k & 1) for i in range(1 << len(atoms))
         ]
     else:
         raise SettingError("domain", f"must be one-hot or powerset, not {domain!r}")
@@ -45,9 +44,9 @@ def letter_keys(atoms: tuple[str, ...], domain: str) -> tuple[list, list]:
 
 
 def letter_probabilities(
-    self, probs: torch.Tensor, columns: Sequence[str], atoms: tuple[str, ...], domain: str
+    probs: torch.Tensor, columns: Sequence[str], atoms: tuple[str, ...], domain: str
 ) -> torch.Tensor:
-    """[T, letters] distribution of each step over the letters of `letter_vectors`."""
+    """[T, letters] distribution of each step over the letters of `letter_keys`."""
     p = probs[:, [list(columns).index(a) for a in atoms]]
     if domain == "one-hot":
         return torch.cat([(1 - p.sum(dim=1, keepdim=True)).clamp(min=0), p], dim=1)

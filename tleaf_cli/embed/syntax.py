@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import torch
 
-from tleaf_cli.embed.encoders import TypedGraphEncoder
 from tleaf_cli.embed.graphs import SYNTAX_TYPES
+from tleaf_cli.embed.proposition_encoder import TypedGraphEncoder
 
 
 class SyntaxEncoder(TypedGraphEncoder):

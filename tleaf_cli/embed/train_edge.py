@@ -10,7 +10,7 @@ epoch's weights are kept. CPU training is repeatable for a seed.
 Model directory (docs/design.md): `config.json` (architecture, settings, vocabulary, input hashes),
 `weights.pt` (state_dict of the best epoch, loadable with `torch.load(weights_only=True)`),
 `metrics.json` (curve and final figures), and `checkpoint.pt` (last epoch, for `resume`:
-`training.fit`).
+`training.fit`). `load.load_edge_model` reads the folder back.
 """
 
 from __future__ import annotations
@@ -25,10 +25,17 @@ import torch
 
 from tleaf_cli.data.artifacts import describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import read_dfas
+from tleaf_cli.embed.atom_features import atom_features
 from tleaf_cli.embed.edge_data import TripletStore, guard_triplets, split_by_formula, vocabulary
-from tleaf_cli.embed.encoders import PropositionEncoder, atom_features, triplet_accuracy
-from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit, read_model_config
-from tleaf_cli.embed.triplets import SCORE, EpochReport, reporting, triplet_step
+from tleaf_cli.embed.proposition_encoder import PropositionEncoder
+from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit
+from tleaf_cli.embed.triplets import (
+    SCORE,
+    EpochReport,
+    reporting,
+    triplet_accuracy,
+    triplet_step,
+)
 from tleaf_cli.errors import InputError
 from tleaf_cli.settings import check_values
 from tleaf_cli.settings.edge import EdgeSettings
@@ -103,17 +110,3 @@ def evaluate(model: PropositionEncoder, graphs: TripletStore, batch_size: int) -
         ids = list(range(i, min(i + batch_size, len(graphs))))
         hits += triplet_accuracy(*graphs.embed(model, ids)) * len(ids)
     return hits / max(len(graphs), 1)
-
-
-def load_edge_model(model_dir: str | Path) -> tuple[PropositionEncoder, dict]:
-    """The trained q_e (best epoch) and its config."""
-    model_dir = Path(model_dir)
-    config = read_model_config(model_dir, "edge-embedder")
-    s = EdgeSettings(**config["settings"])
-    # The atom table is a buffer in the weights: a placeholder of its shape is enough here.
-    table = torch.zeros(len(config["vocabulary"]), config["atom_feature_dim"])
-    model = PropositionEncoder(table, s.hidden, s.layers, s.out_dim)
-    model.load_state_dict(
-        torch.load(model_dir / "weights.pt", map_location="cpu", weights_only=True)
-    )
-    return model.eval(), config

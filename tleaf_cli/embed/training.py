@@ -1,5 +1,5 @@
 """The one training loop of tleaf's models (edge and meta embedders, the action recognizer),
-and the helpers every trainer shares (`chunks`, `device_for`, `read_model_config`).
+and the helpers every trainer shares (`chunks`, `device_for`).
 
 A trainer gives `fit` what is its own: `batches(epoch, generator)`, the epoch's training batches
 (shuffled by `generator`); `step(batch)`, the batch's loss and the figures to report (a `Step`;
@@ -24,7 +24,6 @@ written (the CLI's progress lines).
 
 from __future__ import annotations
 
-import json
 import os
 import pickle
 import time
@@ -252,17 +251,6 @@ def chunks(items: list, size: int, generator: torch.Generator) -> Iterable[list]
     order = torch.randperm(len(items), generator=generator).tolist()
     for i in range(0, len(order), size):
         yield [items[j] for j in order[i : i + size]]
-
-
-def read_model_config(model_dir: Path, kind: str) -> dict:
-    """A model directory's config.json, checked to be of `kind` (InputError otherwise)."""
-    try:
-        config = json.loads((model_dir / "config.json").read_text())
-    except (OSError, ValueError) as e:
-        raise InputError(f"{model_dir}: not a tleaf model directory ({e})") from None
-    if config.get("kind") != kind:
-        raise InputError(f"{model_dir}: a '{config.get('kind')}' model, expected '{kind}'")
-    return config
 
 
 def device_for(name: str) -> torch.device:

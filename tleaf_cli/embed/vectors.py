@@ -22,7 +22,7 @@ from tleaf_cli.data.artifacts import (
 )
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
-from tleaf_cli.embed.soft import load_embedder
+from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.errors import InputError, SettingError
 
 KIND = "embeddings"

@@ -21,7 +21,7 @@ from typing import Literal
 
 import torch
 
-from tleaf_cli.embed.soft import Embedder
+from tleaf_cli.embed.embedder import Embedder
 from tleaf_cli.errors import ArgumentError, SettingError
 from tleaf_cli.losses.checker import checker_loss
 from tleaf_cli.losses.exact import exact_loss

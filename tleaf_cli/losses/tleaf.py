@@ -1,6 +1,6 @@
 """The T-LEAF logic loss: ‖q(A_φ) − q(w̃)‖², the paper's ℓ_logic.
 
-q = (q_e, q_m) is a trained, frozen embedder (`embed.soft.Embedder`). q(A_φ) embeds φ's DFA (or
+q = (q_e, q_m) is a trained, frozen embedder (`embed.embedder.Embedder`). q(A_φ) embeds φ's DFA (or
 its formula, for the syntax baseline); w̃ is the soft trace of the model's outputs, a chain
 whose step-t edge node carries the expected letter vector Σ_l P_t(l) q_e(l) over φ's one-hot
 letters — exactly the discrete letter's vector when P_t is one-hot, and differentiable in P_t
@@ -16,8 +16,9 @@ from __future__ import annotations
 
 import torch
 
-from tleaf_cli.embed.soft import Embedder, soft_trace_vectors
+from tleaf_cli.embed.embedder import Embedder
 from tleaf_cli.embed.soft_monitors import soft_monitor_walk
+from tleaf_cli.embed.soft_traces import soft_trace_vectors
 from tleaf_cli.losses.packed import PackedRuleSets
 
 

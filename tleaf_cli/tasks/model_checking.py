@@ -40,7 +40,7 @@ from torch import nn
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
-from tleaf_cli.embed.soft import load_embedder
+from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.embed.training import adam, device_for
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings import PRECISIONS

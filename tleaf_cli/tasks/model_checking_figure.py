@@ -18,7 +18,7 @@ import torch
 from tleaf_cli.data.artifacts import check_writable
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import TraceSettings, read_traces, traces_for_dfa
-from tleaf_cli.embed.soft import load_embedder
+from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.errors import InputError
 from tleaf_cli.settings.evaluation import FigureSettings
 from tleaf_cli.tasks.figures import pyplot, save_png

@@ -36,7 +36,7 @@ import numpy as np
 import torch
 
 from tleaf_cli.data.artifacts import check_writable, file_sha256, write_text_atomic
-from tleaf_cli.embed.training import read_model_config
+from tleaf_cli.embed.model_folder import read_model_config
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.knowledge.base import (
     KnowledgeBase,

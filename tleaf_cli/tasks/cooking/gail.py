@@ -423,7 +423,7 @@ def train_gail(
 
     embedder = None
     if settings.logic_loss == "tleaf":
-        from tleaf_cli.embed.soft import load_embedder
+        from tleaf_cli.embed.load import load_embedder
 
         embedder = load_embedder(embedder_dir)
     if settings.lam is None:  # the λ that fits q (train-meta wrote it), or the paper's

@@ -35,7 +35,7 @@ import numpy as np
 import torch
 
 from tleaf_cli.data.compile_dfas import CompileSettings
-from tleaf_cli.embed.soft import Embedder
+from tleaf_cli.embed.embedder import Embedder
 from tleaf_cli.errors import SettingError
 from tleaf_cli.knowledge.base import KnowledgeBase
 from tleaf_cli.knowledge.base import Rule as KbRule
