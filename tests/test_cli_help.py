@@ -122,3 +122,20 @@ def test_a_value_outside_the_choices_is_refused_by_the_parser(tmp_path) -> None:
     result = runner.invoke(cli.app, ["gen-formulas", "--tier", "extreme", "-o", tmp_path / "f"])
     assert result.exit_code == 2 and "extreme" in result.output
     assert not (tmp_path / "f").exists()
+
+
+@pytest.mark.parametrize(
+    ("path", "command"), COMMANDS, ids=[" ".join(p) or "tleaf" for p, _ in COMMANDS]
+)
+def test_help_at_80_columns_shows_every_option_name_whole(path, command) -> None:
+    """At a common terminal's width the option names are shown in full (the help text wraps
+    instead): `--unlabelled-loss`, never `--unlabelled-l…`."""
+    result = runner.invoke(cli.app, [*path, "--help"], env={"COLUMNS": "80"})
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert all(len(line) <= 80 for line in lines), max(lines, key=len)
+    words = set(re.sub(r"[│╭╮╰╯─,]", " ", result.output).split())
+    for param in command.params:
+        for name in [*param.opts, *param.secondary_opts]:
+            if name.startswith("-"):
+                assert name in words, (name, result.output)

@@ -12,8 +12,8 @@ kinds say what went wrong, not how the CLI reports it:
 * `RulesError`    rules that cannot do what was asked (no sequence of the given length meets them);
 * `TleafError` itself: the machine cannot do it (MONA or Graphviz missing or failing).
 
-Only the command line (`tleaf_cli/cli/`) turns them into exit codes and messages; it renders a `SettingError`'s
-setting as the flag that sets it (``logic_loss`` → ``--logic-loss``).
+Only the command line (`tleaf_cli/cli/`) turns them into exit codes and messages; it renders a
+`SettingError`'s setting as the flag that sets it (``logic_loss`` → ``--logic-loss``).
 """
 
 from __future__ import annotations
@@ -27,6 +27,15 @@ class TleafError(Exception):
 
 class InputError(TleafError, ValueError):
     """An input (file, row, line, argument value) is not what was expected (a ValueError too)."""
+
+
+class MissingSplitError(InputError):
+    """A traces file without the split column that training and evaluation read (traces drawn
+    without a split): the command line adds how to draw them with one."""
+
+    def __init__(self, path: object) -> None:
+        super().__init__(f"{path}: no split column (traces drawn without a split)")
+        self.path = path
 
 
 class SettingError(TleafError):

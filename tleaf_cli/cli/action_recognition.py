@@ -13,6 +13,7 @@ from tleaf_cli.cli.common import (
     Quiet,
     Resume,
     exits,
+    file_path,
     given_flags,
     refuse,
     targets,
@@ -60,6 +61,8 @@ def train_task_action_recognition(
     settings = TaskSettings.preset(preset, **given(ctx, values))
     if settings.decode != "constrained":
         refuse(given_flags(ctx, "decode_top_k"), "only with --decode constrained")
+    if settings.logic_loss == "none":
+        refuse(given_flags(ctx, "lam", "lambdas"), "only with a logic loss, not --logic-loss none")
     model, logic_loss, epochs = settings.model, settings.logic_loss, settings.epochs
 
     def on_setup(setup) -> None:  # before the first epoch (every candidate's, with --lambdas)
@@ -177,9 +180,9 @@ def eval_choose_lambda(
             "size that differ only in λ and seed."
         ),
     ],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Text file for the chosen λ.")] = Path(
-        "lambda.txt"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="Text file for the chosen λ.")
+    ] = Path("lambda.txt"),
     quiet: Quiet = False,
 ) -> None:
     """The λ with the best mean val action accuracy (best epoch) over the runs' seeds; ties go

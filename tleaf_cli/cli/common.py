@@ -9,6 +9,7 @@ recorded with its reason); 2 the call itself is unusable.
 from __future__ import annotations
 
 import functools
+import os
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -16,7 +17,17 @@ import typer
 
 from tleaf_cli import ui
 from tleaf_cli.cli.options import flag
-from tleaf_cli.errors import InputError, SettingError, TleafError
+from tleaf_cli.errors import InputError, MissingSplitError, SettingError, TleafError
+
+
+def file_path(value: str | Path) -> Path:
+    """An output FILE as given: a path that ends in a slash names a folder, and is refused (a
+    command would otherwise write a file named like the folder)."""
+    text = str(value)
+    if text.endswith(("/", os.sep)):
+        raise typer.BadParameter(f"'{text}' ends in '/', a folder; give a file name")
+    return Path(text)
+
 
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
 Jobs = Annotated[int, typer.Option("--jobs", "-j", min=1, help="Parallel worker processes.")]
@@ -75,6 +86,10 @@ def compile_settings(
     )
 
 
+# How to draw traces that training and evaluation can read (MissingSplitError).
+SPLIT_FIX = "tleaf gen-traces DFAS --split 0.8,0.1,0.1 -o TRACES"
+
+
 def exits(func):
     """Turn a TleafError into one stderr line and its exit status, never a traceback; a
     SettingError is told by the flag that sets it."""
@@ -83,6 +98,11 @@ def exits(func):
     def wrapper(*args, **kwargs):
         try:
             return func(*args, **kwargs)
+        except MissingSplitError as e:
+            ui.fatal(
+                f"{e}; draw them with one: tleaf gen-traces DFAS --split 0.8,0.1,0.1 -o TRACES"
+            )
+            raise typer.Exit(e.exit_code) from None
         except SettingError as e:
             ui.fatal(f"{flag(e.setting)}: {e.args[0]}")
             raise typer.Exit(e.exit_code) from None

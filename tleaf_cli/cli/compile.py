@@ -15,6 +15,7 @@ from tleaf_cli.cli.common import (
     Quiet,
     compile_settings,
     exits,
+    file_path,
     finish,
     reachable,
     refuse,
@@ -29,9 +30,9 @@ def compile_dfa(
     formulas: Annotated[
         Path, typer.Argument(help="A .ltl file, or Parquet with formula_id, formula.")
     ],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The dfas.parquet to write.")] = Path(
-        "dfas.parquet"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The dfas.parquet to write.")
+    ] = Path("dfas.parquet"),
     one_hot: Annotated[
         bool,
         typer.Option(
@@ -88,7 +89,10 @@ def inspect(
         bool, typer.Option("--dot", help="With --id: print Graphviz DOT (also with --draw).")
     ] = False,
     draw: Annotated[
-        Path | None, typer.Option(help="With --id: draw to .png/.svg/.pdf (Graphviz) or .dot.")
+        Path | None,
+        typer.Option(
+            parser=file_path, help="With --id: draw to .png/.svg/.pdf (Graphviz) or .dot."
+        ),
     ] = None,
     rows: Annotated[
         int | None, typer.Option(min=0, help="How many first rows to show. \\[default: 10]")

@@ -14,6 +14,8 @@ from tleaf_cli.cli.common import (
     Quiet,
     compile_settings,
     exits,
+    given_flags,
+    refuse,
     targets,
 )
 from tleaf_cli.cli.options import GAIL, with_settings
@@ -24,6 +26,7 @@ from tleaf_cli.settings.gail import GailSettings
 @exits
 @with_settings(GAIL)
 def train_task_cooking(
+    ctx: typer.Context,
     demos: Annotated[Path, typer.Argument(help="Expert demonstrations (gen-demos).")],
     embedder: Annotated[
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
@@ -45,6 +48,8 @@ def train_task_cooking(
     from tleaf_cli.tasks.cooking.gail import train_gail
 
     settings = GailSettings(**values)
+    if settings.logic_loss == "none":
+        refuse(given_flags(ctx, "lam"), "only with a logic loss, not --logic-loss none")
     logic_loss = settings.logic_loss
     targets([demos, embedder, settings.domain], folders=[out])
     compiling = compile_settings(True, COMPILE_TIMEOUT, cache_dir, no_cache, 1)

@@ -13,6 +13,7 @@ from tleaf_cli.cli.common import (
     Resume,
     epoch_printer,
     exits,
+    file_path,
     refuse,
     targets,
 )
@@ -118,9 +119,9 @@ def train_meta(
 def embed(
     model: Annotated[Path, typer.Argument(help="A meta model directory from train-meta.")],
     source: Annotated[Path, typer.Argument(help="A dfas.parquet or a traces.parquet.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The vectors.parquet to write.")] = Path(
-        "vectors.parquet"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The vectors.parquet to write.")
+    ] = Path("vectors.parquet"),
     dfas: Annotated[
         Path | None,
         typer.Option(

@@ -6,6 +6,24 @@ from __future__ import annotations
 import functools
 
 import typer
+import typer.rich_utils
+from rich.table import Table
+
+
+class _OptionsTable(Table):
+    """typer's options table, whose columns before the last two (the type and the help) never
+    wrap or shorten: at 80 columns rich would otherwise cut option names (`--unlabelled-l…`)
+    before wrapping the help text beside them."""
+
+    def add_row(self, *renderables, **kwargs) -> None:
+        fresh = not self.columns  # typer's options table makes its columns on the first row
+        super().add_row(*renderables, **kwargs)
+        if fresh and len(self.columns) > 2:
+            for column in self.columns[:-2]:
+                column.no_wrap = True
+
+
+typer.rich_utils.Table = _OptionsTable  # the one table typer's help makes without columns
 
 
 def _shown_params(params: list) -> list:

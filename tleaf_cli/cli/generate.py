@@ -19,6 +19,7 @@ from tleaf_cli.cli.common import (
     Seed,
     compile_settings,
     exits,
+    file_path,
     finish,
     given_flags,
     reachable,
@@ -36,9 +37,9 @@ Tier = Literal["low", "moderate", "high"]
 @exits
 def gen_formulas(
     ctx: typer.Context,
-    out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
-        "formulas.ltl"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The .ltl file to write.")
+    ] = Path("formulas.ltl"),
     tier: Annotated[
         Tier | None,
         typer.Option(
@@ -134,9 +135,9 @@ def _fractions(text: str | None) -> tuple[float, float, float] | None:
 def gen_traces(
     ctx: typer.Context,
     dfas: Annotated[Path, typer.Argument(help="A dfas.parquet from compile-dfa.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The traces.parquet to write.")] = Path(
-        "traces.parquet"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The traces.parquet to write.")
+    ] = Path("traces.parquet"),
     per_formula: Annotated[
         int, typer.Option(min=1, help="K: satisfying and K violating traces per formula.")
     ] = 20,
@@ -217,10 +218,13 @@ def gen_traces(
 @with_settings(ACTIVITIES)
 def gen_activities(
     out: Annotated[
-        Path, typer.Option("--out", "-o", help="The activities.parquet to write.")
+        Path, typer.Option("--out", "-o", parser=file_path, help="The activities.parquet to write.")
     ] = Path("activities.parquet"),
     kb_out: Annotated[
-        Path, typer.Option(help="Where to write the knowledge base that generated the data.")
+        Path,
+        typer.Option(
+            parser=file_path, help="Where to write the knowledge base that generated the data."
+        ),
     ] = Path("kb.ltl"),
     quiet: Quiet = False,
     **values,
@@ -247,9 +251,9 @@ def gen_activities(
 @exits
 @with_settings(DEMOS)
 def gen_demos(
-    out: Annotated[Path, typer.Option("--out", "-o", help="The demos.parquet to write.")] = Path(
-        "demos.parquet"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The demos.parquet to write.")
+    ] = Path("demos.parquet"),
     quiet: Quiet = False,
     **values,
 ) -> None:

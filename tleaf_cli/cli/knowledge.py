@@ -18,6 +18,7 @@ from tleaf_cli.cli.common import (
     Quiet,
     compile_settings,
     exits,
+    file_path,
     finish,
     reachable,
     targets,
@@ -101,9 +102,9 @@ def kb_extract(
 
 @exits
 def cooking_kb(
-    out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
-        "cooking_kb.ltl"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The .ltl file to write.")
+    ] = Path("cooking_kb.ltl"),
     ingredients: Annotated[
         str | None,
         typer.Option(help="Comma-separated ingredients (an episode's five) \\[default: all]."),
@@ -138,9 +139,9 @@ def cooking_kb(
 @exits
 def demos_kb(
     demos: Annotated[Path, typer.Argument(help="A demos.parquet (gen-demos).")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The .ltl file to write.")] = Path(
-        "demos_kb.ltl"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The .ltl file to write.")
+    ] = Path("demos_kb.ltl"),
     domain: Annotated[
         Path | None,
         typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),

@@ -11,6 +11,7 @@ from tleaf_cli import ui
 from tleaf_cli.cli.common import (
     Quiet,
     exits,
+    file_path,
     targets,
 )
 from tleaf_cli.cli.options import EVAL, FIGURE, with_settings
@@ -56,7 +57,9 @@ def eval_tsne(
     embedder: Annotated[
         list[Path], typer.Option(help="A meta model directory; repeat for side-by-side panels.")
     ],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The PNG to write.")] = Path("tsne.png"),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The PNG to write.")
+    ] = Path("tsne.png"),
     quiet: Quiet = False,
     **values,
 ) -> None:
@@ -80,9 +83,9 @@ def eval_tsne(
 @exits
 def eval_table(
     reports: Annotated[list[Path], typer.Argument(help="report.json files of model-checking.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="The markdown table.")] = Path(
-        "results.md"
-    ),
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The markdown table.")
+    ] = Path("results.md"),
 ) -> None:
     """One table: mean ± s.e. over seeds per embedder and tier, beside the paper's Table I."""
     from tleaf_cli.tasks.model_checking_table import results_table

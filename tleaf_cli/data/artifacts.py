@@ -64,6 +64,12 @@ def check_writable(target: str | os.PathLike) -> None:
     if target.is_dir():
         raise InputError(f"{target}: is a folder; give a file name")
     check_folder_writable(target.parent)
+    if target.parent.is_dir():  # a folder that says it is writable and is not (/proc, /sys)
+        try:
+            with tempfile.TemporaryFile(dir=target.parent):
+                pass
+        except OSError as e:
+            raise InputError(f"{target}: cannot be written ({e.strerror or e})") from None
 
 
 def check_folder_writable(target: str | os.PathLike) -> None:
@@ -131,8 +137,11 @@ def check_targets(
 def atomic_path(target: str | os.PathLike):
     """A temporary path in the target's directory; rename it over the target when done."""
     target = Path(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    except OSError as e:  # named as the user gave it, not by the temporary file
+        raise InputError(f"{target}: cannot be written ({e.strerror or e})") from None
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; artifacts get the usual mode
     return Path(tmp)

@@ -44,7 +44,7 @@ from tleaf_cli.embed.triplets import (
     triplet_accuracy,
     triplet_step,
 )
-from tleaf_cli.errors import InputError
+from tleaf_cli.errors import InputError, MissingSplitError
 from tleaf_cli.logic.formulas import parse
 from tleaf_cli.settings import check_values
 from tleaf_cli.settings.meta import (
@@ -84,7 +84,7 @@ def train_meta(
     model = build_model(settings, vectors.dim, edge_model.atom_table)
     monitors = model.trace.monitor_bank
     if "split" not in traces.column_names:
-        raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
+        raise MissingSplitError(traces_path)
     if settings.embedder == "dfa":  # in one call: one q_e batch, the monitor shares cached
         dfas = [dfa_from_row(row) for row in rows.values()]
         graphs = featured_dfa_graphs(dfas, vectors, monitors, cache_shares=True)

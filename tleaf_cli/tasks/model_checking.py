@@ -42,7 +42,7 @@ from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.embed.training import adam, device_for
-from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.errors import InputError, MissingSplitError, SettingError
 from tleaf_cli.settings import PRECISIONS
 from tleaf_cli.settings.evaluation import PAIR_FEATURES, EvalSettings
 from tleaf_cli.settings.meta import MetaSettings
@@ -93,7 +93,7 @@ def evaluate_model_checking(
     rows = {r["formula_id"]: r for r in read_dfas(dfas_path).rows if r["error"] is None}
     traces = read_traces(traces_path)
     if "split" not in traces.column_names:
-        raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
+        raise MissingSplitError(traces_path)
     traces = [t for t in traces.to_pylist() if t["formula_id"] in rows]
     ids = list(rows)
     z_formulas = dict(zip(ids, embedder.embed_formula_rows([rows[i] for i in ids]), strict=True))

@@ -19,7 +19,7 @@ from tleaf_cli.data.artifacts import check_writable
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import TraceSettings, read_traces, traces_for_dfa
 from tleaf_cli.embed.load import load_embedder
-from tleaf_cli.errors import InputError
+from tleaf_cli.errors import InputError, MissingSplitError
 from tleaf_cli.settings.evaluation import FigureSettings
 from tleaf_cli.tasks.figures import pyplot, save_png
 
@@ -34,7 +34,7 @@ def pick_test_formula(traces_path: str | Path, rows: dict[str, dict]) -> str:
     """The test-split formula with the most traces in the file (ties: the smallest id)."""
     table = read_traces(traces_path)
     if "split" not in table.column_names:
-        raise InputError(f"{traces_path}: no split column (traces drawn without a split)")
+        raise MissingSplitError(traces_path)
     counts: dict[str, int] = {}
     for fid, split in zip(
         table.column("formula_id").to_pylist(), table.column("split").to_pylist(), strict=True
