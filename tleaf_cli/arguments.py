@@ -17,8 +17,8 @@ from __future__ import annotations
 from collections.abc import Collection, Sequence
 from typing import TYPE_CHECKING, Any
 
+from tleaf_cli.atom_names import atom_problem
 from tleaf_cli.errors import ArgumentError, ArgumentTypeError
-from tleaf_cli.logic.grammar import atom_problem
 
 if TYPE_CHECKING:
     import torch
@@ -50,7 +50,7 @@ def sequence(value: Any, argument: str, what: str) -> Sequence:
 
 
 def vocabulary(items: Any, argument: str = "vocabulary") -> tuple[str, ...]:
-    """A model's output items: distinct strs, each one a possible atom (`grammar.atom_problem`),
+    """A model's output items: distinct strs, each one a possible atom (`atom_names.atom_problem`),
     since a rule names an item by its atom and a repeated item would be judged as one copy.
     A tuple that passed once passes again without a second look (a trainer builds every rule
     set of a run over the same vocabulary)."""

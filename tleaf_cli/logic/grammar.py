@@ -43,25 +43,14 @@ from ltlf2dfa.ltlf import (
     LTLfWeakNext,
 )
 
+from tleaf_cli.atom_names import AMBIGUOUS as _AMBIGUOUS
+
 # One token per match; `word` and `upper` are checked further in _tokens.
 _TOKEN = re.compile(
     r"\s*(?:(?P<word>[a-z][a-z0-9_]*)|(?P<op><->|<=>|->|=>|\|\||&&|[|&!~()])"
     r"|(?P<upper>WX|[XFGUR])(?![a-z]))"
 )
 _CONSTANTS = {"true": LTLfTrue, "false": LTLfFalse, "last": LTLfLast}
-_AMBIGUOUS = ("true", "false", "last")  # lark reads these as a prefix of a longer word
-ATOM = re.compile(r"[a-z][a-z0-9_]*")
-
-
-def atom_problem(name: str) -> str | None:
-    """Why `name` can never be an atom of a formula (so a rule can never name it), or None."""
-    if not ATOM.fullmatch(name):
-        return "atoms are lower-case ASCII letters, digits and _, starting with a letter"
-    if name.startswith(_AMBIGUOUS):
-        return f"a word starting with {', '.join(_AMBIGUOUS)} is read as a constant"
-    return None
-
-
 _UNARY = {"!": LTLfNot, "~": LTLfNot, "X": LTLfNext, "WX": LTLfWeakNext}
 _UNARY.update({"F": LTLfEventually, "G": LTLfAlways})
 _LEVELS = (  # loosest first: the operator tokens of each binary level and the class it builds
