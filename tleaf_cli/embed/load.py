@@ -55,14 +55,15 @@ def edge_model_dir(model_dir: Path, config: dict) -> Path:
     """Where a meta model's edge model is: relative to the meta folder where it is there (the
     tree was moved or copied whole), else at the absolute path recorded when it was trained."""
     where = model_dir / CONFIG
-    relative = config.get("edge_model_relative")
-    if relative is not None and not isinstance(relative, str):
-        raise InputError(f"{where}: 'edge_model_relative' must be a path (str)")
-    if relative is not None and (model_dir / relative / CONFIG).exists():
-        return model_dir / relative
     recorded = Path(config_field(config, "edge_model", str, where, "the edge model's folder"))
+    relative = config.get("edge_model_relative")
+    if relative is not None:
+        relative = config_field(config, "edge_model_relative", str, where, "a relative path")
+        relative = Path(os.path.normpath(model_dir / relative))
+        if (relative / CONFIG).exists():
+            return relative
     if not (recorded / CONFIG).exists():
-        places = [str(recorded)] + ([str(model_dir / relative)] if relative is not None else [])
+        places = [str(recorded)] + ([str(relative)] if relative is not None else [])
         raise InputError(
             f"{where}: its edge model (q_e) is at none of {', '.join(places)}; copy the "
             "train-edge folder there, or move the meta folder back beside it"

@@ -115,9 +115,12 @@ def _is_instance(value: Any, hint: Any) -> bool:
 
 
 def _type_name(hint: Any) -> str:
+    """A type as JSON calls it: "an integer", "a string or null", ..."""
     if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
         return " or ".join(_type_name(h) for h in typing.get_args(hint))
-    return "null" if hint is type(None) else getattr(hint, "__name__", str(hint))
+    names = {dict: "an object", list: "a list", str: "a string", bool: "true or false"}
+    names.update({int: "an integer", float: "a number", type(None): "null"})
+    return names.get(hint, getattr(hint, "__name__", str(hint)))
 
 
 def config_field(config: dict, name: str, kind: type, where: Path, what: str) -> Any:
