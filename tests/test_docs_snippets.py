@@ -4,8 +4,9 @@ shows what it says.
 The blocks of one file run in order in one namespace, in a temporary working directory. A bare
 expression followed by a comment on its last line is a result: the comment must be the value's
 repr, spaces ignored (`tl.check(dfa, traces)  # array([False,  True])`). Other comments are prose.
-A snippet that needs a trained embedder reads `MODEL_DIR`, which the test sets to a tiny one
-(`tiny_model_dir`); the docs say so where they use it.
+A snippet that needs a trained embedder sets `MODEL_DIR = "..."` to a train-meta folder, as a
+reader would; the test points that assignment at a tiny one (`tiny_model_dir`) instead, and the
+docs say so where they use it. A name a snippet reads is defined by the doc's blocks before it.
 """
 
 from __future__ import annotations
@@ -83,6 +84,15 @@ def run_block(source: str, first_line: int, path: str, namespace: dict) -> int:
     return checked
 
 
+MODEL_DIR_ASSIGNMENT = re.compile(r'^(MODEL_DIR\s*=\s*)"[^"]*"', re.MULTILINE)
+
+
+def point_model_dir_at(source: str, folder: str) -> str:
+    """The block with its `MODEL_DIR = "..."` assignment pointed at `folder`; a block that reads
+    MODEL_DIR without one is left as it is (and fails where the name is undefined)."""
+    return MODEL_DIR_ASSIGNMENT.sub(lambda m: f"{m.group(1)}{folder!r}", source)
+
+
 @pytest.fixture(scope="session")
 def tiny_model_dir(tmp_path_factory) -> Path:
     """A train-meta folder trained in seconds on 12 synthetic Low-tier formulas (atoms a, b, c):
@@ -117,7 +127,8 @@ def test_doc_snippets_run_and_show_their_results(doc, request, tmp_path, monkeyp
     monkeypatch.chdir(tmp_path)
     namespace: dict = {"__name__": "__doc__"}
     if any("MODEL_DIR" in source for _, source in blocks):
-        namespace["MODEL_DIR"] = str(request.getfixturevalue("tiny_model_dir"))
+        tiny = str(request.getfixturevalue("tiny_model_dir"))
+        blocks = [(line, point_model_dir_at(source, tiny)) for line, source in blocks]
     checked = sum(run_block(source, line, doc, namespace) for line, source in blocks)
     assert checked > 0, f"{doc}: no result comment was checked"
 
@@ -134,3 +145,14 @@ def test_result_comments_are_checked(tmp_path) -> None:
     doc.write_text("```py\n1\n```\n")
     with pytest.raises(AssertionError, match="mark Python blocks"):
         python_blocks(doc)
+
+
+def test_model_dir_is_defined_by_the_doc() -> None:
+    """A doc that reads MODEL_DIR assigns it itself: the test only repoints the assignment, so a
+    snippet that uses an undefined MODEL_DIR fails as it would for a reader."""
+    assert point_model_dir_at('MODEL_DIR = "out/q"  # a folder\n', "/tmp/t") == (
+        "MODEL_DIR = '/tmp/t'  # a folder\n"
+    )
+    namespace: dict = {}
+    with pytest.raises(NameError, match="MODEL_DIR"):
+        run_block(point_model_dir_at("len(MODEL_DIR)\n", "/tmp/t"), 1, "doc.md", namespace)
