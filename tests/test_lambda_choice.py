@@ -56,6 +56,11 @@ def test_the_cli_prints_the_lambda_and_its_source(chain_cli, tiny, tmp_path: Pat
     quiet = chain_cli("train-task", "action-recognition", data, "--kb", kb, "--logic-loss",
                       "exact", *TINY, "-o", tmp_path / "q", "-q")  # fmt: skip
     assert quiet.exit_code == 0 and "λ" not in quiet.output
+    # without a logic loss λ weighs self-training on unlabelled videos: --lambda is not ignored
+    own = ["--logic-loss", "none", "--unlabelled-loss", "decoded", "--lambda", "0.03"]
+    result = chain_cli("train-task", "action-recognition", data, "--kb", kb, *own, *TINY,
+                       "-o", tmp_path / "own")  # fmt: skip
+    assert result.exit_code == 0 and "λ 0.03 (given" in result.output, result.output
 
 
 def _fake_train(val: dict[float, float]):

@@ -111,7 +111,8 @@ def test_the_summary_of_fake_runs(tmp_path: Path) -> None:
     runs = []
     for n, acc in zip((10, 20, 40), (0.30, 0.40, 0.50), strict=True):
         for seed, shift in ((0, -0.02), (1, 0.02)):
-            runs.append(_fake_run(tmp_path / "runs", "lstm", "none", n, seed, acc + shift, acc))
+            runs.append(_fake_run(tmp_path / "runs", "lstm", "none", n, seed, acc + shift, acc,
+                                  val=0.45))  # fmt: skip
     runs.append(_fake_run(tmp_path / "runs", "lstm", "exact", 10, 0, 0.42, 0.60, lam=1.0))
     runs.append(_fake_run(tmp_path / "runs", "lstm", "exact", 10, 1, 0.48, 0.60, lam=1.0))
     sweep = [_fake_run(tmp_path / "sweep", "lstm", "exact", 10, s, 0.4, 0.4, lam=lam, val=v)
@@ -131,10 +132,12 @@ def test_the_summary_of_fake_runs(tmp_path: Path) -> None:
         (100 * (0.40 - 0.38) / 0.38 + 100 * (0.40 - 0.42) / 0.42) / 2
     )
     assert rows[(20, "none, argmax")]["reference"] and "gain_pct" not in rows[(20, "none, argmax")]
+    # λ chosen among the sweep's 1 and 3 and the reference runs of its seeds (λ 0)
+    assert [v["lambda"] for v in result["lambda_choices"][0]["val"]] == [0.0, 1.0, 3.0]
     assert result["lambda_choices"][0]["lambda"] == 1.0
     md = (tmp_path / "curve/curve.md").read_text()
     assert "| 10 | exact, argmax | 1 | 2 | 45.00 ± 3.00 |" in md and "2.83×" in md
-    assert "> 4×" in md and "**1: 50.00**" in md
+    assert "> 4×" in md and "0: 45.00, **1: 50.00**" in md
     assert (tmp_path / "curve/curve.png").read_bytes()[:4] == b"\x89PNG"
     assert json.loads((tmp_path / "curve/curve.json").read_text())["data"] == ["synthetic: fake"]
 
@@ -166,7 +169,10 @@ def test_the_cli_writes_the_curve_and_the_lambda(chain_cli, tmp_path: Path) -> N
     result = chain_cli("eval", "choose-lambda", *sweep, "-o", tmp_path / "lam.txt")
     assert result.exit_code == 0, result.output
     assert (tmp_path / "lam.txt").read_text() == "1\n"
-    result = chain_cli("eval", "choose-lambda", sweep[0], runs[0], "-o", tmp_path / "x.txt")
+    # the reference of the same model and size counts as λ 0; another size's is refused
+    result = chain_cli("eval", "choose-lambda", *sweep, runs[0], "-o", tmp_path / "z.txt")
+    assert result.exit_code == 0 and "0: 50.00%" in result.output, result.output
+    result = chain_cli("eval", "choose-lambda", sweep[0], runs[1], "-o", tmp_path / "x.txt")
     assert result.exit_code == 2 and "more than λ" in result.output
 
 
@@ -228,12 +234,16 @@ def test_small_learning_curve_pipeline(tmp_path: Path) -> None:
     assert all(len(r["seeds"]) == 2 for r in curve["curve"])
     assert all(r["data"].startswith("synthetic") for r in curve["runs"])
     assert all(r["decodings"]["constrained"]["violation_fraction"] == 0 for r in curve["runs"])
-    for choice in curve["lambda_choices"]:  # exact at 0.5 and 1, one seed
-        assert [v["lambda"] for v in choice["val"]] == [0.5, 1.0]
+    for choice in curve["lambda_choices"]:  # exact at 0.5 and 1, one seed; 0: the reference
+        assert [v["lambda"] for v in choice["val"]] == [0.0, 0.5, 1.0]
         lam = (out / f"lambda/{choice['model']}-exact-n{choice['train_videos']}.txt").read_text()
         assert float(lam) == choice["lambda"]
         main = out / f"runs/{choice['model']}-exact-n{choice['train_videos']}-seed0/metrics.json"
         swept = out / f"sweep/{choice['model']}-exact-n{choice['train_videos']}-lam{lam.strip()}"
-        assert main.read_text() == (Path(f"{swept}-seed0") / "metrics.json").read_text()
+        if choice["lambda"] == 0:  # no sweep run at λ 0: the main run trained at it
+            config = json.loads((main.parent / "config.json").read_text())
+            assert config["settings"]["lam"] == 0.0
+        else:
+            assert main.read_text() == (Path(f"{swept}-seed0") / "metrics.json").read_text()
     assert (out / "curve/curve.png").stat().st_size > 0
     assert make_small("learning_curve.mk", out, "-q").returncode == 0

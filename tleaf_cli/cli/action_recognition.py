@@ -61,8 +61,11 @@ def train_task_action_recognition(
     settings = TaskSettings.preset(preset, **given(ctx, values))
     if settings.decode != "constrained":
         refuse(given_flags(ctx, "decode_top_k"), "only with --decode constrained")
-    if settings.logic_loss == "none":
-        refuse(given_flags(ctx, "lam", "lambdas"), "only with a logic loss, not --logic-loss none")
+    if settings.logic_loss == "none" and settings.unlabelled_loss == "logic":  # λ weighs nothing
+        refuse(
+            given_flags(ctx, "lam", "lambdas"),
+            "only with a logic loss or self-training (--unlabelled-loss), not --logic-loss none",
+        )
     model, logic_loss, epochs = settings.model, settings.logic_loss, settings.epochs
 
     def on_setup(setup) -> None:  # before the first epoch (every candidate's, with --lambdas)
