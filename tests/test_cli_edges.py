@@ -86,7 +86,7 @@ def test_failure_lines_show_invisible_characters_escaped(tmp_path: Path) -> None
     source.write_text("ri\u200bnse: F rinse\nγ\x00: F cook\nok: F serve\n", encoding="utf-8")
     result = tleaf("compile-dfa", source, "-o", tmp_path / "dfas.parquet", "--no-cache")
     assert result.exit_code == 1
-    allowed = "(allowed: letters, digits, _ . -)"
+    allowed = "(allowed: ASCII letters, digits, _ . -)"
     assert _errors(result.output) == [
         f"error: {source}: line 1: invalid formula name 'ri\\u200bnse' {allowed}",
         f"error: {source}: line 2: invalid formula name 'γ\\x00' {allowed}",

@@ -2,7 +2,7 @@
 
 `.ltl` (docs/design.md): UTF-8 (a byte-order mark at the start is skipped), one formula per line,
 `#` starts a comment, blank lines skipped, an optional `name:` prefix (`[A-Za-z0-9_.-]+`) names
-the formula, otherwise its id is `L<line>`.
+the formula (ASCII only), otherwise its id is `L<line>`.
 A line that is wrong in itself (bad name, repeated name) still yields an entry, with `problem`
 set, so the stage reports it in its row and carries on with the others.
 """
@@ -41,7 +41,9 @@ class FormulaSource:
         return f"{self.location}, column {self.offset + column}: {message}"
 
 
-NAME_CHARS = "letters, digits, _ . -"
+# ASCII only (docs/design.md): ids join rows across artifacts, and a letter of another script can
+# be written in two ways that look the same (é as one code point, or e and a combining mark)
+NAME_CHARS = "ASCII letters, digits, _ . -"
 
 
 def is_valid_name(name: str) -> bool:

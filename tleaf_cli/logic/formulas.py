@@ -8,6 +8,7 @@ syntax errors that name the column and say what was expected, instead of lark's 
 
 from __future__ import annotations
 
+import unicodedata
 from functools import cache
 
 from lark.exceptions import (
@@ -20,6 +21,7 @@ from lark.exceptions import (
 from ltlf2dfa.ltlf import LTLfFormula, LTLfImplies, LTLfRelease, LTLfUntil
 from ltlf2dfa.parser.ltlf import LTLfParser
 
+from tleaf_cli.atom_names import atom_problem
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.grammar import read_formula
 
@@ -126,19 +128,24 @@ def atoms(formula: LTLfFormula) -> tuple[str, ...]:
 def _explain_character(text: str, e: UnexpectedCharacters) -> FormulaSyntaxError:
     char = e.char
     col = e.column
+    if not char.isascii() and _in_word(char):
+        # a letter or digit outside ASCII (`rinse_γ`, `café`): ltlf2dfa's grammar reads only
+        # ASCII atoms, and MONA, which reads the atoms as its variable names, refuses any other
+        # character ("illegal character"), so such a word can never be an atom
+        word = _word_around(text, col - 1)
+        return FormulaSyntaxError(
+            f"atom '{word}': '{char}' is not ASCII; {atom_problem(word)}", col
+        )
     if char.isupper():
         nxt = text[col] if col < len(text) else ""
+        word = _word_at(text, col - 1)
         if char in "XFGUR" or (char == "W" and nxt == "X"):
             op = "WX" if char == "W" else char
             return FormulaSyntaxError(
-                f"operator '{op}' must be followed by a space or '(' "
-                f"(and atoms are lower-case [a-z][a-z0-9_]*)",
+                f"operator '{op}' must be followed by a space or '(' (and {atom_problem(word)})",
                 col,
             )
-        word = _word_at(text, col - 1)
-        return FormulaSyntaxError(
-            f"upper-case atom '{word}': atoms are lower-case [a-z][a-z0-9_]*", col
-        )
+        return FormulaSyntaxError(f"upper-case atom '{word}': {atom_problem(word)}", col)
     return FormulaSyntaxError(f"unexpected character '{char}'; {OPERATORS_HELP}", col)
 
 
@@ -155,8 +162,21 @@ def _explain_token(text: str, e: UnexpectedToken | UnexpectedEOF) -> FormulaSynt
     return FormulaSyntaxError(f"unexpected '{token.value}' here (an operator is missing?)", col)
 
 
+def _in_word(char: str) -> bool:
+    """Whether `char` would be read as part of a word: a letter, digit, _ or combining mark."""
+    return char.isalnum() or char == "_" or unicodedata.category(char).startswith("M")
+
+
 def _word_at(text: str, start: int) -> str:
     end = start
-    while end < len(text) and (text[end].isalnum() or text[end] == "_"):
+    while end < len(text) and _in_word(text[end]):
         end += 1
     return text[start:end] or text[start]
+
+
+def _word_around(text: str, index: int) -> str:
+    """The whole word (letters, digits, _, marks) that the character at `index` is part of."""
+    start = index
+    while start > 0 and _in_word(text[start - 1]):
+        start -= 1
+    return _word_at(text, start)

@@ -188,6 +188,7 @@ def run_mona(program: str, timeout: float, memory_mb: int = DEFAULT_MEMORY_MB) -
 
 
 # What MONA's failures mean, and what to do about each; one line, for a row's error.
+SPLIT_ADVICE = "a conjunction into one formula per conjunct, which tl.RuleSet conjoins as one DFA"
 TOO_MANY_STATES = (
     "the formula has too many states for MONA; split it into smaller formulas (a conjunction "
     "into one formula per conjunct) or give each fewer eventualities (F, U)"
@@ -201,6 +202,10 @@ def failure_reason(returncode: int, out: str, err: str, memory_mb: int) -> str:
       (8,190 characters measured); with ltlf2dfa's comment dropped, only an atom name can be.
     - "*** out of memory, execution aborted ***" (stdout, exit status 255): the address-space
       cap set on the child was reached.
+    - "memory exhausted" then "Execution aborted" (exit status 255): MONA's parser (bison) keeps
+      at most 10,000 symbols pending, three per operand of a chain of `&` or `|`, so no chain
+      of more than 3,331 operands can be read (measured: `a0 & ... & a3330` compiles, one more
+      operand does not), whatever the memory cap.
     - killed by SIGABRT with nothing printed: MONA aborts when an automaton outgrows its BDD
       table (`bdd_new_manager` prints "BDD too large" and calls abort(), so its buffered stdout
       is lost): 20 eventualities `F a1 & ... & F a20` (2^20 states) do it within seconds.
@@ -211,6 +216,12 @@ def failure_reason(returncode: int, out: str, err: str, memory_mb: int) -> str:
             "MONA cannot read the formula: a word of it (an atom name) is longer than the "
             "8,190 characters MONA reads ('token too large'); shorten its atom names (the "
             "progression engine reads names of any length)"
+        )
+    if "memory exhausted" in text:
+        return (
+            "MONA cannot read the formula: its parser takes a chain of at most about 3,300 "
+            "operands of & or | ('memory exhausted' while reading it, not a lack of memory); "
+            f"split it into several formulas ({SPLIT_ADVICE})"
         )
     if "out of memory" in text:
         return f"MONA ran out of memory (limit {memory_mb} MB): {TOO_MANY_STATES}"
