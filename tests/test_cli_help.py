@@ -13,7 +13,7 @@ from typer.testing import CliRunner
 
 from tleaf_cli import cli
 from tleaf_cli.cli import action_recognition, generate, knowledge
-from tleaf_cli.cli.options import SETTINGS_COMMANDS
+from tleaf_cli.cli.options import SETTINGS_COMMANDS, SWITCHES
 from tleaf_cli.defaults import TIERS
 from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS
 from tleaf_cli.tasks.action_recognition.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
@@ -114,7 +114,10 @@ def test_a_settings_command_has_one_option_per_setting(command) -> None:
         assert f.name in params, f"{command.name} has no option for {f.name}"
         param = params[f.name]
         assert f.metadata["help"].split(".")[0] in _flat(param.help), (f.name, param.help)
-        if f.metadata["choices"]:
+        if f.name in SWITCHES:  # one flag that selects one of the values
+            switch, value = SWITCHES[f.name]
+            assert param.opts == [switch] and value in f.metadata["choices"], f.name
+        elif f.metadata["choices"]:
             assert tuple(param.type_descriptor.choices) == f.metadata["choices"], f.name
 
 

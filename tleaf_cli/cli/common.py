@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import os
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 import typer
 
@@ -48,42 +48,16 @@ CacheDir = Annotated[
     typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
 ]
 NoCache = Annotated[bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")]
-CompileEngine = Literal["auto", "progression", "mona"]  # logic/compile.py ENGINES
-Engine = Annotated[
-    CompileEngine,
-    typer.Option(
-        help="auto: build the DFA in this process by formula progression, and hand a "
-        "formula to MONA when that passes its limits (2,000 states); progression: never "
-        "MONA (such formulas fail); mona: MONA for every formula. All give the same "
-        "minimal DFA."
-    ),
-]
 Resume = Annotated[
     bool, typer.Option("--resume", help="Continue from the model directory's last epoch.")
 ]
 
 
-def compile_settings(
-    one_hot: bool,
-    timeout: float,
-    cache_dir,
-    no_cache: bool,
-    jobs: int,
-    cluster: str | None = None,
-    engine: CompileEngine = "auto",
-):
-    """The compile settings that --one-hot, --timeout, --cache-dir, --no-cache, --jobs,
-    --cluster and --engine ask for."""
-    from tleaf_cli.data.compile_dfas import CompileSettings, default_cache_dir
+def cache_folder(cache_dir: Path | None, no_cache: bool) -> Path | None:
+    """The compile cache that --cache-dir and --no-cache ask for (None: no cache)."""
+    from tleaf_cli.settings.data import default_cache_dir
 
-    return CompileSettings(
-        alphabet="one-hot" if one_hot else "powerset",
-        timeout=timeout,
-        cache_dir=None if no_cache else (cache_dir or default_cache_dir()),
-        jobs=jobs,
-        engine=engine,
-        cluster=cluster or None,
-    )
+    return None if no_cache else (cache_dir or default_cache_dir())
 
 
 # How to draw traces that training and evaluation can read (MissingSplitError).

@@ -9,11 +9,12 @@ import typer
 
 from tleaf_cli import ui
 from tleaf_cli.cli.common import (
+    CacheDir,
     Cluster,
-    Engine,
     Jobs,
+    NoCache,
     Quiet,
-    compile_settings,
+    cache_folder,
     exits,
     file_path,
     finish,
@@ -21,11 +22,13 @@ from tleaf_cli.cli.common import (
     refuse,
     targets,
 )
-from tleaf_cli.defaults import COMPILE_TIMEOUT
+from tleaf_cli.cli.options import COMPILE, with_settings
 from tleaf_cli.errors import InputError
+from tleaf_cli.settings.data import CompileSettings
 
 
 @exits
+@with_settings(COMPILE)
 def compile_dfa(
     formulas: Annotated[
         Path, typer.Argument(help="A .ltl file, or Parquet with formula_id, formula.")
@@ -33,31 +36,15 @@ def compile_dfa(
     out: Annotated[
         Path, typer.Option("--out", "-o", parser=file_path, help="The dfas.parquet to write.")
     ] = Path("dfas.parquet"),
-    one_hot: Annotated[
-        bool,
-        typer.Option(
-            "--one-hot",
-            help="One atom of the domain per step: letters are single atoms or none; "
-            "DFAs minimal over that alphabet, guards simplified under it.",
-        ),
-    ] = False,
     jobs: Jobs = 1,
     cluster: Cluster = None,
-    timeout: Annotated[
-        float, typer.Option(min=0.1, help="Seconds MONA may spend on one formula.")
-    ] = COMPILE_TIMEOUT,
-    engine: Engine = "auto",
     graphs: Annotated[
         Path | None, typer.Option(help="Also write <id>.graphml and <id>.dot per DFA here.")
     ] = None,
-    cache_dir: Annotated[
-        Path | None,
-        typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
-    ] = None,
-    no_cache: Annotated[
-        bool, typer.Option("--no-cache", help="Neither read nor fill the cache.")
-    ] = False,
+    cache_dir: CacheDir = None,
+    no_cache: NoCache = False,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Compile LTLf formulas to minimal DFAs, one row per formula.
 
@@ -66,7 +53,9 @@ def compile_dfa(
     """
     from tleaf_cli.data.compile_dfas import compile_file
 
-    settings = compile_settings(one_hot, timeout, cache_dir, no_cache, jobs, cluster, engine)
+    settings = CompileSettings(
+        **values, cache_dir=cache_folder(cache_dir, no_cache), jobs=jobs, cluster=cluster or None
+    )
     reachable(cluster)
     with ui.progress("compiling", quiet) as update:
         report = compile_file(formulas, out, settings, graphs, update)

@@ -12,14 +12,14 @@ from tleaf_cli.cli.common import (
     CacheDir,
     NoCache,
     Quiet,
-    compile_settings,
+    cache_folder,
     exits,
     given_flags,
     refuse,
     targets,
 )
 from tleaf_cli.cli.options import GAIL, with_settings
-from tleaf_cli.defaults import COMPILE_TIMEOUT
+from tleaf_cli.settings.data import CompileSettings
 from tleaf_cli.settings.gail import GailSettings
 
 
@@ -52,7 +52,7 @@ def train_task_cooking(
         refuse(given_flags(ctx, "lam"), "only with a logic loss, not --logic-loss none")
     logic_loss = settings.logic_loss
     targets([demos, embedder, settings.domain], folders=[out])
-    compiling = compile_settings(True, COMPILE_TIMEOUT, cache_dir, no_cache, 1)
+    compiling = CompileSettings(alphabet="one-hot", cache_dir=cache_folder(cache_dir, no_cache))
     with ui.progress(f"GAIL ({logic_loss})", quiet) as update:
         m = train_gail(demos, out, settings, embedder, compiling, update)
     ui.summary(

@@ -12,12 +12,9 @@ from tleaf_cli.cli.common import (
     CacheDir,
     Cluster,
     Jobs,
-    MaxLen,
-    MinLen,
     NoCache,
     Quiet,
-    Seed,
-    compile_settings,
+    cache_folder,
     exits,
     file_path,
     finish,
@@ -26,15 +23,16 @@ from tleaf_cli.cli.common import (
     refuse,
     targets,
 )
-from tleaf_cli.cli.options import ACTIVITIES, DEMOS, with_settings
-from tleaf_cli.defaults import CANDIDATE_TIMEOUT, MAX_LEN, MIN_LEN, TIERS
-from tleaf_cli.errors import SettingError
+from tleaf_cli.cli.options import ACTIVITIES, DEMOS, FORMULAS, TRACES, given, with_settings
+from tleaf_cli.defaults import TIERS
+from tleaf_cli.settings.data import FormulaSettings, TraceSettings
 from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 
 Tier = Literal["low", "moderate", "high"]
 
 
 @exits
+@with_settings(FORMULAS)
 def gen_formulas(
     ctx: typer.Context,
     out: Annotated[
@@ -47,36 +45,12 @@ def gen_formulas(
             "high (6, 20). Overrides --atoms and --size."
         ),
     ] = None,
-    atoms: Annotated[int, typer.Option(help="Distinct atoms in every formula (a, b, c, ...).")] = 3,
-    size: Annotated[
-        int, typer.Option(help="Syntax-tree nodes (operators + atom occurrences).")
-    ] = 10,
-    n: Annotated[int, typer.Option("-n", min=1, help="Formulas to keep.")] = 100,
-    seed: Seed = 0,
-    min_len: MinLen = MIN_LEN,
-    max_len: MaxLen = MAX_LEN,
-    pairs: Annotated[
-        int,
-        typer.Option(
-            min=1,
-            help="Keep formulas with at least this many distinct "
-            "(satisfying, violating) pairs of equal length: gen-traces' --per-formula.",
-        ),
-    ] = 20,
-    one_hot: Annotated[
-        bool, typer.Option("--one-hot", help="Judge formulas on one-hot traces.")
-    ] = False,
-    prefix: Annotated[
-        str | None, typer.Option(help="Formula id prefix \\[default: the tier, or f].")
-    ] = None,
     jobs: Jobs = 1,
     cluster: Cluster = None,
-    timeout: Annotated[
-        float, typer.Option(min=0.001, help="MONA seconds per candidate; slower ones are rejected.")
-    ] = CANDIDATE_TIMEOUT,
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Draw SYNTHETIC random LTLf formulas worth learning from.
 
@@ -84,26 +58,17 @@ def gen_formulas(
     (satisfying, violating) pairs of equal length in [--min-len, --max-len], repeats of a
     language already kept, and candidates MONA cannot finish within --timeout.
     """
-    from tleaf_cli.data.formula_gen import FormulaSettings, generate_formulas, write_formula_file
+    from tleaf_cli.data.formula_gen import generate_formulas, write_formula_file
 
     targets([], [out])
     reachable(cluster)
     if tier is not None:
         refuse(given_flags(ctx, "atoms", "size"), "set by --tier; give --tier or these, not both")
-        if tier not in TIERS:
-            raise SettingError("tier", f"must be one of {', '.join(TIERS)}, not '{tier}'")
-        atoms, size = TIERS[tier]
+        values["atoms"], values["size"] = TIERS[tier]
+        if "prefix" not in given(ctx, values):
+            values["prefix"] = f"{tier}-"
     settings = FormulaSettings(
-        n=n,
-        atoms=atoms,
-        size=size,
-        seed=seed,
-        min_len=min_len,
-        max_len=max_len,
-        pairs=pairs,
-        one_hot=one_hot,
-        prefix=prefix or (f"{tier}-" if tier else "f"),
-        compile=compile_settings(one_hot, timeout, cache_dir, no_cache, jobs, cluster),
+        **values, cache_dir=cache_folder(cache_dir, no_cache), jobs=jobs, cluster=cluster or None
     )
     with ui.progress("generating", quiet) as update:
         report = generate_formulas(settings, update)
@@ -111,68 +76,27 @@ def gen_formulas(
     reasons = ", ".join(f"{k}: {v}" for k, v in report.rejected.most_common()) or "none"
     ui.summary(
         f"{out}: kept {len(report.kept)} of {report.drawn} drawn "
-        f"({atoms} atoms, size {size}); rejected {sum(report.rejected.values())} ({reasons})",
+        f"({settings.atoms} atoms, size {settings.size}); rejected "
+        f"{sum(report.rejected.values())} ({reasons})",
         quiet,
     )
-    if len(report.kept) < n:
-        ui.fatal(f"only {len(report.kept)} of {n} formulas found before the draw limit")
+    if len(report.kept) < settings.n:
+        ui.fatal(f"only {len(report.kept)} of {settings.n} formulas found before the draw limit")
         raise typer.Exit(1)
 
 
-def _fractions(text: str | None) -> tuple[float, float, float] | None:
-    if text is None:
-        return None
-    try:
-        parts = tuple(float(x) for x in text.split(","))
-    except ValueError:
-        parts = ()
-    if len(parts) != 3:
-        raise SettingError("split", f"takes three fractions like 0.8,0.1,0.1, not '{text}'")
-    return parts  # type: ignore[return-value]
-
-
 @exits
+@with_settings(TRACES)
 def gen_traces(
     ctx: typer.Context,
     dfas: Annotated[Path, typer.Argument(help="A dfas.parquet from compile-dfa.")],
     out: Annotated[
         Path, typer.Option("--out", "-o", parser=file_path, help="The traces.parquet to write.")
     ] = Path("traces.parquet"),
-    per_formula: Annotated[
-        int, typer.Option(min=1, help="K: satisfying and K violating traces per formula.")
-    ] = 20,
-    min_len: MinLen = MIN_LEN,
-    max_len: MaxLen = MAX_LEN,
-    hard_fraction: Annotated[
-        float, typer.Option(help="Share of violating traces that are hard negatives.")
-    ] = 0.5,
-    one_hot: Annotated[
-        bool, typer.Option("--one-hot", help="One-hot letters only (a single atom, or none).")
-    ] = False,
-    once_each: Annotated[
-        bool,
-        typer.Option(
-            "--once-each",
-            help="Traces that read every atom of the formula exactly once (plus 0..--max-none "
-            "'none' steps), like a labelled video under its own rule set; implies --one-hot "
-            "letters; ignores --min-len, --max-len, --hard-fraction.",
-        ),
-    ] = False,
-    max_none: Annotated[
-        int,
-        typer.Option(
-            min=0,
-            help="With --once-each: at most this many 'none' steps (other pairs of the video; "
-            "more for per-ingredient rule sets).",
-        ),
-    ] = 3,
-    split: Annotated[
-        str | None, typer.Option(help="Add a split column by formula: train,val,test fractions.")
-    ] = None,
-    seed: Seed = 0,
     jobs: Jobs = 1,
     cluster: Cluster = None,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Sample SYNTHETIC satisfying and violating traces for every DFA, paired by length.
 
@@ -180,36 +104,25 @@ def gen_traces(
     rejected words or hard negatives (a satisfying trace with the fewest steps changed). Every
     label is checked with the exact checker. Exit 1 if some DFA cannot give K of each.
     """
-    from tleaf_cli.data.traces import TraceSettings, generate_traces
+    from tleaf_cli.data.traces import generate_traces
 
     targets([dfas], [out])
     reachable(cluster)
-    if once_each:
+    if values["once_each"]:
         ignored = given_flags(ctx, "min_len", "max_len", "hard_fraction")
         refuse(ignored, "ignored with --once-each (a video's length is set by its atoms)")
+        values["one_hot"] = True
     else:
         refuse(given_flags(ctx, "max_none"), "only with --once-each")
-    settings = TraceSettings(
-        per_formula=per_formula,
-        min_len=min_len,
-        max_len=max_len,
-        hard_fraction=hard_fraction,
-        one_hot=one_hot or once_each,
-        once_each=once_each,
-        max_none=max_none,
-        seed=seed,
-        split=_fractions(split),
-        jobs=jobs,
-        cluster=cluster or None,
-    )
+    settings = TraceSettings(**values, jobs=jobs, cluster=cluster or None)
     with ui.progress("sampling", quiet) as update:
         report = generate_traces(dfas, out, settings, update)
     skipped = f", {report.skipped} rows without a DFA skipped" if report.skipped else ""
     finish(
         [(str(dfas), f"formula {fid}: {why}") for fid, why in report.short],
         f"{out}: {report.rows} traces for {report.formulas} formulas "
-        f"({report.hard} hard negatives; {len(report.short)} formulas short of {per_formula} "
-        f"pairs{skipped})",
+        f"({report.hard} hard negatives; {len(report.short)} formulas short of "
+        f"{settings.per_formula} pairs{skipped})",
         quiet,
     )
 

@@ -12,26 +12,27 @@ from tleaf_cli import ui
 from tleaf_cli.cli.common import (
     CacheDir,
     Cluster,
-    Engine,
     Jobs,
     NoCache,
     Quiet,
-    compile_settings,
+    cache_folder,
     exits,
     file_path,
     finish,
     reachable,
     targets,
 )
-from tleaf_cli.defaults import COMPILE_TIMEOUT
+from tleaf_cli.cli.options import KB, with_settings
 from tleaf_cli.errors import InputError
 from tleaf_cli.settings.action_recognition import RULE_SET_SPLITS
+from tleaf_cli.settings.data import CompileSettings
 
 KbFormulaFrom = Literal["labels"]
 RuleSets = Literal[RULE_SET_SPLITS]
 
 
 @exits
+@with_settings(KB)
 def kb_extract(
     inputs: Annotated[
         list[Path],
@@ -62,13 +63,10 @@ def kb_extract(
     ] = 3,
     jobs: Jobs = 1,
     cluster: Cluster = None,
-    timeout: Annotated[
-        float, typer.Option(min=0.1, help="Seconds MONA may spend on one rule set.")
-    ] = COMPILE_TIMEOUT,
-    engine: Engine = "auto",
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Give every video the conjunction of the rules whose atoms all occur in it; compile each
     distinct rule set once (one-hot DFAs).
@@ -85,7 +83,13 @@ def kb_extract(
     reachable(cluster)
     if kb is None and not mine:
         raise InputError("give a knowledge base file, or --mine to mine one from the train split")
-    settings = compile_settings(True, timeout, cache_dir, no_cache, jobs, cluster, engine)
+    settings = CompileSettings(
+        **values,
+        alphabet="one-hot",
+        cache_dir=cache_folder(cache_dir, no_cache),
+        jobs=jobs,
+        cluster=cluster or None,
+    )
     with ui.progress("compiling rule sets", quiet) as update:
         report = extract_knowledge(
             kb, inputs[-1], out, settings, mine, min_support, formula_from, rule_sets, update

@@ -26,6 +26,7 @@ import typer
 
 from tleaf_cli.settings import default_of, options
 from tleaf_cli.settings.action_recognition import TaskSettings
+from tleaf_cli.settings.data import CompileSettings, FormulaSettings, TraceSettings
 from tleaf_cli.settings.edge import EdgeSettings
 from tleaf_cli.settings.evaluation import EvalSettings, FigureSettings
 from tleaf_cli.settings.gail import GailSettings
@@ -42,9 +43,15 @@ FLAGS = {
     "formula_id": "--formula",  # eval tsne
 }
 
+# A setting of two values that the command line sets with one switch: the flag, and the value
+# it selects (its absence leaves the default).
+SWITCHES = {"alphabet": ("--one-hot", "one-hot")}  # compile-dfa --one-hot
+
 
 def flag(setting: str) -> str:
     """The flag that sets the library's `setting` (``logic_loss`` → ``--logic-loss``)."""
+    if setting in SWITCHES:
+        return SWITCHES[setting][0]
     return FLAGS.get(setting, "--" + setting.replace("_", "-"))
 
 
@@ -55,9 +62,11 @@ class SettingsCommand:
 
     cls: type
     name: str
+    # settings the command sets itself (kb-extract's DFAs are one-hot): no option, no docs row
+    exclude: tuple[str, ...] = ()
 
     def fields(self) -> list[Field]:
-        return options(self.cls)
+        return [f for f in options(self.cls) if f.name not in self.exclude]
 
 
 def _shown(value: Any) -> str:
@@ -65,6 +74,8 @@ def _shown(value: Any) -> str:
         return "on" if value else "off"
     if value == "":
         return "none"
+    if isinstance(value, tuple):
+        return ",".join(map(str, value))
     return str(value)
 
 
@@ -72,6 +83,8 @@ def default_text(f: Field, cls: type) -> str:
     """A setting's default as --help and the docs show it: the default preset's value, the
     other presets' where they differ, and what an automatic (None) default means."""
     value = default_of(f)
+    if f.name in SWITCHES:
+        value = value == SWITCHES[f.name][1]
     text = f.metadata["auto"] if value is None else _shown(value)
     presets = getattr(cls, "PRESETS", {})
     others = [
@@ -89,10 +102,39 @@ def _types(f: Field, cls: type) -> tuple[Any, bool]:
     return (args[0] if args else kind), type(None) in typing.get_args(kind)
 
 
+def _cli_default(f: Field) -> Any:
+    """A setting's default as its option's value: a switch off, a parsed value as its text."""
+    value = default_of(f)
+    if f.name in SWITCHES:
+        return value == SWITCHES[f.name][1]
+    if f.metadata["parse"] is not None and value is not None:
+        return _shown(value)
+    return value
+
+
+def _from_cli(f: Field, value: Any) -> Any:
+    """An option's value as the setting's: a switch's selected value, parsed text parsed."""
+    if f.name in SWITCHES:
+        return SWITCHES[f.name][1] if value else default_of(f)
+    if f.metadata["parse"] is not None and isinstance(value, str):
+        return f.metadata["parse"](value)
+    return value
+
+
 def _annotation(f: Field, cls: type) -> Any:
     """The typed, annotated parameter typer turns into this setting's option."""
     base, optional = _types(f, cls)
     meta = f.metadata
+    if f.name in SWITCHES:
+        base, optional = bool, False
+        option = typer.Option(
+            SWITCHES[f.name][0],
+            help=f"{meta['help']} \\[default: {default_text(f, cls)}]",
+            show_default=False,
+        )
+        return Annotated[bool, option]
+    if meta["parse"] is not None:
+        base = str
     if meta["choices"] is not None:
         base = Literal[meta["choices"]]
     names = [flag(f.name)]
@@ -107,10 +149,15 @@ def _annotation(f: Field, cls: type) -> Any:
     return Annotated[base | None if optional else base, option]
 
 
+# A command's own options on how a run goes, never what it makes: its settings come before them.
+RUN_OPTIONS = ("jobs", "cluster", "cache_dir", "no_cache", "quiet")
+
+
 def with_settings(command: SettingsCommand):
     """Decorate a command function that takes `**settings`: typer sees one keyword option per
-    setting of `command` (before the function's own `quiet`, if any), and the function receives
-    their values in `settings`."""
+    setting of `command` (before the function's own `RUN_OPTIONS`, if any), and the function
+    receives their values in `settings` (a switch's as the value it selects, parsed text
+    parsed)."""
 
     def decorate(func):
         own = inspect.signature(func)
@@ -121,17 +168,21 @@ def with_settings(command: SettingsCommand):
             for p in own.parameters.values()
             if p.kind is not inspect.Parameter.VAR_KEYWORD
         ]
+        settings = command.fields()
         added = [
             inspect.Parameter(
-                f.name, keyword, default=default_of(f), annotation=_annotation(f, command.cls)
+                f.name, keyword, default=_cli_default(f), annotation=_annotation(f, command.cls)
             )
-            for f in command.fields()
+            for f in settings
         ]
-        at = next((i for i, p in enumerate(params) if p.name == "quiet"), len(params))
+        at = next((i for i, p in enumerate(params) if p.name in RUN_OPTIONS), len(params))
         params[at:at] = added
 
         @functools.wraps(func)
         def wrapper(*args, **kwargs):
+            for f in settings:
+                if f.name in kwargs:
+                    kwargs[f.name] = _from_cli(f, kwargs[f.name])
             return func(*args, **kwargs)
 
         wrapper.__signature__ = own.replace(parameters=params)
@@ -162,7 +213,24 @@ EVAL = SettingsCommand(EvalSettings, "eval model-checking")
 FIGURE = SettingsCommand(FigureSettings, "eval tsne")
 ACTIVITIES = SettingsCommand(ActivitySettings, "gen-activities")
 DEMOS = SettingsCommand(DemoSettings, "gen-demos")
-SETTINGS_COMMANDS = [ACTIVITIES, EDGE, META, TASK, GAIL, EVAL, FIGURE, DEMOS]
+COMPILE = SettingsCommand(CompileSettings, "compile-dfa")
+FORMULAS = SettingsCommand(FormulaSettings, "gen-formulas")
+TRACES = SettingsCommand(TraceSettings, "gen-traces")
+KB = SettingsCommand(CompileSettings, "kb-extract", exclude=("alphabet",))  # DFAs one-hot
+SETTINGS_COMMANDS = [
+    FORMULAS,
+    COMPILE,
+    TRACES,
+    KB,
+    ACTIVITIES,
+    EDGE,
+    META,
+    TASK,
+    GAIL,
+    EVAL,
+    FIGURE,
+    DEMOS,
+]
 
 
 # ---- docs/cli.md's option tables
@@ -173,7 +241,9 @@ def settings_table(command: SettingsCommand) -> str:
     rows = ["| option | default | what it does |", "|---|---|---|"]
     for f in command.fields():
         name = flag(f.name)
-        if f.metadata["choices"] is not None:
+        if f.name in SWITCHES:
+            pass
+        elif f.metadata["choices"] is not None:
             name += " " + "\\|".join(f.metadata["choices"])
         elif _types(f, command.cls)[0] is bool:
             name = f"{flag(f.name)}/--no-{flag(f.name)[2:]}"

@@ -11,10 +11,9 @@ output, so a formula compiled before costs no MONA call.
 from __future__ import annotations
 
 import hashlib
-import os
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import cache
 from importlib import metadata
 from pathlib import Path
@@ -26,7 +25,6 @@ from tleaf_cli.data.artifacts import check_targets, describe_inputs, write_artif
 from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, read_formulas
 from tleaf_cli.data.parallel import parallel_map
-from tleaf_cli.defaults import COMPILE_TIMEOUT
 from tleaf_cli.errors import TleafError
 from tleaf_cli.logic import alphabet as alphabet_mod
 from tleaf_cli.logic import compile as compile_mod
@@ -40,25 +38,8 @@ from tleaf_cli.logic.compile import Engine, by_mona, by_progression
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 from tleaf_cli.logic.mona import MonaError, mona_binary, mona_version
 from tleaf_cli.logic.progression import TooLarge
+from tleaf_cli.settings.data import CompileSettings
 from tleaf_cli.version import __version__
-
-
-def default_cache_dir() -> Path:
-    """$TLEAF_CACHE_DIR, else $XDG_CACHE_HOME/tleaf, else ~/.cache/tleaf."""
-    if os.environ.get("TLEAF_CACHE_DIR"):
-        return Path(os.environ["TLEAF_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "tleaf"
-
-
-@dataclass(frozen=True)
-class CompileSettings:
-    alphabet: AlphabetKind = "powerset"
-    timeout: float = COMPILE_TIMEOUT
-    cache_dir: Path | None = field(default_factory=default_cache_dir)
-    jobs: int = 1
-    engine: Engine = "auto"  # logic/compile.py: in-process progression, MONA past its limits
-    cluster: str | None = None  # a dask scheduler address: run there instead (data/parallel.py)
 
 
 @dataclass

@@ -19,14 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from tleaf_cli.data.artifacts import write_text_atomic
-from tleaf_cli.data.compile_dfas import CompileSettings, compile_sources
+from tleaf_cli.data.compile_dfas import compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.formula_files import NAME_CHARS, FormulaSource, check_names, is_valid_name
 from tleaf_cli.data.random_formulas import random_formula
-from tleaf_cli.defaults import CANDIDATE_TIMEOUT, MAX_LEN, MIN_LEN
 from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.sampling import WordSampler, one_hot_letters
+from tleaf_cli.settings.data import CompileSettings, FormulaSettings
 
 REASONS = (
     "unsatisfiable",
@@ -35,43 +35,6 @@ REASONS = (
     "same language as a kept one",
     "did not compile",
 )
-
-
-@dataclass(frozen=True)
-class FormulaSettings:
-    n: int
-    atoms: int
-    size: int
-    seed: int = 0
-    min_len: int = MIN_LEN
-    max_len: int = MAX_LEN
-    pairs: int = 20
-    one_hot: bool = False
-    prefix: str = "f"
-    compile: CompileSettings = field(
-        default_factory=lambda: CompileSettings(timeout=CANDIDATE_TIMEOUT)
-    )
-
-    def check(self) -> None:
-        if self.atoms < 1 or self.atoms > 26:
-            raise SettingError("atoms", f"must be 1..26, got {self.atoms}")
-        if self.size < 2 * self.atoms - 1:
-            raise SettingError(
-                "size",
-                f"{self.size} cannot hold {self.atoms} distinct atoms "
-                "(a tree with k leaves has at least 2k-1 nodes)",
-            )
-        if self.n < 1:
-            raise SettingError("n", f"must be at least 1, got {self.n}")
-        if self.prefix and not is_valid_name(self.prefix):
-            raise SettingError(
-                "prefix", f"starts formula names: only {NAME_CHARS}, not '{self.prefix}'"
-            )
-        if not 1 <= self.min_len <= self.max_len:
-            raise SettingError(
-                "min_len",
-                f"must be between 1 and the longest length ({self.max_len}), got {self.min_len}",
-            )
 
 
 @dataclass
@@ -118,14 +81,18 @@ def generate_formulas(
 ) -> FormulaReport:
     """Draw, compile and filter until `settings.n` formulas are kept (or the draws run out)."""
     settings.check()
+    if settings.prefix and not is_valid_name(settings.prefix):
+        raise SettingError(
+            "prefix", f"starts formula names: only {NAME_CHARS}, not '{settings.prefix}'"
+        )
     rng = random.Random(settings.seed)
     atoms = list(string.ascii_lowercase[: settings.atoms])
     compile_settings = CompileSettings(
         alphabet="one-hot" if settings.one_hot else "powerset",
-        timeout=settings.compile.timeout,
-        cache_dir=settings.compile.cache_dir,
-        jobs=settings.compile.jobs,
-        cluster=settings.compile.cluster,
+        timeout=settings.timeout,
+        cache_dir=settings.cache_dir,
+        jobs=settings.jobs,
+        cluster=settings.cluster,
     )
     report = FormulaReport(kept=[])
     languages: set[bytes] = set()

@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from tleaf_cli.data.artifacts import atomic_path
-from tleaf_cli.data.compile_dfas import default_cache_dir
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.monitors import SHARES_VERSION, MonitorBank
+from tleaf_cli.settings.data import default_cache_dir
 
 
 def monitor_shares(

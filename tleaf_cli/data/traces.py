@@ -26,11 +26,10 @@ from tleaf_cli.data.artifacts import (
 )
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.parallel import parallel_map
-from tleaf_cli.defaults import MAX_LEN, MIN_LEN
-from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.sampling import WordSampler, once_each_words, one_hot_letters
+from tleaf_cli.settings.data import TraceSettings
 
 KIND = "traces"
 SCHEMA_VERSION = 1
@@ -43,40 +42,6 @@ COLUMNS = [
     ("label", pa.bool_()),
     ("source", pa.string()),  # "uniform" (sampled), or "hard" (a satisfying trace, edited)
 ]
-
-
-@dataclass(frozen=True)
-class TraceSettings:
-    per_formula: int = 20
-    min_len: int = MIN_LEN
-    max_len: int = MAX_LEN
-    hard_fraction: float = 0.5
-    one_hot: bool = False
-    once_each: bool = False  # each atom exactly once per trace (logic/sampling.once_each_words)
-    max_none: int = 3  # with once_each: 0..max_none "none" steps (a video's pairs outside φ)
-    seed: int = 0
-    split: tuple[float, float, float] | None = None
-    jobs: int = 1
-    cluster: str | None = None  # a dask scheduler address: run there instead (data/parallel.py)
-
-    def check(self) -> None:
-        if not 1 <= self.min_len <= self.max_len:
-            raise SettingError(
-                "min_len",
-                f"must be between 1 and the longest length ({self.max_len}), got {self.min_len}",
-            )
-        if not 0.0 <= self.hard_fraction <= 1.0:
-            raise SettingError("hard_fraction", f"must be in [0, 1], got {self.hard_fraction}")
-        if self.per_formula < 1:
-            raise SettingError("per_formula", f"must be at least 1, got {self.per_formula}")
-        if self.max_none < 0:
-            raise SettingError("max_none", f"must be >= 0, got {self.max_none}")
-        if self.split is not None and (
-            len(self.split) != 3 or min(self.split) < 0 or abs(sum(self.split) - 1) > 1e-6
-        ):
-            raise SettingError(
-                "split", f"must be three non-negative fractions summing to 1, not {self.split}"
-            )
 
 
 @dataclass

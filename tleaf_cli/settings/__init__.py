@@ -19,6 +19,7 @@ its options at start-up.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import MISSING, Field, field, fields
 from typing import Any, ClassVar
 
@@ -39,17 +40,19 @@ def setting(
     min: float | None = None,
     choices: tuple[str, ...] | None = None,
     auto: str | None = None,
+    parse: Callable[[str], Any] | None = None,
 ) -> Any:
     """A dataclass field that is a user's setting.
 
     `help`: what it does, one or two sentences (the option's --help and its docs/cli.md row).
     `min`: the smallest value it takes (numbers). `choices`: the values it takes (strings).
     `auto`: for a default of None, what None means, shown as the default ("auto: chosen from
-    the data as ...", "none: no early stop").
+    the data as ...", "none: no early stop"). `parse`: for a value written as text on the
+    command line in a form of its own (fractions "0.8,0.1,0.1" for a tuple), the function from
+    that text to the value (a SettingError for text it cannot read).
     """
-    return field(
-        default=default, metadata={"help": help, "min": min, "choices": choices, "auto": auto}
-    )
+    meta = {"help": help, "min": min, "choices": choices, "auto": auto, "parse": parse}
+    return field(default=default, metadata=meta)
 
 
 def options(cls: type) -> list[Field]:
