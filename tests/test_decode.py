@@ -9,7 +9,7 @@ import torch
 
 import tleaf_cli as tl
 from tleaf_cli.decode import constrained_decode
-from tleaf_cli.errors import RulesError
+from tleaf_cli.errors import ArgumentError, RulesError
 from tleaf_cli.rule_set import RuleSet
 
 VOCAB = ["rinse", "cut", "cook", "serve", "wait"]
@@ -128,3 +128,18 @@ def test_action_recognition_decoding_meets_every_relevant_rule(tmp_path) -> None
         decoded, rounds = decode_pairs(log_pairs, lengths, rules, top_k)
         assert violating(decoded) == 0 and rounds >= 1
         assert (decoded[torch.arange(6)[None, :] >= lengths[:, None]] == -1).all()
+
+
+def test_rule_sets_over_another_vocabulary_of_the_same_size_are_refused() -> None:
+    """The decoder would return indices into one vocabulary for rules read in another: refused,
+    as tl.Shield and the logic losses refuse it."""
+    log_probs = torch.randn(2, 3, len(VOCAB)).log_softmax(-1)
+    other = ["wait", "serve", "cook", "cut", "rinse"]
+    rules = [RuleSet("F serve", VOCAB), RuleSet("F serve", other, name="reordered")]
+    with pytest.raises(ArgumentError, match="rule set reordered is not over the same vocab"):
+        constrained_decode(log_probs, rules)
+    with pytest.raises(ArgumentError, match="its item 0 is 'wait', not 'rinse'"):
+        constrained_decode(log_probs, rules)
+    mixed = constrained_decode(log_probs, rules, per_sequence_vocabulary=True)
+    for b, r in enumerate(rules):
+        assert torch.equal(mixed[b], constrained_decode(log_probs[b : b + 1], r)[0])

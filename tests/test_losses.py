@@ -408,3 +408,26 @@ def test_rule_sets_and_training_need_no_mona(tmp_path, monkeypatch) -> None:
     metrics = train_action_recognition(data, kb, None, tmp_path / "run", settings)
     assert metrics["history"][0]["logic_loss"] > 0
     mona.mona_version.cache_clear()
+
+
+@pytest.mark.parametrize("kind", ["exact", "checker"])
+def test_rule_sets_over_another_vocabulary_of_the_same_size_are_refused(kind: str) -> None:
+    """Two vocabularies of V items in another order would read log_probs' item k as another
+    action: the loss refuses them, naming the rule set and the first item that differs, as
+    tl.Shield does (one check, rule_set.common_vocabulary)."""
+    lp = log_probs(2, 3, seed=0)
+    shuffled = list(reversed(VOCAB))
+    first, other = RuleSet("F cut_egg", VOCAB), RuleSet("F cut_egg", shuffled, name="reversed")
+    with pytest.raises(
+        ArgumentError, match="rule set reversed is not over the same vocabulary"
+    ) as e:
+        logic_loss(kind, lp, [first, other])
+    assert f"its item 0 is {shuffled[0]!r}, not {VOCAB[0]!r}" in str(e.value)
+    assert logic_loss(kind, lp, [first, RuleSet("G !fry_egg", VOCAB)]).shape == ()
+    # where each sequence names its items by its own rule set (Creative Cooking's episodes),
+    # the caller says so, and each row is read by its own vocabulary
+    mixed = logic_loss(kind, lp, [first, other], reduction="none", per_sequence_vocabulary=True)
+    alone = [
+        logic_loss(kind, lp[b : b + 1], r, reduction="none") for b, r in enumerate([first, other])
+    ]
+    assert torch.allclose(mixed, torch.cat(alone))

@@ -9,7 +9,7 @@ import pytest
 import torch
 
 import tleaf_cli as tl
-from tleaf_cli.errors import RulesError
+from tleaf_cli.errors import ArgumentError, RulesError
 
 VOCAB = ["rinse", "cut", "cook", "serve", "wait"]
 
@@ -96,3 +96,12 @@ def test_the_cooking_shield_allows_every_feasible_action_on_random_rollouts() ->
             if terminated or truncated:
                 break
     assert allowed_not_feasible > 0  # the rules do not pin feasibility down (reported)
+
+
+def test_rule_sets_over_other_vocabularies_are_refused_with_where_they_differ() -> None:
+    other = ["rinse", "cut", "cook", "wait", "serve"]  # the same items, two swapped
+    rules = [tl.RuleSet("F serve", VOCAB), tl.RuleSet("F serve", other, name="swapped")]
+    with pytest.raises(ArgumentError, match="its item 3 is 'wait', not 'serve'"):
+        tl.Shield(rules)
+    with pytest.raises(ArgumentError, match="5 items, not 4"):
+        tl.Shield([tl.RuleSet("F serve", VOCAB[:4]), tl.RuleSet("F serve", VOCAB)])

@@ -35,6 +35,8 @@ def constrained_decode(
     log_probs: torch.Tensor,
     rules: RuleSet | Sequence[RuleSet | None],
     lengths: torch.Tensor | None = None,
+    *,
+    per_sequence_vocabulary: bool = False,
 ) -> torch.Tensor:
     """Per sequence, the vocabulary indices [B, T] of the most probable sequence its rules
     accept (argmax where its rules are None; −1 past a length).
@@ -43,11 +45,15 @@ def constrained_decode(
         log_probs: float [B, T, V], per-step log-probabilities (or any per-step scores).
         rules: one RuleSet for every sequence, or a list of B RuleSets (None: no rules).
         lengths: long [B]; default: all T steps.
+        per_sequence_vocabulary: the rule sets are over one vocabulary, item by item (else
+            ArgumentError); True where each sequence names its items by its own rule set's.
 
     Raises RulesError naming the sequence when no sequence of its length meets its rules, and
     InputError for shapes or rule sets that do not fit `log_probs`.
     """
-    log_probs, per_sequence, lengths = rules_per_sequence(log_probs, rules, lengths)
+    log_probs, per_sequence, lengths = rules_per_sequence(
+        log_probs, rules, lengths, per_sequence_vocabulary
+    )
     _, steps, vocabulary = log_probs.shape
     device = log_probs.device
     with torch.no_grad():

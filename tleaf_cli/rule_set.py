@@ -140,6 +140,35 @@ class RuleSet:
         )
 
 
+def common_vocabulary(rule_sets: Iterable[RuleSet]) -> tuple[str, ...] | None:
+    """The one vocabulary every rule set of `rule_sets` is over (None when there are none).
+
+    Rule sets read together (a shield's, a batch's in the losses and the decoder) must agree
+    item by item: letter k + 1 of each is the item at its `index[k]`, so two vocabularies of the
+    same size but in another order would read a model's outputs as other actions, silently.
+    Raises ArgumentError on `rules` naming the first rule set that differs, and where.
+    """
+    first: RuleSet | None = None
+    for r in rule_sets:
+        if first is None:
+            first = r
+        elif r.vocabulary is not first.vocabulary and r.vocabulary != first.vocabulary:
+            raise ArgumentError(
+                "rules",
+                f"rule set {r.name} is not over the same vocabulary as rule set {first.name} "
+                f"({_first_difference(first.vocabulary, r.vocabulary)})",
+            )
+    return None if first is None else first.vocabulary
+
+
+def _first_difference(a: Sequence[str], b: Sequence[str]) -> str:
+    """Where vocabulary `b` first departs from `a`, in words."""
+    if len(a) != len(b):
+        return f"{len(b)} items, not {len(a)}"
+    k = next(i for i, (x, y) in enumerate(zip(a, b, strict=True)) if x != y)
+    return f"its item {k} is {b[k]!r}, not {a[k]!r}"
+
+
 def _in_process(text: str, engine: str) -> DFA | None:
     """The one-hot DFA of `text` by the compile stage's first route, formula progression
     (`logic.compile.by_progression`: the same DFA as the stage's); None where the stage must

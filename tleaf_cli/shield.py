@@ -22,7 +22,7 @@ import torch
 
 from tleaf_cli import arguments
 from tleaf_cli.errors import ArgumentError, ArgumentTypeError, RulesError
-from tleaf_cli.rule_set import RuleSet
+from tleaf_cli.rule_set import RuleSet, common_vocabulary
 
 
 class Shield:
@@ -44,15 +44,11 @@ class Shield:
         self, rules: RuleSet | Sequence[RuleSet], device: torch.device | str = "cpu"
     ) -> None:
         self.rule_sets = arguments.rule_sets(rules, None, RuleSet)
-        self.vocabulary = self.rule_sets[0].vocabulary
+        self.vocabulary = common_vocabulary(self.rule_sets)
         size = len(self.vocabulary)
         for r in self.rule_sets:
             if not r.satisfiable:
                 raise RulesError(f"rule set {r.name}: no sequence satisfies it; nothing to allow")
-            if r.vocabulary != self.vocabulary:
-                raise ArgumentError(
-                    "rules", f"rule set {r.name} is not over the same vocabulary as the first"
-                )
         self._position = {item: i for i, item in enumerate(self.vocabulary)}
         states = max(r.dfa.num_states for r in self.rule_sets)
         n = len(self.rule_sets)

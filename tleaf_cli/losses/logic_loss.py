@@ -47,6 +47,8 @@ def logic_loss(
     lengths: torch.Tensor | None = None,
     embedder: Embedder | str | os.PathLike | None = None,
     reduction: str = "mean",
+    *,
+    per_sequence_vocabulary: bool = False,
 ) -> torch.Tensor:
     """The logic loss of `kind` for each sequence, reduced over the batch.
 
@@ -60,6 +62,10 @@ def logic_loss(
             when its files change); needed by ``tleaf`` only.
         reduction: ``"mean"`` over all B sequences (those without rules count 0), ``"sum"``, or
             ``"none"`` for the [B] losses.
+        per_sequence_vocabulary: the rule sets are over one vocabulary, item by item (else
+            ArgumentError, as ``tl.Shield``'s); True where each sequence names its V items by
+            its own rule set's vocabulary (Creative Cooking's episodes name their action ids
+            after their ingredients).
 
     Raises SettingError for a bad kind, reduction or missing embedder, ArgumentTypeError for an
     embedder that is neither an Embedder nor a path, InputError for shapes or rule sets that do
@@ -74,7 +80,9 @@ def logic_loss(
     if kind == "tleaf":
         embedder = _embedder(embedder)
     given = getattr(log_probs, "dtype", None)  # float16 / bfloat16 come back as float32
-    log_probs, per_sequence, lengths = rules_per_sequence(log_probs, rules, lengths)
+    log_probs, per_sequence, lengths = rules_per_sequence(
+        log_probs, rules, lengths, per_sequence_vocabulary
+    )
     batch, _, vocabulary = log_probs.shape
     _check_normalised(log_probs, lengths, torch.finfo(given).eps)
 

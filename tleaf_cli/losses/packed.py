@@ -23,7 +23,7 @@ import torch
 
 from tleaf_cli import arguments
 from tleaf_cli.errors import ArgumentError
-from tleaf_cli.rule_set import RuleSet
+from tleaf_cli.rule_set import RuleSet, common_vocabulary
 
 NEG = -1e30  # log of "impossible": finite, so logsumexp and its gradient stay defined
 
@@ -56,20 +56,26 @@ def rules_per_sequence(
     log_probs: torch.Tensor,
     rules: RuleSet | Sequence[RuleSet | None],
     lengths: torch.Tensor | Sequence[int] | None,
+    per_sequence_vocabulary: bool = False,
 ) -> tuple[torch.Tensor, list[RuleSet | None], torch.Tensor]:
     """The public losses' and decoder's arguments, checked once per call (tleaf_cli/arguments.py):
     `log_probs` [B, T, V] as float32 where it was float16 / bfloat16, one rule set (or None) per
-    sequence — `rules` is one for all or one per sequence — and the lengths [B] (default: all T
-    steps) on log_probs' device. ArgumentError (or ArgumentTypeError) for what does not fit."""
+    sequence — `rules` is one for all or one per sequence, all over one vocabulary of V items
+    (`rule_set.common_vocabulary`), or with `per_sequence_vocabulary` each over its own — and
+    the lengths [B] (default: all T steps) on log_probs' device. ArgumentError (or
+    ArgumentTypeError) for what does not fit."""
     log_probs = arguments.log_probs(log_probs)
     batch, steps, vocabulary = log_probs.shape
     per_sequence = arguments.rule_sets(rules, batch, RuleSet)
-    for r in {id(r): r for r in per_sequence if r is not None}.values():
+    distinct = {id(r): r for r in per_sequence if r is not None}.values()
+    if not per_sequence_vocabulary:
+        common_vocabulary(distinct)  # one vocabulary, item by item, as tl.Shield's
+    for r in distinct:
         if len(r.vocabulary) != vocabulary:
             raise ArgumentError(
                 "rules",
-                f"rule set {r.name} has a vocabulary of {len(r.vocabulary)} items, but log_probs "
-                f"has V = {vocabulary}",
+                f"rule set {r.name} has a vocabulary of {len(r.vocabulary)} items, but "
+                f"log_probs has V = {vocabulary}",
             )
     lengths = arguments.lengths(lengths, batch, steps, log_probs.device)
     return log_probs, per_sequence, lengths

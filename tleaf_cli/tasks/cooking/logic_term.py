@@ -155,8 +155,13 @@ class LogicTerm:
         if not rules:
             return torch.zeros(())
         rows = torch.tensor(index)
-        return logic_loss(
-            self.kind, log_policy[rows], rules, lengths[rows], self.knowledge.embedder
+        return logic_loss(  # each episode names its action ids after its own ingredients
+            self.kind,
+            log_policy[rows],
+            rules,
+            lengths[rows],
+            self.knowledge.embedder,
+            per_sequence_vocabulary=True,
         )
 
     def violation_rate(self, episodes: Sequence[RolloutEpisode]) -> float:
