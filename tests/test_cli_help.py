@@ -132,11 +132,13 @@ def test_a_value_outside_the_choices_is_refused_by_the_parser(tmp_path) -> None:
 )
 def test_help_at_80_columns_shows_every_option_name_whole(path, command) -> None:
     """At a common terminal's width the option names are shown in full (the help text wraps
-    instead): `--unlabelled-loss`, never `--unlabelled-l…`."""
+    instead): `--unlabelled-loss`, never `--unlabelled-l…`; and no word of a help text is cut
+    (a word longer than the help column is: `examples/creative_c…`)."""
     result = runner.invoke(cli.app, [*path, "--help"], env={"COLUMNS": "80"})
     assert result.exit_code == 0, result.output
     lines = result.output.splitlines()
     assert all(len(line) <= 80 for line in lines), max(lines, key=len)
+    assert [line for line in lines if "…" in line] == [], result.output
     words = set(re.sub(r"[│╭╮╰╯─,]", " ", result.output).split())
     for param in command.params:
         for name in [*param.opts, *param.secondary_opts]:

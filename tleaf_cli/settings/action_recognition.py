@@ -43,7 +43,7 @@ class TaskSettings(Presets):
         "Choose λ on validation: one run per value of this list (commas or spaces, e.g. "
         "'0.3,1,3'), 0 (the logic loss weighing nothing) always among them, each from the same "
         "seed; the run with the best val action accuracy is kept (ties: the smaller λ), every "
-        "candidate under lambda-choice/.",
+        "candidate's run in its lambda-choice folder.",
         auto="none: one run, at --lambda",
     )
     formula_from: str = setting(
