@@ -70,7 +70,9 @@ class GailSettings:
     seed: int = setting(0, "Random seed; the same seed trains the same policy.")
     device: str = setting("cpu", "Where to compute.", choices=DEVICES)
     threads: int = 1  # torch CPU threads
-    domain: Path | None = setting(None, "Domain TOML.", auto="the Creative Cooking domain in examples/")
+    domain: Path | None = setting(
+        None, "Domain TOML.", auto="the Creative Cooking domain in examples/"
+    )
 
     def check(self) -> None:
         """SettingError for a setting out of range or settings that do not fit together."""

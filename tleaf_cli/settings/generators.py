@@ -72,4 +72,6 @@ class DemoSettings:
 
     episodes: int = setting(32, "Expert episodes to record.", min=1)
     seed: int = setting(0, "Random seed; the same seed writes the same file.")
-    domain: Path | None = setting(None, "Domain TOML.", auto="the Creative Cooking domain in examples/")
+    domain: Path | None = setting(
+        None, "Domain TOML.", auto="the Creative Cooking domain in examples/"
+    )
