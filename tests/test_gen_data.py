@@ -215,6 +215,31 @@ def test_once_each_traces_read_every_atom_once(tmp_path: Path) -> None:
         )
 
 
+@pytest.mark.parametrize("once_each", [True, False], ids=["once-each", "sampled"])
+def test_a_formula_every_trace_satisfies_is_skipped_and_counted(
+    tmp_path: Path, once_each: bool
+) -> None:
+    """kb-extract writes the rule set `true` for videos no rule applies to: no trace violates it,
+    so it has no pairs. gen-traces says it is always true and skips it (exit 0), instead of
+    reporting it as a formula short of pairs (exit 1); a tautology is the same language."""
+    from tleaf_cli.data.traces import generate_traces
+    from tleaf_cli.settings.data import TraceSettings
+
+    src = tmp_path / "f.ltl"
+    src.write_text("rs-empty: true\nrule: (!b U a) | G !b\ntaut: a | !a\n")
+    dfas, out = tmp_path / "d.parquet", tmp_path / "t.parquet"
+    assert tleaf("compile-dfa", src, "-o", dfas, "--one-hot").exit_code == 0
+    flag = ["--once-each"] if once_each else ["--one-hot"]
+    result = tleaf("gen-traces", dfas, "-o", out, *flag, "--per-formula", 4)
+    assert result.exit_code == 0, result.output
+    assert "2 always true skipped (every trace satisfies them" in result.output, result.output
+    assert "rs-empty, taut" in result.output and "short of 4 pairs" in result.output
+    assert {r["formula_id"] for r in _rows(out)} == {"rule"}
+    settings = TraceSettings(per_formula=4, one_hot=True, once_each=once_each)
+    report = generate_traces(dfas, tmp_path / "t2.parquet", settings)
+    assert report.always_true == ["rs-empty", "taut"] and report.short == []
+
+
 def _chi_square_critical(df: int, z: float = 3.09) -> float:
     """Wilson-Hilferty approximation of the chi-square quantile (z=3.09: p = 0.001)."""
     return df * (1 - 2 / (9 * df) + z * math.sqrt(2 / (9 * df))) ** 3

@@ -118,6 +118,12 @@ def gen_traces(
     with ui.progress("sampling", quiet) as update:
         report = generate_traces(dfas, out, settings, update)
     skipped = f", {report.skipped} rows without a DFA skipped" if report.skipped else ""
+    if report.always_true:
+        skipped += (
+            f", {len(report.always_true)} always true skipped (every trace satisfies them, "
+            f"so none violates them: {', '.join(report.always_true[:3])}"
+            f"{', ...' if len(report.always_true) > 3 else ''})"
+        )
     finish(
         [(str(dfas), f"formula {fid}: {why}") for fid, why in report.short],
         f"{out}: {report.rows} traces for {report.formulas} formulas "

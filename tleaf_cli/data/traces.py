@@ -7,13 +7,15 @@ steps changed as possible until it is rejected). Each formula draws from its own
 seeded by (seed, formula position), so `--jobs N` writes the same file as `--jobs 1`.
 With `once_each`, traces instead read each of the formula's atoms exactly once
 (`logic.sampling.once_each_words`), for rule sets of labelled videos.
+A formula every trace satisfies (`true`) has no violating trace, so no pairs: it is skipped and
+counted (`TraceReport.always_true`), not reported as short.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pyarrow as pa
@@ -61,6 +63,12 @@ class TraceReport:
     skipped: int  # rows of dfas.parquet without a DFA
     short: list[tuple[str, str]]  # (formula_id, reason)
     hard: int
+    # formulas every trace satisfies (`true`: kb-extract's rule set of the videos no rule
+    # applies to): no trace violates them, so they have no pairs; skipped, not failed
+    always_true: list[str] = field(default_factory=list)
+
+
+ALWAYS_TRUE = "always true: every trace satisfies it, so no trace violates it"
 
 
 def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) -> FormulaTraces:
@@ -158,6 +166,8 @@ def _distinct(sampler, rng, length, accept, m, exclude: set[bytes], rounds: int 
 def _formula_job(row: dict, index: int, settings: TraceSettings) -> tuple[list[dict], str | None]:
     """Rows of traces.parquet for one formula (labels verified), and its shortfall if any."""
     dfa = dfa_from_row(row)
+    if dfa.accepting[np.unique(dfa.table)].all():  # every state a letter leads to accepts
+        return [], ALWAYS_TRUE
     rng = np.random.default_rng([settings.seed, index])
     result = traces_for_dfa(dfa, settings, rng)
     if result.words:
@@ -208,11 +218,14 @@ def generate_traces(
     results = parallel_map(_formula_job, args, settings.jobs, settings.cluster, batch_size=8)
     rows: list[dict] = []
     short: list[tuple[str, str]] = []
+    always_true: list[str] = []
     for done, ((_, row), (trace_rows, shortfall)) in enumerate(
         zip(compiled, results, strict=True), start=1
     ):
         rows += trace_rows
-        if shortfall:
+        if shortfall == ALWAYS_TRUE:
+            always_true.append(row["formula_id"])
+        elif shortfall:
             short.append((row["formula_id"], shortfall))
         if on_progress:
             on_progress(done, len(compiled))
@@ -241,6 +254,7 @@ def generate_traces(
         skipped=len(table.rows) - len(compiled),
         short=short,
         hard=sum(r["source"] == "hard" for r in rows),
+        always_true=always_true,
     )
 
 
