@@ -13,6 +13,7 @@ import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
+from tests.test_formulas import DEEP
 from tleaf_cli.cli import app
 from tleaf_cli.data import compile_dfas
 from tleaf_cli.data.artifacts import read_provenance
@@ -240,3 +241,39 @@ def test_unwritable_output_fails_before_any_work(tmp_path: Path) -> None:
         result = tleaf(*args)
         assert result.exit_code == 2, result.output
         assert "Traceback" not in result.output and "error:" in result.output
+
+
+def test_compile_dfa_reports_deep_rows_and_compiles_the_others(tmp_path: Path) -> None:
+    source = tmp_path / "deep.ltl"
+    lines = ["ok1: G (a -> F b)"] + [f"{k}: {t}" for k, t in DEEP.items()] + ["ok2: X a"]
+    source.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    out = tmp_path / "dfas.parquet"
+    result = tleaf("compile-dfa", source, "-o", out)
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output and "RecursionError" not in result.output
+    rows = {r["formula_id"]: r for r in read_dfas(out).rows}
+    assert rows["ok1"]["error"] is None and rows["ok2"]["error"] is None
+    for name in DEEP:
+        assert "nested too deeply" in rows[name]["error"], rows[name]["error"]
+
+
+def test_compile_dfa_refuses_an_unwritable_graphs_folder_before_writing(tmp_path: Path) -> None:
+    source = tmp_path / "f.ltl"
+    source.write_text("a: F a\n", encoding="utf-8")
+    graphs = tmp_path / "graphs"
+    graphs.write_text("a regular file")
+    out = tmp_path / "dfas.parquet"
+    result = tleaf("compile-dfa", source, "-o", out, "--graphs", graphs)
+    assert result.exit_code == 2 and "not a folder" in result.output, result.output
+    assert not out.exists()
+
+
+def test_compile_dfa_writes_one_graph_file_per_id(tmp_path: Path) -> None:
+    source = tmp_path / "f.parquet"
+    ids = ["Rule", "rule", "a/b", "a_b"]
+    table = pa.table({"formula_id": ids, "formula": ["F a", "G a", "X a", "a U b"]})
+    pq.write_table(table, source)
+    result = tleaf("compile-dfa", source, "-o", tmp_path / "d.parquet", "--graphs", tmp_path / "g")
+    assert result.exit_code == 0, result.output
+    names = {p.name.casefold() for p in (tmp_path / "g").glob("*.graphml")}
+    assert len(names) == len(ids)
