@@ -35,11 +35,13 @@ import gymnasium as gym
 import numpy as np
 from stable_baselines3 import PPO
 
+from tleaf_cli.settings.gail import GailSettings
 from tleaf_cli.tasks.cooking import ENV_ID
 from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
 from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
-from tleaf_cli.tasks.cooking.gail import GailSettings, policy_probabilities, train_gail
+from tleaf_cli.tasks.cooking.evaluate import policy_probabilities
 from tleaf_cli.tasks.cooking.knowledge import knowledge_base
+from tleaf_cli.tasks.cooking.train import train_gail
 
 OUT = "/tmp/cooking-pilots"
 

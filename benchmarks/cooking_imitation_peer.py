@@ -14,7 +14,7 @@ unchanged (from the repository root):
 (measured with imitation 1.0.1, gymnasium 0.29.1, SB3 2.2.1, torch 2.13.0 CPU; results in
 docs/results/cooking.md).
 
-Same as tleaf's train_gail (tleaf_cli/tasks/cooking/gail.py):
+Same as tleaf's train_gail (tleaf_cli/tasks/cooking/train.py):
   * demos: out/cooking-v2/demos.parquet read with read_demo_episodes; the pool is the distinct
     ingredient sets of the demos; training envs are IngredientPool(gym.make(ENV_ID, domain=...))
     in SB3's make_vec_env with 4 envs seeded `seed`; set_random_seed(seed), 1 torch thread.
@@ -61,11 +61,10 @@ from stable_baselines3.ppo import MlpPolicy
 from tleaf_cli.tasks.cooking import ENV_ID
 from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
 from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
-from tleaf_cli.tasks.cooking.gail import (
+from tleaf_cli.tasks.cooking.environments import IngredientPool, evaluation_env
+from tleaf_cli.tasks.cooking.evaluate import (
     HELD_OUT_SEEDS,
-    IngredientPool,
     evaluate_returns,
-    evaluation_env,
     policy_probabilities,
     uniform_probabilities,
 )

@@ -16,6 +16,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from tests.conftest import make_small
 from tleaf_cli.data.artifacts import write_artifact
 from tleaf_cli.errors import SettingError
+from tleaf_cli.settings.gail import GailSettings
 from tleaf_cli.tasks.cooking import ENV_ID
 from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
 from tleaf_cli.tasks.cooking.demos import DEMO_SCHEMA, KIND, SCHEMA
@@ -25,8 +26,8 @@ from tleaf_cli.tasks.cooking.discriminator import (
     discriminator_step,
 )
 from tleaf_cli.tasks.cooking.domain import DEFAULT_DOMAIN, load_domain
+from tleaf_cli.tasks.cooking.environments import IngredientPool
 from tleaf_cli.tasks.cooking.expert import plan
-from tleaf_cli.tasks.cooking.gail import GailSettings, IngredientPool, train_gail
 from tleaf_cli.tasks.cooking.gail_report import evaluate_cooking_runs
 from tleaf_cli.tasks.cooking.logic_term import (
     CookingKnowledge,
@@ -34,6 +35,7 @@ from tleaf_cli.tasks.cooking.logic_term import (
     RolloutEpisode,
     rollout_episodes,
 )
+from tleaf_cli.tasks.cooking.train import train_gail
 
 # Four ingredients already at their required status (liquids, seasonings) and parsley, which
 # needs one wash/rinse/chop: the expert's plan is a single step (return 19).

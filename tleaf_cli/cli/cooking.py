@@ -45,7 +45,7 @@ def train_task_cooking(
     a gradient penalty on the discriminator and 10 PPO epochs of minibatches of 64 per rollout
     (docs/cooking.md).
     """
-    from tleaf_cli.tasks.cooking.gail import train_gail
+    from tleaf_cli.tasks.cooking.train import train_gail
 
     settings = GailSettings(**values)
     if settings.logic_loss == "none":
