@@ -104,7 +104,7 @@ def stuck(demos: str, runs: list[str], repeats: int = 20) -> None:
         seed, variant = metrics["seed"], metrics["variant"]
         probabilities = policy_probabilities(PPO.load(Path(run) / "policy.zip", device="cpu"))
         episodes = len(metrics["curve"][-1]["returns"])
-        for i in range(episodes):  # as gail.evaluate_returns, eval seed 10 000 + seed
+        for i in range(episodes):  # as evaluate.evaluate_returns, eval seed 10 000 + seed
             ingredients = pool[i % len(pool)]
             obs, _ = env.reset(seed=10_000 + seed + i, options={"ingredients": list(ingredients)})
             rng = np.random.default_rng([10_000 + seed, i])
