@@ -12,11 +12,10 @@ import typer
 from typer.testing import CliRunner
 
 from tleaf_cli import cli
-from tleaf_cli.cli import action_recognition, generate, knowledge
+from tleaf_cli.cli import action_recognition, generate
 from tleaf_cli.cli.options import SETTINGS_COMMANDS, SWITCHES
 from tleaf_cli.defaults import TIERS
-from tleaf_cli.settings.action_recognition import DECODINGS, RULE_SET_SPLITS
-from tleaf_cli.tasks.action_recognition.kb_extract import FORMULA_SOURCES as KB_FORMULA_SOURCES
+from tleaf_cli.settings.action_recognition import DECODINGS
 
 runner = CliRunner()
 # Options that take one of a fixed set of values, by flag: every one must list its values.
@@ -94,8 +93,6 @@ def test_choice_types_match_the_library() -> None:
     """The CLI's Literal types name exactly the values the library accepts."""
     pairs = [
         (generate.Tier, tuple(TIERS)),
-        (knowledge.KbFormulaFrom, KB_FORMULA_SOURCES),
-        (knowledge.RuleSets, RULE_SET_SPLITS),
         (action_recognition.Decoding, DECODINGS),
     ]
     for literal, values in pairs:

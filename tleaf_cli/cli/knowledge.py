@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 import typer
 
@@ -22,13 +22,13 @@ from tleaf_cli.cli.common import (
     reachable,
     targets,
 )
-from tleaf_cli.cli.options import KB, with_settings
+from tleaf_cli.cli.options import KB, setting_option, with_settings
 from tleaf_cli.errors import InputError
-from tleaf_cli.settings.action_recognition import RULE_SET_SPLITS
 from tleaf_cli.settings.data import CompileSettings
+from tleaf_cli.settings.generators import DemoSettings
+from tleaf_cli.settings.knowledge import ExtractSettings
 
-KbFormulaFrom = Literal["labels"]
-RuleSets = Literal[RULE_SET_SPLITS]
+Domain = setting_option(DemoSettings, "domain")  # the Creative Cooking domain the rules are of
 
 
 @exits
@@ -44,23 +44,6 @@ def kb_extract(
     out: Annotated[
         Path, typer.Option("--out", "-o", help="Folder for samples.parquet and dfas.parquet.")
     ] = Path("kb"),
-    formula_from: Annotated[
-        KbFormulaFrom, typer.Option(help="Which pairs give a video its rules: labels.")
-    ] = "labels",
-    rule_sets: Annotated[
-        RuleSets,
-        typer.Option(
-            help="video: one rule set per video; ingredient: one per (video, ingredient), the "
-            "formulas of a q for train-task --rule-sets ingredient."
-        ),
-    ] = "video",
-    mine: Annotated[
-        bool,
-        typer.Option("--mine", help="Mine rules from the train split (written to OUT/kb.ltl)."),
-    ] = False,
-    min_support: Annotated[
-        int, typer.Option(min=1, help="Train videos that must show an ordering to mine it.")
-    ] = 3,
     jobs: Jobs = 1,
     cluster: Cluster = None,
     cache_dir: CacheDir = None,
@@ -78,22 +61,22 @@ def kb_extract(
     if not 1 <= len(inputs) <= 2:
         raise InputError("give [KB.ltl] ACTIVITIES.parquet: one or two files")
     kb = inputs[0] if len(inputs) == 2 else None
-    written = ["samples.parquet", "dfas.parquet"] + (["kb.ltl"] if mine else [])
+    extract, compiling = KB.split(values)
+    settings = ExtractSettings(**extract)
+    written = ["samples.parquet", "dfas.parquet"] + (["kb.ltl"] if settings.mine else [])
     targets(inputs, [out / name for name in written], [out])
     reachable(cluster)
-    if kb is None and not mine:
+    if kb is None and not settings.mine:
         raise InputError("give a knowledge base file, or --mine to mine one from the train split")
-    settings = CompileSettings(
-        **values,
+    compile_settings = CompileSettings(
+        **compiling,
         alphabet="one-hot",
         cache_dir=cache_folder(cache_dir, no_cache),
         jobs=jobs,
         cluster=cluster or None,
     )
     with ui.progress("compiling rule sets", quiet) as update:
-        report = extract_knowledge(
-            kb, inputs[-1], out, settings, mine, min_support, formula_from, rule_sets, update
-        )
+        report = extract_knowledge(kb, inputs[-1], out, compile_settings, settings, update)
     mined = f"; {report.mined} rules mined" if report.mined is not None else ""
     finish(
         report.failures,
@@ -116,10 +99,7 @@ def cooking_kb(
     mixture: Annotated[
         bool, typer.Option("--mixture/--no-mixture", help="Include rules on the mixture's actions.")
     ] = True,
-    domain: Annotated[
-        Path | None,
-        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
-    ] = None,
+    domain: Domain = None,
     quiet: Quiet = False,
 ) -> None:
     """Write Creative Cooking's rules as LTLf (affordance.* and ordering.* formulas).
@@ -146,10 +126,7 @@ def demos_kb(
     out: Annotated[
         Path, typer.Option("--out", "-o", parser=file_path, help="The .ltl file to write.")
     ] = Path("demos_kb.ltl"),
-    domain: Annotated[
-        Path | None,
-        typer.Option(help="Domain TOML \\[default: examples/creative_cooking.toml]."),
-    ] = None,
+    domain: Domain = None,
     quiet: Quiet = False,
 ) -> None:
     """Write the Creative Cooking rules of the demos' ingredient sets (no mixture rules).

@@ -9,7 +9,7 @@ then gets the values the user gave (`given`) and builds its settings from a pres
 test checks that docs/cli.md is up to date.
 
 Only the command line knows flags: a setting's flag is `--` + its name with dashes, except where
-`FLAGS` says otherwise.
+`FLAGS` (another name) or `SWITCHES` (one flag selecting one of two values) say otherwise.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from tleaf_cli.settings.edge import EdgeSettings
 from tleaf_cli.settings.evaluation import EvalSettings, FigureSettings
 from tleaf_cli.settings.gail import GailSettings
 from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
+from tleaf_cli.settings.knowledge import ExtractSettings
 from tleaf_cli.settings.meta import MetaSettings
 
 # The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
@@ -62,11 +63,24 @@ class SettingsCommand:
 
     cls: type
     name: str
-    # settings the command sets itself (kb-extract's DFAs are one-hot): no option, no docs row
-    exclude: tuple[str, ...] = ()
+    exclude: tuple[str, ...] = ()  # settings the command fixes itself (kb-extract's: one-hot)
+    also: tuple[type, ...] = ()  # classes it also takes settings of (kb-extract: CompileSettings)
+
+    def classes(self) -> tuple[type, ...]:
+        return (self.cls, *self.also)
 
     def fields(self) -> list[Field]:
-        return [f for f in options(self.cls) if f.name not in self.exclude]
+        return [f for cls in self.classes() for f in options(cls) if f.name not in self.exclude]
+
+    def owner(self, f: Field) -> type:
+        """The settings class that declares `f`."""
+        return next(cls for cls in self.classes() if f in options(cls))
+
+    def split(self, values: dict[str, Any]) -> list[dict[str, Any]]:
+        """`values` (setting -> value) as one dict per class: `cls`' first, then `also`'s."""
+        return [
+            {f.name: values[f.name] for f in options(c) if f.name in values} for c in self.classes()
+        ]
 
 
 def _shown(value: Any) -> str:
@@ -171,7 +185,10 @@ def with_settings(command: SettingsCommand):
         settings = command.fields()
         added = [
             inspect.Parameter(
-                f.name, keyword, default=_cli_default(f), annotation=_annotation(f, command.cls)
+                f.name,
+                keyword,
+                default=_cli_default(f),
+                annotation=_annotation(f, command.owner(f)),
             )
             for f in settings
         ]
@@ -191,6 +208,13 @@ def with_settings(command: SettingsCommand):
         return wrapper
 
     return decorate
+
+
+def setting_option(cls: type, name: str) -> Any:
+    """One setting of `cls` as a command's own option (its type, flag, help and default text),
+    for a command that takes that setting alone (cooking-kb's --domain is gen-demos')."""
+    f = next(f for f in options(cls) if f.name == name)
+    return _annotation(f, cls)
 
 
 def given(ctx: typer.Context, values: dict[str, Any]) -> dict[str, Any]:
@@ -216,21 +240,11 @@ DEMOS = SettingsCommand(DemoSettings, "gen-demos")
 COMPILE = SettingsCommand(CompileSettings, "compile-dfa")
 FORMULAS = SettingsCommand(FormulaSettings, "gen-formulas")
 TRACES = SettingsCommand(TraceSettings, "gen-traces")
-KB = SettingsCommand(CompileSettings, "kb-extract", exclude=("alphabet",))  # DFAs one-hot
-SETTINGS_COMMANDS = [
-    FORMULAS,
-    COMPILE,
-    TRACES,
-    KB,
-    ACTIVITIES,
-    EDGE,
-    META,
-    TASK,
-    GAIL,
-    EVAL,
-    FIGURE,
-    DEMOS,
-]
+# kb-extract: what it extracts, and how it compiles the rule sets (one-hot DFAs)
+KB = SettingsCommand(ExtractSettings, "kb-extract", exclude=("alphabet",), also=(CompileSettings,))
+# the data stages (compile-dfa and the generators), then the trainers and evaluations
+DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES]
+SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, EVAL, FIGURE, DEMOS]
 
 
 # ---- docs/cli.md's option tables
@@ -245,10 +259,10 @@ def settings_table(command: SettingsCommand) -> str:
             pass
         elif f.metadata["choices"] is not None:
             name += " " + "\\|".join(f.metadata["choices"])
-        elif _types(f, command.cls)[0] is bool:
+        elif _types(f, command.owner(f))[0] is bool:
             name = f"{flag(f.name)}/--no-{flag(f.name)[2:]}"
         help_text = f.metadata["help"].replace("|", "\\|")
-        rows.append(f"| `{name}` | {default_text(f, command.cls)} | {help_text} |")
+        rows.append(f"| `{name}` | {default_text(f, command.owner(f))} | {help_text} |")
     presets = getattr(command.cls, "PRESET_HELP", {})
     if presets:
         rows.append("")

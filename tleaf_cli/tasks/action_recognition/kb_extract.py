@@ -29,7 +29,7 @@ from tleaf_cli.data.dfa_table import KIND as DFA_KIND
 from tleaf_cli.data.dfa_table import SCHEMA_VERSION as DFA_SCHEMA
 from tleaf_cli.data.dfa_table import rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, check_names
-from tleaf_cli.errors import InputError, SettingError, TleafError
+from tleaf_cli.errors import InputError, TleafError
 from tleaf_cli.knowledge.base import (
     KnowledgeBase,
     Rule,
@@ -43,11 +43,9 @@ from tleaf_cli.knowledge.base import (
     write_knowledge_base,
 )
 from tleaf_cli.logic.mona import MonaError, mona_binary
-from tleaf_cli.settings.action_recognition import RULE_SET_SPLITS
+from tleaf_cli.settings import check_values
+from tleaf_cli.settings.knowledge import ExtractSettings
 from tleaf_cli.tasks.action_recognition.activities import UNLABELLED, Activities, read_activities
-
-# Where the per-video formulas come from; train-time extraction from predictions is the loss's job.
-FORMULA_SOURCES = ("labels",)
 
 SAMPLES_KIND = "kb-samples"
 SAMPLES_SCHEMA = 2  # 2: `ingredients` column; several rows per video with --rule-sets ingredient
@@ -117,21 +115,16 @@ def extract_knowledge(
     activities_path: str | os.PathLike,
     out_dir: str | os.PathLike,
     settings: CompileSettings,
-    mine: bool = False,
-    min_support: int = 3,
-    formula_from: str = "labels",
-    rule_sets: str = "video",
+    extract: ExtractSettings | None = None,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> ExtractReport:
     """The `kb-extract` stage: OUT/samples.parquet, OUT/dfas.parquet (one-hot, one row per
-    distinct rule set), and OUT/kb.ltl when mining. A TleafError when the call is unusable."""
+    distinct rule set), and OUT/kb.ltl when mining (`extract`: which rules, mined or not;
+    default `ExtractSettings()`). A TleafError when the call is unusable."""
     start = time.perf_counter()
-    if formula_from not in FORMULA_SOURCES:
-        choices = ", ".join(FORMULA_SOURCES)
-        raise SettingError("formula_from", f"must be one of {choices}, not '{formula_from}'")
-    if rule_sets not in RULE_SET_SPLITS:
-        choices = ", ".join(RULE_SET_SPLITS)
-        raise SettingError("rule_sets", f"must be one of {choices}, not '{rule_sets}'")
+    extract = extract or ExtractSettings()
+    check_values(extract)
+    mine, min_support = extract.mine, extract.min_support
     if kb_path is None and not mine:
         raise InputError("no knowledge base file: give one, or mine=True to mine the train split")
     try:
@@ -156,7 +149,7 @@ def extract_knowledge(
         write_knowledge_base(kb, out / "kb.ltl", header)
     kb_source = str(kb_path) if kb_path is not None else str(out / "kb.ltl")
 
-    per_video, distinct = video_rule_sets(kb, activities, rule_sets)
+    per_video, distinct = video_rule_sets(kb, activities, extract.rule_sets)
     sources = [
         FormulaSource(rid, sample_formula(rules), kb_source, f"rule set {rid}")
         for rid, rules in distinct.items()
@@ -166,8 +159,8 @@ def extract_knowledge(
     params = {
         "alphabet": "one-hot",
         "timeout": settings.timeout,
-        "formula_from": formula_from,
-        "rule_sets": rule_sets,
+        "formula_from": extract.formula_from,
+        "rule_sets": extract.rule_sets,
         "mine": mine,
         "min_support": min_support if mine else None,
     }
