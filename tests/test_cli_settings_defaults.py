@@ -104,3 +104,17 @@ def test_a_switch_and_a_parsed_setting_reach_the_library_as_its_values(tmp_path)
     split = next(f for f in TRACES.fields() if f.name == "split")
     assert _from_cli(split, "0.8,0.1,0.1") == (0.8, 0.1, 0.1) == fractions("0.8,0.1,0.1")
     assert _from_cli(split, None) is TraceSettings().split is None
+
+
+def test_the_compile_settings_choices_are_the_logic_layers() -> None:
+    """settings/ cannot import logic/ (it is below it): its copies of the alphabets and engines
+    name exactly what logic/ accepts."""
+    from typing import get_args
+
+    from tleaf_cli.logic.alphabet import AlphabetKind
+    from tleaf_cli.logic.compile import ENGINES
+    from tleaf_cli.settings.data import ALPHABETS
+    from tleaf_cli.settings.data import ENGINES as SETTINGS_ENGINES
+
+    assert get_args(AlphabetKind) == ALPHABETS
+    assert SETTINGS_ENGINES == ENGINES

@@ -2,12 +2,14 @@
 
 Each trainable keeps its settings in one frozen dataclass, in this package: q_e
 (`settings.edge.EdgeSettings`), q_m (`settings.meta.MetaSettings`), the action recogniser
-(`settings.action_recognition.TaskSettings`) and GAIL (`settings.gail.GailSettings`). A field a user
-sets is declared with `setting`: its default, its help text, and the values it may take. Every
-other place reads it from there: the command line builds its options from these fields
-(`tleaf_cli.cli.options`), `config.json` stores `dataclasses.asdict(settings)`, and docs/cli.md's
-option tables are written from them (`python -m tleaf_cli.cli.options`). A field declared as a
-plain dataclass field is internal: saved with the run, not an option.
+(`settings.action_recognition.TaskSettings`) and GAIL (`settings.gail.GailSettings`); so do the
+data stages (`settings.data`: compile-dfa, gen-formulas, gen-traces; `settings.knowledge`:
+kb-extract), the generators (`settings.generators`) and the evaluations (`settings.evaluation`).
+A field a user sets is declared with `setting`: its default, its help text, and the values it
+may take. Every other place reads it from there: the command line builds its options from these
+fields (`tleaf_cli.cli.options`), `config.json` stores `dataclasses.asdict(settings)`, and
+docs/cli.md's option tables are written from them (`python -m tleaf_cli.cli.options`). A field
+declared as a plain dataclass field is internal: saved with the run, not an option.
 
 A settings class may also name presets (`Presets`): named sets of values on top of the field
 defaults, the defaults themselves being the first preset. `MetaSettings.preset("paper")` is the
