@@ -145,7 +145,8 @@ def train_action_recognition(
     else:
         loss_rules = checker_rules
     # the λ that fits q (train-meta wrote it), or the exact loss's, unless given
-    lam = resolve_lambda(settings, None if embedder is None else embedder.recommended_lambda)
+    asks_q = embedder is not None and settings.lam is None  # q's λ is read only when used
+    lam = resolve_lambda(settings, embedder.recommended_lambda if asks_q else None)
     settings = replace(settings, lam=lam.value)
     if on_setup is not None:
         on_setup(RunSetup(lam, coverage))
