@@ -11,13 +11,16 @@ import networkx as nx
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from typer.testing import CliRunner
 
-from tests.test_formulas import DEEP
+from tests.test_formulas import ANY_TEXT, DEEP, GRAMMARISH
 from tleaf_cli.cli import app
 from tleaf_cli.data import compile_dfas
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.dfa_table import read_dfas
+from tleaf_cli.data.formula_files import parse_ltl_text
 from tleaf_cli.data.random_formulas import random_formula
 from tleaf_cli.logic import mona
 
@@ -277,3 +280,19 @@ def test_compile_dfa_writes_one_graph_file_per_id(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     names = {p.name.casefold() for p in (tmp_path / "g").glob("*.graphml")}
     assert len(names) == len(ids)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.one_of(GRAMMARISH, ANY_TEXT), min_size=1, max_size=4))
+def test_compile_stage_turns_any_line_into_a_row(lines: list[str]) -> None:
+    text = "\n".join(line.replace("\n", " ").replace("\r", " ") for line in lines)
+    sources = parse_ltl_text(text, "fuzz.ltl")
+    report = compile_dfas.compile_sources(
+        sources, compile_dfas.CompileSettings(cache_dir=None, timeout=5)
+    )
+    assert len(report.rows) == len(sources)
+    assert len({r["formula_id"] for r in report.rows}) == len(report.rows)
+    for row in report.rows:
+        assert (row["error"] is None) == (row["num_states"] is not None)
+        if row["error"] is not None:
+            assert row["error"].startswith(("line ", "row "))

@@ -123,7 +123,7 @@ def test_the_library_names_the_setting_its_own_way() -> None:
     [
         (["gen-traces", "{missing}", "--hard-fraction", "2"], "--hard-fraction: must be in [0, 1]"),
         (["gen-formulas", "--atoms", "3", "--size", "4"], "--size: 4 cannot hold 3 distinct atoms"),
-        (["gen-formulas", "--prefix", "a b#"], "--prefix: starts formula names: only letters"),
+        (["gen-formulas", "--prefix", "a b#"], "--prefix: starts formula names: only ASCII"),
     ],
 )
 def test_a_setting_error_reaches_the_cli_as_its_flag(

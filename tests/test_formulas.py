@@ -1,9 +1,12 @@
 """Reading LTLf formulas (`logic.formulas.parse`): what an atom may be, said in the error a user
-reads, and formulas nested too deeply, a syntax error with the limit, never a RecursionError."""
+reads; formulas nested too deeply, a syntax error with the limit, never a RecursionError; and any
+text at all (hypothesis), an error message with a column, never a traceback."""
 
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from ltlf2dfa.ltlf import LTLfAtomic, LTLfImplies, LTLfNot
 
 from tleaf_cli.atom_names import atom_problem
@@ -115,3 +118,56 @@ def test_a_long_implication_chain_is_too_deep_for_the_mona_encoding() -> None:
         mona.mona_program(chain)
     with pytest.raises(FormulaSyntaxError, match="not 3000"):
         parse(" -> ".join(["a"] * 3000))
+
+
+# 3. Any text: a user's mistake is an error message, never a traceback.
+
+# Text built mostly from the grammar's own pieces, so many samples are nearly valid.
+PIECES = st.sampled_from(
+    [
+        "a",
+        "b",
+        "c_1",
+        "A",
+        "X",
+        "WX",
+        "F",
+        "G",
+        "U",
+        "R",
+        "!",
+        "~",
+        "&",
+        "&&",
+        "|",
+        "||",
+        "->",
+        "=>",
+        "<->",
+        "<=>",
+        "(",
+        ")",
+        " ",
+        "true",
+        "false",
+        "last",
+        ":",
+        "#",
+        "Fb",
+        "é",
+        "\t",
+        "1",
+    ]
+)
+GRAMMARISH = st.lists(PIECES, max_size=14).map("".join)
+ANY_TEXT = st.text(max_size=30)
+
+
+@settings(max_examples=400, deadline=None)
+@given(st.one_of(GRAMMARISH, ANY_TEXT))
+def test_parse_raises_only_syntax_errors_with_a_column(text: str) -> None:
+    try:
+        parse(text)
+    except FormulaSyntaxError as e:
+        assert e.message
+        assert e.column is None or 1 <= e.column <= len(text) + 1
