@@ -18,8 +18,8 @@ LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 IMAGE = re.compile(r"!\[[^\]]*\]\(([^)\s]+)\)")
 
 
-def _prose_lines(text: str) -> list[tuple[int, str]]:
-    """(line number, line) of the lines outside fenced code blocks, inline code removed."""
+def _outside_fences(text: str) -> list[tuple[int, str]]:
+    """(line number, line) of the lines outside fenced code blocks."""
     out, fence = [], None
     for number, line in enumerate(text.splitlines(), start=1):
         match = FENCE.match(line)
@@ -31,8 +31,13 @@ def _prose_lines(text: str) -> list[tuple[int, str]]:
                 fence = None
             continue
         if fence is None:
-            out.append((number, re.sub(r"`[^`]*`", "``", line)))
+            out.append((number, line))
     return out
+
+
+def _prose_lines(text: str) -> list[tuple[int, str]]:
+    """(line number, line) of the lines outside fenced code blocks, inline code removed."""
+    return [(n, re.sub(r"`[^`]*`", "``", line)) for n, line in _outside_fences(text)]
 
 
 def github_slug(heading: str) -> str:
@@ -51,17 +56,8 @@ def anchors(path: Path) -> set[str]:
     kept); a repeated slug gets -1, -2, ... as on GitHub."""
     seen: dict[str, int] = {}
     out = set()
-    fence = None
-    for line in path.read_text(encoding="utf-8").splitlines():
-        match = FENCE.match(line)
-        if match:
-            mark = match.group(1)
-            if fence is None:
-                fence = mark
-            elif mark.startswith(fence[0]) and len(mark) >= len(fence):
-                fence = None
-            continue
-        heading = HEADING.match(line) if fence is None else None
+    for _, line in _outside_fences(path.read_text(encoding="utf-8")):
+        heading = HEADING.match(line)
         if heading:
             slug = github_slug(heading.group(2))
             n = seen.get(slug, 0)
