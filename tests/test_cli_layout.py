@@ -30,6 +30,15 @@ def test_no_cli_module_is_over_300_lines() -> None:
     assert max(sizes.values()) <= 300, sizes
 
 
+def test_no_module_of_the_package_is_over_500_lines() -> None:
+    """A module past 500 lines has grown a second job: split it by what each part does."""
+    sizes = {
+        str(p.relative_to(PACKAGE)): len(p.read_text(encoding="utf-8").splitlines())
+        for p in PACKAGE.rglob("*.py")
+    }
+    assert {name: n for name, n in sizes.items() if n > 500} == {}
+
+
 def test_nothing_below_the_cli_imports_it() -> None:
     offenders = [
         str(p.relative_to(PACKAGE.parent))

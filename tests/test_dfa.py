@@ -12,11 +12,12 @@ import pytest
 from tests.conftest import all_traces
 from tleaf_cli.data.random_formulas import random_formula
 from tleaf_cli.errors import InputError
-from tleaf_cli.logic import dfa as dfa_module
+from tleaf_cli.logic import conjunction
 from tleaf_cli.logic.alphabet import Alphabet, LetterError
 from tleaf_cli.logic.checker import check
 from tleaf_cli.logic.compile import compile_formula
-from tleaf_cli.logic.dfa import DFA, conjoin_nonempty
+from tleaf_cli.logic.conjunction import conjoin_nonempty
+from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.guards import cnf_holds
 
 
@@ -208,9 +209,9 @@ def test_conjoin_nonempty_keeps_conjunctions_by_structure() -> None:
     first = [one_hot("a U b"), one_hot("G(c -> X !c)")]
     renamed = [one_hot("p U q"), one_hot("G(r -> X !r)")]  # p < q < r: as a < b < c
     permuted = [one_hot("y U z"), one_hot("G(a -> X !a)")]  # a < y < z: other letters
-    dfa_module._CONJUNCTIONS.clear()
+    conjunction._CONJUNCTIONS.clear()
     conjoined = [conjoin_nonempty(dfas) for dfas in (first, renamed, permuted)]
-    assert len(dfa_module._CONJUNCTIONS) == 2  # `renamed` was a repeat
+    assert len(conjunction._CONJUNCTIONS) == 2  # `renamed` was a repeat
     for dfas, got in zip((first, renamed, permuted), conjoined, strict=True):
         assert got == _folded(dfas)
     conjoined[0].table[:] = 0

@@ -392,7 +392,7 @@ def _group_count(atom_sets: list[tuple[str, ...]]) -> int:
 
 def test_a_rule_sets_dfa_is_the_pairwise_product_of_its_rules() -> None:
     """`RuleSet` conjoins its groups of rules (connected by shared atoms) in one walk
-    (`dfa.conjoin_nonempty`): the same DFA as pairwise `DFA.product`s of every rule, then
+    (`conjunction.conjoin_nonempty`): the same DFA as pairwise `DFA.product`s of every rule, then
     `minimize_nonempty`, on random rule sets whose rules share atoms or not, use X, WX, U, ...
     (letter 0 then moves a group), or name no atom ("last", "X true")."""
     import functools

@@ -38,7 +38,8 @@ from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.errors import ArgumentError, InputError, TleafError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.compile import by_progression
-from tleaf_cli.logic.dfa import DFA, conjoin_nonempty
+from tleaf_cli.logic.conjunction import conjoin_nonempty
+from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import atoms as formula_atoms
 from tleaf_cli.logic.formulas import parse
 
@@ -184,7 +185,7 @@ def _in_process(text: str, engine: str) -> DFA | None:
 def _conjunction(formulas: Sequence[str], timeout: float) -> DFA:
     """The minimal DFA (for non-empty traces) of the conjunction of compiled `formulas`: the
     product of the groups of formulas connected by shared atoms, each group's DFA kept. The
-    groups share no atoms, so their product is one walk (`dfa.conjoin_nonempty`)."""
+    groups share no atoms, so their product is one walk (`conjunction.conjoin_nonempty`)."""
     group_of: dict[str, int] = {}  # atom -> its group (union-find over the formulas' atoms)
     groups: list[set[str]] = []  # formulas per group
     atomless: set[str] = set()

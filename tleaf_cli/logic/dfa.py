@@ -13,18 +13,16 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Collection, Iterator, Sequence
 from dataclasses import dataclass
-from functools import reduce
 
 import numpy as np
 
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.guards import Guard, cnf_holds, row_guards
+from tleaf_cli.logic.small_tables import minimize_table, renumber_table
 
 # Tables of at most this many entries (states x letters) are minimised in plain Python.
 SMALL_TABLE = 4096
-# Conjunctions kept by `conjoin_nonempty`, per automata and letter layout (the oldest dropped).
-CONJUNCTIONS_KEPT = 4096
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,7 +158,7 @@ class DFA:
         a DFA that is minimised again or renumbered later, e.g. a step of a chain of products.
         """
         if self.table.size <= SMALL_TABLE:
-            rows, initial, accepting = _minimize_small(
+            rows, initial, accepting = minimize_table(
                 self.table.tolist(), self.initial, self.accepting.tolist()
             )
             return DFA(self.alphabet, np.array(rows, dtype=np.int32), initial, accepting)
@@ -275,185 +273,6 @@ class DFA:
     __hash__ = None  # type: ignore[assignment]
 
 
-def conjoin_nonempty(dfas: Sequence[DFA]) -> DFA:
-    """`DFA.product` of one-hot `dfas` over pairwise disjoint atoms, then `minimize_nonempty`:
-    the same DFA (same table, initial state and acceptance), in one pass.
-
-    Each atom belongs to one DFA, so a letter moves only its DFA, on that letter, and every other
-    DFA reads its letter 0 ("none of my atoms"). The k-way product is then one breadth-first walk
-    over combinations of states, minimised once in plain Python, instead of k - 1 pairwise products
-    each minimised with array operations: the per-call cost of numpy dominates on the handful of
-    states of a rule set's groups (`rule_set._conjunction`). A product past SMALL_TABLE entries
-    takes the pairwise route. The result is the canonical minimal DFA of the conjunction, so it
-    does not depend on the route (nor on the order of `dfas`).
-
-    The table is a function of the DFAs' `structure`s and of which (DFA, letter) each sorted
-    atom is, not of the atoms' names: a trainer that builds rule sets from predictions meets
-    the same rules over other ingredients again and again (a third of its conjunctions are
-    new), so small conjunctions are kept under that key (CONJUNCTIONS_KEPT of them) and a
-    repeat is a copy.
-
-    Raises InputError for no DFAs, a powerset alphabet, or an atom in two of the DFAs.
-    """
-    if not dfas:
-        raise InputError("conjoin_nonempty needs at least one DFA")
-    owner: dict[str, tuple[int, int]] = {}  # atom -> (its DFA, its letter there)
-    for g, dfa in enumerate(dfas):
-        if dfa.alphabet.kind != "one-hot":
-            raise InputError("conjoin_nonempty reads one-hot alphabets only")
-        for p, atom in enumerate(dfa.atoms, 1):
-            if atom in owner:
-                raise InputError(f"atom {atom} is in two of the DFAs (they must be disjoint)")
-            owner[atom] = (g, p)
-    alphabet = Alphabet(tuple(sorted(owner)), "one-hot")
-    letters = [owner[a] for a in alphabet.atoms]
-    key = (tuple(d.structure for d in dfas), tuple(letters))
-    kept = _CONJUNCTIONS.get(key)
-    if kept is None:
-        small = _disjoint_product_small(
-            [d.table.tolist() for d in dfas],
-            [d.initial for d in dfas],
-            [d.accepting.tolist() for d in dfas],
-            letters,
-        )
-        if small is None:
-            return reduce(lambda a, b: a.product(b, canonical=False), dfas).minimize_nonempty()
-        rows, initial, accepting = _nonempty_small(*_minimize_small(*small))
-        kept = (np.array(rows, dtype=np.int32), initial, np.array(accepting, dtype=bool))
-        if len(_CONJUNCTIONS) >= CONJUNCTIONS_KEPT:
-            _CONJUNCTIONS.pop(next(iter(_CONJUNCTIONS)))  # the oldest
-        _CONJUNCTIONS[key] = kept
-    table, initial, accepting = kept
-    return DFA(alphabet, table.copy(), initial, accepting.copy())
-
-
-# conjoin_nonempty's small conjunctions: (structures, letter layout) -> table, initial, accepting
-_CONJUNCTIONS: dict[tuple, tuple[np.ndarray, int, np.ndarray]] = {}
-
-
-def _disjoint_product_small(
-    tables: list[list[list[int]]],
-    initials: list[int],
-    accepting: list[list[bool]],
-    letters: list[tuple[int, int]],
-) -> tuple[list[list[int]], int, list[bool]] | None:
-    """The reachable synchronous product (conjunction) of DFAs over disjoint one-hot atoms, on
-    lists: `letters[j]` = (DFA g, its letter p) of the product's letter j + 1; letter 0 is every
-    DFA's letter 0. States are numbered in order of discovery (initial 0); a product state is
-    known by its mixed-radix code. Every state with a component in a rejecting sink (`_sinks`)
-    is one sink, since a conjunction with a dead part is dead: k rules "G !a" would otherwise
-    walk 2**k dead combinations that minimisation merges anyway. None once the table passes
-    SMALL_TABLE entries."""
-    dead = [_sinks(t, a) for t, a in zip(tables, accepting, strict=True)]
-    width = len(letters) + 1
-    if any(d[s] for d, s in zip(dead, initials, strict=True)):
-        return [[0] * width], 0, [False]
-    weights = [1]
-    for table in tables[:-1]:
-        weights.append(weights[-1] * len(table))
-    moves = [(g, p, weights[g]) for g, p in letters]
-    ids = {sum(s * w for s, w in zip(initials, weights, strict=True)): 0}
-    states = [list(initials)]
-    rows: list[list[int]] = []
-    for state in states:  # grows while it is walked: breadth-first
-        zero = [table[s][0] for table, s in zip(tables, state, strict=True)]
-        zero_code = sum(z * w for z, w in zip(zero, weights, strict=True))
-        zero_dead = [d[z] for d, z in zip(dead, zero, strict=True)]
-        dead_count = sum(zero_dead)
-        # per letter: the DFA that moves, its next state, its weight (letter 0 moves none)
-        steps = [(0, zero[0], 0)] + [(g, tables[g][state[g]][p], w) for g, p, w in moves]
-        row = []
-        for g, t, w in steps:
-            if dead[g][t] or dead_count - zero_dead[g]:
-                row.append(-1)  # the sink, numbered last
-                continue
-            code = zero_code + (t - zero[g]) * w
-            i = ids.get(code)
-            if i is None:
-                if (len(states) + 2) * width > SMALL_TABLE:  # + 2: this state and the sink
-                    return None
-                i = ids[code] = len(states)
-                nxt = zero.copy()
-                nxt[g] = t
-                states.append(nxt)
-            row.append(i)
-        rows.append(row)
-    final = [all(acc[s] for acc, s in zip(accepting, state, strict=True)) for state in states]
-    sink = len(rows)
-    rows = [[sink if i < 0 else i for i in row] for row in rows] + [[sink] * width]
-    return rows, 0, [*final, False]
-
-
-def _sinks(table: list[list[int]], accepting: list[bool]) -> list[bool]:
-    """Per state: a rejecting state that every letter leaves in place, so dead (no accepting
-    state is reachable). A minimal DFA's one dead state, if it has one, is such a sink."""
-    return [
-        not a and row.count(s) == len(row)
-        for s, (row, a) in enumerate(zip(table, accepting, strict=True))
-    ]
-
-
-def _nonempty_small(
-    table: list[list[int]], initial: int, accepting: list[bool]
-) -> tuple[list[list[int]], int, list[bool]]:
-    """`DFA.minimize_nonempty(minimal=True)` on lists: `table` must be minimal (all states
-    reachable, pairwise distinct); the same choice of the initial state's acceptance."""
-    after = list(dict.fromkeys(table[initial]))  # reachable in one step or more
-    seen = set(after)
-    for s in after:
-        for t in table[s]:
-            if t not in seen:
-                seen.add(t)
-                after.append(t)
-    same_row = sorted(s for s in seen if table[s] == table[initial])
-    best: tuple[int, bool, list[int]] | None = None
-    for accept_empty in (False, True):
-        twin = [s for s in same_row if accepting[s] == accept_empty]
-        size = len(seen) + (not twin)
-        if best is None or size < best[0]:
-            best = (size, accept_empty, twin)
-    _, accept_empty, twin = best
-    if twin:  # the fresh start is an existing state
-        return _renumber_small(table, twin[0], accepting)
-    return _renumber_small([*table, table[initial]], len(table), [*accepting, accept_empty])
-
-
-def _minimize_small(
-    table: list[list[int]], initial: int, accepting: list[bool]
-) -> tuple[list[list[int]], int, list[bool]]:
-    """`DFA.minimize` on lists: reachable states, Moore refinement, breadth-first numbering with
-    successors in letter order (the canonical form `_renumber_bfs` gives)."""
-    order = [initial]
-    seen = {initial}
-    for s in order:
-        for t in table[s]:
-            if t not in seen:
-                seen.add(t)
-                order.append(t)
-    cls = {s: int(accepting[s]) for s in order}
-    count = len(set(cls.values()))
-    while True:
-        ids: dict[tuple, int] = {}
-        new = {s: ids.setdefault((cls[s], *[cls[t] for t in table[s]]), len(ids)) for s in order}
-        cls = new
-        if len(ids) == count:
-            break
-        count = len(ids)
-    # Breadth-first from the initial class, successors in letter order; one row per class.
-    rep: dict[int, int] = {}
-    for s in order:
-        rep.setdefault(cls[s], s)
-    number = {cls[initial]: 0}
-    queue = [cls[initial]]
-    for c in queue:
-        for t in table[rep[c]]:
-            if cls[t] not in number:
-                number[cls[t]] = len(queue)
-                queue.append(cls[t])
-    rows = [[number[cls[t]] for t in table[rep[c]]] for c in queue]
-    return rows, 0, [accepting[rep[c]] for c in queue]
-
-
 def _row_classes(rows: np.ndarray) -> np.ndarray:
     """Class index per row, equal rows equal classes.
 
@@ -507,7 +326,7 @@ def _renumber_reachable(
 ) -> DFA:
     """`_renumber_bfs` of the states reachable from `initial` only."""
     if table.size <= SMALL_TABLE:
-        rows, start, acc = _renumber_small(table.tolist(), initial, accepting.tolist())
+        rows, start, acc = renumber_table(table.tolist(), initial, accepting.tolist())
         return DFA(alphabet, np.array(rows, dtype=np.int32), start, acc)
     seen = np.zeros(len(table), dtype=bool)
     seen[initial] = True
@@ -520,20 +339,6 @@ def _renumber_reachable(
     remap = np.full(len(table), -1, dtype=np.int64)
     remap[reach] = np.arange(len(reach))
     return _renumber_bfs(alphabet, remap[table[reach]], int(remap[initial]), accepting[reach])
-
-
-def _renumber_small(
-    table: list[list[int]], initial: int, accepting: list[bool]
-) -> tuple[list[list[int]], int, list[bool]]:
-    """`_renumber_reachable` on lists: breadth-first, successors in letter order."""
-    number = {initial: 0}
-    order = [initial]
-    for s in order:
-        for t in table[s]:
-            if t not in number:
-                number[t] = len(order)
-                order.append(t)
-    return [[number[t] for t in table[s]] for s in order], 0, [accepting[s] for s in order]
 
 
 def _renumber_bfs(
