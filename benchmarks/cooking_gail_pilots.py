@@ -47,8 +47,9 @@ OUT = "/tmp/cooking-pilots"
 
 
 def settings_from(pairs: list[str]) -> tuple[GailSettings, str | None]:
-    """GailSettings with `key=value` overrides (typed like the field's default); demos=PATH."""
-    settings, demos = GailSettings(eval_every=4096, eval_episodes=8), None
+    """GailSettings with `key=value` overrides (typed like the field's default); demos=PATH.
+    From preset `paper`: a constant learning rate, as the pilots were run; λ 1 unless given."""
+    settings, demos = GailSettings.preset("paper", eval_every=4096, eval_episodes=8), None
     types = {f.name: type(getattr(settings, f.name)) for f in fields(settings)}
     for pair in pairs:
         key, value = pair.split("=", 1)
@@ -78,7 +79,7 @@ def pilot(demos: str, name: str, pairs: list[str], embedder: str | None) -> None
 
 
 def profile(demos: str, variant: str, steps: int, embedder: str | None) -> None:
-    settings = GailSettings(logic_loss=variant, total_steps=steps, eval_every=10**9)
+    settings = GailSettings.preset("paper", logic_loss=variant, total_steps=steps, eval_every=10**9)
     profiler = cProfile.Profile()
     started = time.process_time()
     profiler.enable()

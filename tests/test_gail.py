@@ -227,8 +227,9 @@ def test_a_short_gail_run_learns_the_easy_episode(tmp_path: Path) -> None:
     fixed one-step episode: the return rises well above its start."""
     demos = write_demos(tmp_path / "demos.parquet", EASY)
     settings = GailSettings(
-        total_steps=3072, n_envs=2, n_steps=64, eval_every=1024, eval_episodes=4, seed=0
-    )
+        total_steps=3072, n_envs=2, n_steps=64, eval_every=1024, eval_episodes=4, seed=0,
+        lr_schedule="constant",
+    )  # fmt: skip
     metrics = train_gail(demos, tmp_path / "run", settings)
     curve = [p["mean_return"] for p in metrics["curve"]]
     assert metrics["expert_return"] == 19.0
@@ -244,6 +245,7 @@ def test_the_ppo_update_keeps_sb3s_target_kl_and_value_clipping(tmp_path: Path) 
     clip_range_vf clips the value; approx_kl and clip_fraction are logged per rollout."""
     demos = write_demos(tmp_path / "demos.parquet", EASY)
     base = {"total_steps": 1024, "n_envs": 2, "batch_size": 64, "eval_every": 512, "seed": 0}
+    base["lr_schedule"] = "constant"  # the settings these figures were written with
     plain = train_gail(demos, tmp_path / "plain", GailSettings(**base, eval_episodes=2))
     stopped = train_gail(
         demos, tmp_path / "kl", GailSettings(**base, eval_episodes=2, target_kl=1e-9)
@@ -266,7 +268,11 @@ def test_a_linear_learning_rate_schedule_falls_to_zero_and_is_logged(tmp_path: P
     go (logged per rollout); constant keeps lr; an unknown schedule is a SettingError."""
     demos = write_demos(tmp_path / "demos.parquet", EASY)
     base = {"total_steps": 1024, "n_envs": 2, "n_steps": 64, "eval_every": 512, "seed": 0}
-    constant = train_gail(demos, tmp_path / "c", GailSettings(**base, eval_episodes=2, lr=2e-3))
+    constant = train_gail(
+        demos,
+        tmp_path / "c",
+        GailSettings(**base, eval_episodes=2, lr=2e-3, lr_schedule="constant"),
+    )
     linear = train_gail(
         demos, tmp_path / "l", GailSettings(**base, eval_episodes=2, lr=2e-3, lr_schedule="linear")
     )
@@ -415,6 +421,7 @@ def test_shielded_gail_masks_with_the_rules_and_starts_above_the_unshielded(tmp_
             break
     demos = write_demos(tmp_path / "demos.parquet", EASY)
     base = {"total_steps": 512, "n_envs": 2, "batch_size": 64, "eval_every": 512, "seed": 0}
+    base["lr_schedule"] = "constant"  # the settings these figures were written with
     plain = train_gail(demos, tmp_path / "plain", GailSettings(**base, eval_episodes=4))
     shielded = train_gail(
         demos, tmp_path / "shield", GailSettings(**base, eval_episodes=4, shield=True)
@@ -450,3 +457,62 @@ def test_median_ratio_of_steps_to_90_with_a_bootstrap_interval(tmp_path: Path) -
     assert report["tleaf_over_none_median_steps_to_90"]["ratio"] == pytest.approx(2 / 3)
     md = (tmp_path / "report/report.md").read_text()
     assert "tleaf / none median steps to 90 % of the expert, per seed" in md and ": 0.67;" in md
+
+
+def _pipeline_value(name: str) -> str:
+    """The value pipelines/cooking.mk gives `name` (`NAME ?= value`), the same in every branch."""
+    text = (Path(__file__).parent.parent / "pipelines/cooking.mk").read_text()
+    values = {line.split("?=")[1].strip() for line in text.splitlines() if line.startswith(name)}
+    assert len(values) == 1, (name, values)
+    return values.pop()
+
+
+def test_the_default_is_the_documented_setting_and_paper_a_preset() -> None:
+    """Before, the defaults (constant learning rate; λ q's recommendation or 1) were not the
+    documented results' settings (pipelines/cooking.mk: --lr-schedule linear, --lambda 0.01)."""
+    best = GailSettings()
+    assert best.lr_schedule == _pipeline_value("LR_SCHEDULE") == "linear"
+    assert best.lam == float(_pipeline_value("LAMBDA")) == 0.01
+    assert GailSettings.preset("best") == best and GailSettings.default_preset() == "best"
+    paper = GailSettings.preset("paper")
+    assert (paper.lam, paper.lr_schedule) == (1.0, "constant")  # the paper's λ = 1.0 (Sec. VII)
+    assert set(GailSettings.PRESET_HELP) == set(GailSettings.PRESETS)
+
+
+def test_the_cli_prints_the_lambda_and_its_source_and_stores_it(chain_cli, tmp_path) -> None:
+    """Before, train-task cooking never said which λ it used nor where it came from."""
+    demos = write_demos(tmp_path / "demos.parquet", EASY)
+    tiny = ["--steps", 128, "--envs", 1, "--rollout", 64, "--eval-every", 128,
+            "--eval-episodes", 1, "--held-out", 0, "--cache-dir", tmp_path / "cache"]  # fmt: skip
+    exact = ["--logic-loss", "exact"]
+    runs = {
+        "best": (exact, "λ 0.01 (the best preset's)", "given"),
+        "paper": ([*exact, "--preset", "paper"], "λ 1 (the paper preset's)", "given"),
+        "given": ([*exact, "--lambda", 0.3], "λ 0.3 (given with --lambda)", "given"),
+        "none": ([], "λ 0.01 (unused: no logic loss)", "unused"),
+    }
+    for name, (flags, line, source) in runs.items():
+        out = tmp_path / name
+        result = chain_cli("train-task", "cooking", demos, *tiny, *flags, "-o", out)
+        assert result.exit_code == 0, result.output
+        assert line in result.output
+        assert json.loads((out / "metrics.json").read_text())["lambda"]["source"] == source
+    settings = json.loads((tmp_path / "paper/config.json").read_text())["settings"]
+    assert (settings["lam"], settings["lr_schedule"]) == (1.0, "constant")
+    settings = json.loads((tmp_path / "best/config.json").read_text())["settings"]
+    assert (settings["lam"], settings["lr_schedule"]) == (0.01, "linear")
+    quiet = chain_cli("train-task", "cooking", demos, *tiny, "--logic-loss", "exact", "-q",
+                      "-o", tmp_path / "q")  # fmt: skip
+    assert quiet.exit_code == 0 and "λ" not in quiet.output
+
+
+def test_a_run_without_lambda_takes_the_papers_and_says_so(tmp_path: Path) -> None:
+    """The library's `lam` None: the paper's λ for exact (q's recommendation for tleaf), the
+    source in metrics.json and handed to `on_setup` before the first update."""
+    demos = write_demos(tmp_path / "demos.parquet", EASY)
+    settings = GailSettings(logic_loss="exact", lam=None, total_steps=128, n_envs=1, n_steps=64,
+                            eval_every=128, eval_episodes=1, held_out=0)  # fmt: skip
+    heard = []
+    metrics = train_gail(demos, tmp_path / "run", settings, on_setup=heard.append)
+    assert [s.lam.text() for s in heard] == ["λ 1 (the loss's default)"]
+    assert metrics["lambda"] == {"value": 1.0, "source": "default", "candidates": []}

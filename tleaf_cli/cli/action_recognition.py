@@ -18,10 +18,10 @@ from tleaf_cli.cli.common import (
     refuse,
     targets,
 )
-from tleaf_cli.cli.options import TASK, given, with_settings
-from tleaf_cli.settings.action_recognition import DECODINGS, TaskSettings
+from tleaf_cli.cli.options import TASK, given, setting_option, with_settings
+from tleaf_cli.settings.action_recognition import ReportSettings, TaskSettings
 
-Decoding = Literal[DECODINGS]  # test-time decoding
+ReportDecoding = setting_option(ReportSettings, "decode")  # whose figures eval's table shows
 TaskPreset = Literal[tuple(TaskSettings.PRESETS)]
 DEFAULT_TASK_PRESET = TaskSettings.default_preset()
 
@@ -88,7 +88,7 @@ def train_task_action_recognition(
             activities, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup
         )
     if settings.lambdas is not None:
-        from tleaf_cli.tasks.action_recognition.lambda_choice import LambdaChoice
+        from tleaf_cli.tasks.lambda_source import LambdaChoice
 
         ui.summary(LambdaChoice(**metrics["lambda"]).text(), quiet)
     test = metrics["test"]
@@ -113,14 +113,7 @@ def train_task_action_recognition(
 def eval_action_recognition(
     runs: Annotated[list[Path], typer.Argument(help="train-task action-recognition run dirs.")],
     out: Annotated[Path, typer.Option("--out", "-o", help="Report folder.")] = Path("report"),
-    decode: Annotated[
-        Decoding,
-        typer.Option(
-            help="Whose test figures fill the main table: argmax, or constrained decoding "
-            "(runs trained with --decode constrained). Runs that have both also get a table "
-            "of the two side by side."
-        ),
-    ] = "argmax",
+    decode: ReportDecoding = ReportSettings.decode,
     quiet: Quiet = False,
 ) -> None:
     """Accuracy and violations per run; relative change against the same-seed reference run.

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import typer
 
@@ -18,9 +18,12 @@ from tleaf_cli.cli.common import (
     refuse,
     targets,
 )
-from tleaf_cli.cli.options import GAIL, with_settings
+from tleaf_cli.cli.options import GAIL, given, with_settings
 from tleaf_cli.settings.data import CompileSettings
 from tleaf_cli.settings.gail import GailSettings
+
+GailPreset = Literal[tuple(GailSettings.PRESETS)]
+DEFAULT_GAIL_PRESET = GailSettings.default_preset()
 
 
 @exits
@@ -32,6 +35,14 @@ def train_task_cooking(
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
+    preset: Annotated[
+        GailPreset,
+        typer.Option(
+            help="Settings to start from; options given on the command line override them. "
+            + "; ".join(f"{name}: {text}" for name, text in GailSettings.PRESET_HELP.items())
+            + "."
+        ),
+    ] = DEFAULT_GAIL_PRESET,
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
     quiet: Quiet = False,
@@ -41,20 +52,31 @@ def train_task_cooking(
 
     Writes config.json, metrics.json (true-reward return vs environment steps on the demonstrated
     and the held-out ingredient sets, the expert's and a uniform policy's return on each),
-    policy.zip (SB3) and discriminator.pt. Settings beyond plain GAIL, for every variant alike:
+    policy.zip (SB3) and discriminator.pt; metrics.json also holds the λ used and where it came
+    from, printed before the first update. Settings beyond plain GAIL, for every variant alike:
     a gradient penalty on the discriminator and 10 PPO epochs of minibatches of 64 per rollout
     (docs/cooking.md).
     """
     from tleaf_cli.tasks.cooking.train import train_gail
 
-    settings = GailSettings(**values)
+    settings = GailSettings.preset(preset, **given(ctx, values))
+    lam_given = given_flags(ctx, "lam")
     if settings.logic_loss == "none":
-        refuse(given_flags(ctx, "lam"), "only with a logic loss, not --logic-loss none")
+        refuse(lam_given, "only with a logic loss, not --logic-loss none")
     logic_loss = settings.logic_loss
     targets([demos, embedder, settings.domain], folders=[out])
     compiling = CompileSettings(alphabet="one-hot", cache_dir=cache_folder(cache_dir, no_cache))
+    how = "given with --lambda" if lam_given else f"the {preset} preset's"
     with ui.progress(f"GAIL ({logic_loss})", quiet) as update:
-        m = train_gail(demos, out, settings, embedder, compiling, update)
+        m = train_gail(
+            demos,
+            out,
+            settings,
+            embedder,
+            compiling,
+            update,
+            on_setup=lambda setup: ui.summary(setup.lam.text(given=how), quiet),
+        )
     ui.summary(
         f"{out}: return {m['curve'][0]['mean_return']:.2f} -> {m['final_return']:.2f} after "
         f"{m['environment_steps']} steps (expert {m['expert_return']:.2f}, uniform policy "

@@ -1,32 +1,36 @@
-"""Settings of GAIL on Creative Cooking (`tleaf train-task cooking`). Pure Python: the command
-line builds the command's options from this module."""
+"""Settings of GAIL on Creative Cooking (`tleaf train-task cooking`): fields and presets.
+`GailSettings()` is preset `best`, the setting behind every documented result
+(docs/results/cooking.md, pipelines/cooking.mk): PPO's learning rate falling linearly to 0 over
+the budget, λ 0.01 for the logic losses. `GailSettings.preset("paper")` is the 2021 paper's λ 1
+at a constant learning rate (the paper gives no PPO settings; constant is SB3's). Pure Python:
+the command line builds the command's options from this module."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, ClassVar
 
 from tleaf_cli.errors import SettingError
-from tleaf_cli.settings import DEVICES, LOGIC_LOSSES, check_values, setting
+from tleaf_cli.settings import DEVICES, LOGIC_LOSSES, Presets, check_values, setting
 
 # PPO learning-rate schedules: constant, or linear from `lr` at the first update to 0 at the last
 LR_SCHEDULES = ("constant", "linear")
-GAIL_LAMBDA = 1.0  # λ of a logic loss when none is given and q recommends none (the paper's)
+PAPER_LAMBDA = 1.0  # the paper's λ for GAIL (Sec. VII); also a logic loss's when lam is None
 
 
 @dataclass(frozen=True)
-class GailSettings:
-    """Everything a run depends on (written to config.json)."""
+class GailSettings(Presets):
+    """Everything a run depends on (written to config.json).
+
+    The field defaults are preset `best`; `GailSettings.preset("paper")` is the paper's. `lam`
+    None (from Python only) lets the run choose: with tleaf the λ q's folder recommends,
+    otherwise `PAPER_LAMBDA`."""
 
     logic_loss: str = setting(
         "none", "none (plain GAIL), tleaf, exact, or checker (no gradient).", choices=LOGIC_LOSSES
     )
-    lam: float | None = setting(
-        None,
-        "Weight λ of the logic loss.",
-        min=0.0,
-        auto=f"auto: with tleaf, the λ the embedder's folder recommends; otherwise {GAIL_LAMBDA}",
-    )
+    lam: float | None = setting(0.01, "Weight λ of the logic loss.", min=0.0)
     shield: bool = setting(
         False,
         "Act only among the actions the knowledge base's rules still allow (MaskablePPO; the "
@@ -43,7 +47,7 @@ class GailSettings:
     clip_range_vf: float | None = None  # SB3's: clip the value's change (None: unclipped)
     lr: float = setting(1e-3, "PPO's learning rate.")
     lr_schedule: str = setting(
-        "constant",
+        "linear",
         "PPO's learning rate: constant, or linear from --lr down to 0.",
         choices=LR_SCHEDULES,
     )
@@ -73,6 +77,17 @@ class GailSettings:
     domain: Path | None = setting(
         None, "Domain TOML.", auto="the Creative Cooking domain in examples/"
     )
+
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
+        "best": {},
+        "paper": {"lam": PAPER_LAMBDA, "lr_schedule": "constant"},
+    }
+    PRESET_HELP: ClassVar[dict[str, str]] = {
+        "best": "every documented result's: λ 0.01 (at 1 and 0.1 the logic losses stop GAIL "
+        "learning), PPO's learning rate falling linearly to 0 over the budget",
+        "paper": "the 2021 paper's λ 1, PPO at a constant learning rate (the paper gives no PPO "
+        "settings; constant is SB3's)",
+    }
 
     def check(self) -> None:
         """SettingError for a setting out of range or settings that do not fit together."""

@@ -1,15 +1,9 @@
-"""The λ a `train-task action-recognition` run weighs its logic loss by, and where it came from.
-
-A run's λ is one of (`LambdaChoice.source`):
-
-- `given`: the settings' `lam` (the command line's --lambda);
-- `recommended`: the tleaf loss without a λ: the one q's train-meta folder recommends for this q
-  (`settings.meta.recommended_lambda`: 1 / q's satisfy/violate boundary);
-- `default`: the exact and checker losses without a λ: `EXACT_LAMBDA`;
-- `validation`: chosen among the settings' `lambdas` and 0 on the val split
-  (`train_choosing_lambda`): where a loss can hurt, "no logic loss" is among the choices;
-- `candidate`: one of the runs `train_choosing_lambda` chooses among;
-- `unused`: no logic loss and no self-training on unlabelled videos, nothing λ weighs.
+"""The λ a `train-task action-recognition` run weighs its logic loss by: `resolve_lambda` (its
+sources and their wording are every task's, `tasks.lambda_source`), or a choice on the val
+split among the settings' `lambdas` and 0 (`train_choosing_lambda`): where a loss can hurt, "no
+logic loss" is among the choices. The λ is `given` (--lambda), `recommended` by the tleaf loss's
+q, the exact and checker losses' `default` (`EXACT_LAMBDA`), or `unused` without a logic loss and
+self-training on unlabelled videos.
 
 The trainer records the choice in metrics.json ("lambda") and hands it to its caller before the
 first epoch (`RunSetup`; the command line prints it); a choice on validation is made after the
@@ -21,65 +15,24 @@ from __future__ import annotations
 import json
 import shutil
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 from tleaf_cli.data.artifacts import relative_to, write_text_atomic
 from tleaf_cli.settings.action_recognition import EXACT_LAMBDA, TaskSettings, lambda_candidates
-from tleaf_cli.tasks.q_coverage import QCoverage
+from tleaf_cli.tasks.lambda_source import LambdaChoice, RunSetup, resolve_lambda_source
 
-SOURCES = ("given", "recommended", "default", "validation", "candidate", "unused")
 CANDIDATES = "lambda-choice"  # the folder of a run's λ candidates, inside the run's folder
 RUN_FILES = ("config.json", "metrics.json", "weights.pt")  # what the chosen candidate gives
-
-
-@dataclass(frozen=True)
-class LambdaChoice:
-    """A run's λ and where it came from; `candidates`: with `validation`, every λ tried and its
-    best val action accuracy (increasing λ)."""
-
-    value: float
-    source: str
-    candidates: list[dict] = field(default_factory=list)
-
-    def text(self, given: str = "given") -> str:
-        """One line: the λ and its source (`given`: how to say the caller set it)."""
-        why = {
-            "given": given,
-            "recommended": "recommended for this q by its train-meta folder",
-            "default": "the loss's default",
-            "unused": "unused: no logic loss",
-            "candidate": "a candidate for the choice on validation",
-            "validation": "chosen on validation among "
-            + ", ".join(
-                f"{c['lambda']:g} ({100 * c['val_action_accuracy']:.2f}%)" for c in self.candidates
-            ),
-        }[self.source]
-        return f"λ {self.value:g} ({why})"
-
-    def as_dict(self) -> dict:
-        return asdict(self)
-
-
-@dataclass(frozen=True)
-class RunSetup:
-    """What a run tells its caller before the first epoch: its λ, and with the tleaf loss how
-    much of the knowledge base q can read (`coverage.left_out` rules are left out of the loss)."""
-
-    lam: LambdaChoice
-    coverage: QCoverage | None = None
 
 
 def resolve_lambda(settings: TaskSettings, recommended: float | None) -> LambdaChoice:
     """The λ of a run of `settings` (one λ, not a choice on validation); `recommended`: the λ
     the tleaf loss's q recommends (None for the other losses)."""
-    if settings.lam is not None:
-        return LambdaChoice(float(settings.lam), "given")
-    if settings.logic_loss == "none" and settings.unlabelled_loss == "logic":
-        return LambdaChoice(EXACT_LAMBDA, "unused")
-    if recommended is not None:
-        return LambdaChoice(float(recommended), "recommended")
-    return LambdaChoice(EXACT_LAMBDA, "default")
+    uses = settings.logic_loss != "none" or settings.unlabelled_loss != "logic"
+    return resolve_lambda_source(
+        settings.lam, used=uses, recommended=recommended, default=EXACT_LAMBDA
+    )
 
 
 def best_candidate(candidates: list[dict]) -> dict:

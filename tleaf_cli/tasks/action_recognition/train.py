@@ -72,7 +72,6 @@ from tleaf_cli.tasks.action_recognition.activities import (
 from tleaf_cli.tasks.action_recognition.batch import Batch
 from tleaf_cli.tasks.action_recognition.decoding import decode_pairs, own_labels
 from tleaf_cli.tasks.action_recognition.lambda_choice import (
-    RunSetup,
     resolve_lambda,
     train_choosing_lambda,
 )
@@ -82,6 +81,7 @@ from tleaf_cli.tasks.action_recognition.objective import (
     LogicObjective,
     predicted_atoms,
 )
+from tleaf_cli.tasks.lambda_source import RunSetup
 from tleaf_cli.tasks.q_coverage import check_q_covers
 
 

@@ -41,7 +41,7 @@ from tleaf_cli.data.artifacts import check_writable
 from tleaf_cli.data.compile_dfas import CompileSettings
 from tleaf_cli.embed.training import device_for
 from tleaf_cli.errors import SettingError
-from tleaf_cli.settings.gail import GAIL_LAMBDA, GailSettings
+from tleaf_cli.settings.gail import PAPER_LAMBDA, GailSettings
 from tleaf_cli.tasks.cooking.behaviour_cloning import behaviour_cloning
 from tleaf_cli.tasks.cooking.callbacks import GailCallback
 from tleaf_cli.tasks.cooking.demo_episodes import read_demo_episodes
@@ -58,6 +58,7 @@ from tleaf_cli.tasks.cooking.logic_term import CookingKnowledge, LogicTerm
 from tleaf_cli.tasks.cooking.pools import expert_returns, held_out_pool
 from tleaf_cli.tasks.cooking.ppo import LogicPPO, ShieldedPPO, ppo_learning_rate
 from tleaf_cli.tasks.cooking.run_files import run_metrics, write_run
+from tleaf_cli.tasks.lambda_source import RunSetup, resolve_lambda_source
 
 
 def train_gail(
@@ -67,8 +68,13 @@ def train_gail(
     embedder_dir: str | Path | None = None,
     compile_settings: CompileSettings | None = None,
     update: Callable[[int, int], None] = lambda done, total: None,
+    on_setup: Callable[[RunSetup], None] | None = None,
 ) -> dict:
-    """Train one GAIL run (a variant and a seed); write the run directory; return metrics."""
+    """Train one GAIL run (a variant and a seed); write the run directory; return metrics.
+
+    The run's λ and where it came from (`tasks.lambda_source`: the settings' `lam`; with `lam`
+    None q's recommended λ for tleaf, otherwise the paper's; unused without a logic loss) go to
+    `on_setup` before the first update and to metrics.json ("lambda")."""
     settings.check()
     device_for(settings.device)  # SettingError where cuda is asked for and absent
     settings = replace(settings, domain=Path(settings.domain or DEFAULT_DOMAIN))
@@ -88,9 +94,16 @@ def train_gail(
         from tleaf_cli.embed.load import load_embedder
 
         embedder = load_embedder(embedder_dir)
-    if settings.lam is None:  # the λ that fits q (train-meta wrote it), or the paper's
-        lam = embedder.recommended_lambda if embedder is not None else GAIL_LAMBDA
-        settings = replace(settings, lam=lam)
+    asks_q = embedder is not None and settings.lam is None  # q's λ is read only when used
+    lam = resolve_lambda_source(
+        settings.lam,
+        used=settings.logic_loss != "none",
+        recommended=embedder.recommended_lambda if asks_q else None,
+        default=PAPER_LAMBDA,
+    )
+    settings = replace(settings, lam=lam.value)
+    if on_setup is not None:
+        on_setup(RunSetup(lam))
     knowledge = CookingKnowledge(domain, embedder, compile_settings)
     logic = LogicTerm(settings.logic_loss, knowledge) if settings.logic_loss != "none" else None
 
@@ -156,6 +169,7 @@ def train_gail(
     seconds = time.perf_counter() - started
 
     metrics = run_metrics(expert, pool, settings, callback, model, seconds)
+    metrics["lambda"] = lam.as_dict()
     uniform = evaluate(uniform_probabilities(venv.action_space.n), evaluation_env(domain))
     metrics["random_return"] = float(np.mean(uniform["demonstrated"]))
     if held_out:
