@@ -3,8 +3,9 @@ presets. `TaskSettings()` is preset `best`, the setting behind every documented 
 1e-3, up to 150 epochs, early stop after 20, test videos also decoded under the rules);
 `TaskSettings.preset("paper")` the 2021 paper's (lr 1e-4, 60 epochs, early stop after 10, argmax
 decoding), which on the walk-through's 60 training videos stops far short (22 % action accuracy
-against the default's 62 %). Pure Python: the command line builds the command's options from
-this module."""
+against the default's 62 %). `ReportSettings`: those of its report, `tleaf eval
+action-recognition`. Pure Python: the command line builds the commands' options from this
+module."""
 
 from __future__ import annotations
 
@@ -132,6 +133,19 @@ class TaskSettings(Presets):
                 raise SettingError("lambdas", "chooses λ itself: not with lam")
             if self.logic_loss == "none" and self.unlabelled_loss == "logic":
                 raise SettingError("lambdas", "λ weighs nothing without a logic loss")
+
+
+@dataclass(frozen=True)
+class ReportSettings:
+    """Settings of the action-recognition report (`tleaf eval action-recognition`)."""
+
+    decode: str = setting(
+        "argmax",
+        "Whose test figures fill the main table: argmax, or constrained decoding (runs trained "
+        "with --decode constrained). Runs that have both also get a table of the two side by "
+        "side.",
+        choices=DECODINGS,
+    )
 
 
 def lambda_candidates(text: str) -> tuple[float, ...]:

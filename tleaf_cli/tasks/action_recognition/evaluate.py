@@ -23,14 +23,14 @@ import numpy as np
 
 from tleaf_cli.data.artifacts import check_writable, write_text_atomic
 from tleaf_cli.errors import InputError, SettingError
-from tleaf_cli.settings.action_recognition import DECODINGS
+from tleaf_cli.settings.action_recognition import DECODINGS, ReportSettings
 from tleaf_cli.tasks.figures import pyplot, save_png
 
 LOSS_ORDER = ("tleaf", "exact", "checker")
 MEASURES = ("action_accuracy", "ingredient_accuracy", "pair_accuracy")
 
 
-def read_run(run_dir: Path, decode: str = "argmax") -> dict:
+def read_run(run_dir: Path, decode: str = ReportSettings.decode) -> dict:
     """One run's settings and test figures — argmax decoding's, or constrained decoding's
     (`decode`) — and, where the run has both, both under `decodings`; InputError when it is not
     a finished run or lacks the figures asked for."""
@@ -293,7 +293,7 @@ def boxplots(pairs: Sequence[dict], path: Path, by_decoding: Sequence[dict] = ()
 
 
 def evaluate_runs(
-    run_dirs: Sequence[str | Path], out_dir: str | Path, decode: str = "argmax"
+    run_dirs: Sequence[str | Path], out_dir: str | Path, decode: str = ReportSettings.decode
 ) -> dict:
     """Read the runs, pair them, write report.json, report.md and report.png; return the report.
 
