@@ -1,6 +1,6 @@
 """Expert demonstrations read back as episodes, and the knowledge base of their ingredient sets.
 
-GAIL (gail.py) trains on the demos' (observation, action) pairs and plays episodes with the demos'
+GAIL (train.py) trains on the demos' (observation, action) pairs and plays episodes with the demos'
 ingredient sets (the "pool"), so each set's expert return is known. `tleaf demos-kb` writes every
 rule of those episodes' knowledge bases into one `.ltl` file, the training formulas of the
 embedder q used by the tleaf logic loss; the rule sets GAIL scores (conjunctions per ingredient)
