@@ -1,0 +1,63 @@
+"""An event log's activity names as atoms of LTLf formulas.
+
+Activities in real logs are named for people ("Assign seriousness", "W_Completeren aanvraag",
+"3"); a formula's atoms are lower-case ASCII letters, digits and _, starting with a letter
+(`tleaf_cli.atom_names`). `activity_atoms` gives every activity an atom that is readable (the same
+words, lower case, joined by _), deterministic (it depends on the set of names, not on their
+order) and unique (names that meet get _2, _3, ...), so a rule mined from or written for a log
+names its activities by atoms a person can read back.
+"""
+
+from __future__ import annotations
+
+import re
+import unicodedata
+from collections.abc import Iterable
+
+from tleaf_cli.atom_names import AMBIGUOUS, atom_problem
+
+_NOT_WORD = re.compile(r"[^a-z0-9]+")
+_FALLBACK = "activity"  # the atom of a name with no ASCII letter or digit at all
+
+
+def activity_atom(name: str) -> str:
+    """The atom `name` reads as, before names that meet are told apart (see `activity_atoms`).
+
+    Accents are dropped ("Réunion" -> "reunion"), other characters outside ASCII letters and
+    digits separate words; a name starting with a digit, or with a word the formula grammar reads
+    as a constant (true, false, last), gets "a" in front ("3" -> "a3", "last step" -> "alast_step").
+    """
+    ascii_text = unicodedata.normalize("NFKD", name).encode("ascii", "ignore").decode("ascii")
+    atom = _NOT_WORD.sub("_", ascii_text.lower()).strip("_")
+    if not atom:
+        return _FALLBACK
+    if not atom[0].isalpha() or atom.startswith(AMBIGUOUS):
+        atom = "a" + atom
+    assert atom_problem(atom) is None, atom
+    return atom
+
+
+def activity_atoms(names: Iterable[str]) -> dict[str, str]:
+    """Each distinct activity name -> its atom: readable, deterministic and unique.
+
+    Names that are atoms already keep themselves; the others take `activity_atom(name)`, and where
+    that is taken, the first free of `<atom>_2`, `<atom>_3`, ... Names are served in sorted order,
+    so the map depends only on the set of names.
+    """
+    distinct = sorted(set(names))
+    used: set[str] = set()
+    out: dict[str, str] = {}
+    for name in distinct:  # names that are atoms already keep themselves
+        if atom_problem(name) is None:
+            out[name] = name
+            used.add(name)
+    for name in distinct:
+        if name in out:
+            continue
+        base = activity_atom(name)
+        atom, n = base, 2
+        while atom in used:
+            atom, n = f"{base}_{n}", n + 1
+        out[name] = atom
+        used.add(atom)
+    return {name: out[name] for name in distinct}
