@@ -1,0 +1,434 @@
+"""Event logs in: XES or CSV files read into cases, written as a `cases` Parquet artifact.
+
+An event log (the process-mining field's data: pm4py, ProM, the BPI Challenges) is a set of
+cases (traces), each a sequence of events with an activity and a timestamp. `read_log` reads
+`.xes`, `.xes.gz`, `.csv` or `.csv.gz`; `write_cases` writes one row per case (docs/event_logs.md):
+
+    case_id     string
+    activities  list<string>             the activities' own names, in time order
+    atoms       list<string>             each activity as a formula atom (data/activity_names.py)
+    timestamps  list<timestamp[us, UTC]>
+    split       string                   train | val | test
+
+with the usual provenance (data/artifacts.py), the counts of what was skipped, and the map
+activity -> atom under the key `tleaf.activity_atoms`. `read_cases` reads it back.
+
+XES is read by a streaming parser (expat, the parser under ElementTree's iterparse, fed straight
+from the gzip stream): memory holds the cases' activities and times, never the XML tree, and a
+malformed line is named by its number. pm4py would load the whole log into memory and is a heavy
+dependency for reading three attributes.
+
+Bad input: a case with no events is skipped and counted; events out of time order are sorted
+(stably: file order breaks ties) and their cases counted; an event without activity or timestamp,
+or with a timestamp that is no ISO 8601 date, is skipped and counted with the first few places
+(case id and line) kept for the report; a malformed XML file or a truncated .gz is an InputError
+naming the file and, where known, the line. Nothing is written until the whole log is read.
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import itertools
+import json
+import os
+import zlib
+from collections.abc import Iterator
+from dataclasses import asdict, dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+from xml.parsers import expat
+
+import numpy as np
+import pyarrow as pa
+
+from tleaf_cli.data.activity_names import activity_atoms
+from tleaf_cli.data.artifacts import PREFIX, describe_inputs, read_artifact, write_artifact
+from tleaf_cli.data.traces import SPLITS, assign_splits
+from tleaf_cli.errors import InputError
+from tleaf_cli.settings.event_logs import (
+    ACTIVITY_COLUMNS,
+    CASE_COLUMNS,
+    TIMESTAMP_COLUMNS,
+    XES_ACTIVITY_KEY,
+    XES_CASE_KEY,
+    XES_TIMESTAMP_KEY,
+    LogSettings,
+)
+
+KIND = "cases"
+SCHEMA_VERSION = 1
+ATOMS_KEY = f"{PREFIX}activity_atoms"
+LOG_SUFFIXES = (".xes", ".xes.gz", ".csv", ".csv.gz")
+LIFECYCLE_KEY = "lifecycle:transition"
+EXAMPLES = 5  # places kept per kind of skip, for the report
+TIMESTAMP_TYPE = pa.timestamp("us", tz="UTC")
+_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+
+# What a skip or a repair is counted as (LogReport.skipped's keys).
+NO_ACTIVITY = "events without activity"
+NO_TIMESTAMP = "events without timestamp"
+BAD_TIMESTAMP = "events with an unreadable timestamp"
+NO_CASE_ID = "events without case id"
+EMPTY_CASE = "cases without events"
+LIFECYCLE = "events of another lifecycle transition"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case: its activities in time order, their UTC timestamps, atoms and split."""
+
+    case_id: str
+    activities: tuple[str, ...]
+    atoms: tuple[str, ...]
+    timestamps: tuple[datetime, ...]
+    split: str
+
+    def __len__(self) -> int:
+        return len(self.activities)
+
+
+@dataclass
+class LogReport:
+    """What reading a log found: its cases (file order, events sorted by time) and what was
+    skipped (kind -> count, and the first few places: 'case 17, line 230')."""
+
+    path: str
+    keys: dict[str, str]  # case / activity / timestamp -> the attribute or column read
+    cases: list[tuple[str, list[str], list[int]]]  # case id, activities, µs since 1970 UTC
+    skipped: dict[str, int] = field(default_factory=dict)
+    examples: dict[str, list[str]] = field(default_factory=dict)
+    reordered: int = 0  # cases whose events were not in time order in the file (sorted)
+
+    @property
+    def events(self) -> int:
+        return sum(len(a) for _, a, _ in self.cases)
+
+    def skip(self, kind: str, where: str) -> None:
+        self.skipped[kind] = self.skipped.get(kind, 0) + 1
+        places = self.examples.setdefault(kind, [])
+        if len(places) < EXAMPLES:
+            places.append(where)
+
+    def skip_text(self) -> str:
+        """The skips in one phrase: '3 events without timestamp (case 7, line 12; ...)'."""
+        parts = [f"{self.reordered} cases sorted by time"] if self.reordered else []
+        for kind, count in self.skipped.items():
+            places = "; ".join(self.examples.get(kind, []))
+            more = ", ..." if count > len(self.examples.get(kind, [])) else ""
+            parts.append(f"{count} {kind} ({places}{more})" if places else f"{count} {kind}")
+        return ", ".join(parts) or "none"
+
+
+@dataclass
+class Cases:
+    """A read `cases` artifact: the cases in file order, the activity -> atom map, params."""
+
+    cases: list[Case]
+    activity_atoms: dict[str, str]
+    path: str
+    params: dict[str, Any] = field(default_factory=dict)
+
+    def split(self, name: str) -> list[Case]:
+        return [c for c in self.cases if c.split == name]
+
+    @property
+    def activities(self) -> tuple[str, ...]:
+        """The activity names, sorted."""
+        return tuple(sorted(self.activity_atoms))
+
+
+# ---- reading
+
+
+def log_format(path: str | os.PathLike) -> str:
+    """'xes' or 'csv' by the file's name; InputError for any other."""
+    name = str(path).lower()
+    for suffix in LOG_SUFFIXES:
+        if name.endswith(suffix):
+            return suffix.split(".")[1]
+    raise InputError(f"{path}: not an event log (expected {', '.join(LOG_SUFFIXES)})")
+
+
+def read_log(path: str | os.PathLike, settings: LogSettings | None = None) -> LogReport:
+    """Read an XES or CSV event log into cases; InputError if it is unusable as a whole."""
+    settings = settings or LogSettings()
+    settings.check()
+    kind = log_format(path)
+    if not Path(path).is_file():
+        raise InputError(f"{path}: no such file")
+    reader = _read_xes if kind == "xes" else _read_csv
+    try:
+        report = reader(Path(path), settings)
+    except (EOFError, zlib.error, gzip.BadGzipFile) as e:
+        raise InputError(f"{path}: truncated or damaged gzip file ({e})") from None
+    except UnicodeDecodeError as e:
+        raise InputError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    if not report.cases:
+        raise InputError(f"{path}: no case with events ({report.skip_text()} skipped)")
+    return report
+
+
+def _open(path: Path, mode: str):
+    gz = path.name.lower().endswith(".gz")
+    if mode == "rb":
+        return gzip.open(path, "rb") if gz else open(path, "rb")
+    return (gzip.open if gz else open)(path, "rt", encoding="utf-8-sig", newline="")
+
+
+def _micros(text: str) -> int | None:
+    """µs since 1970 UTC of an ISO 8601 timestamp (no zone: UTC), or None if it is none."""
+    try:
+        stamp = datetime.fromisoformat(text.strip())
+    except ValueError:
+        return None
+    if stamp.tzinfo is None:
+        stamp = stamp.replace(tzinfo=UTC)
+    delta = stamp - _EPOCH
+    return (delta.days * 86_400 + delta.seconds) * 1_000_000 + delta.microseconds
+
+
+class _Builder:
+    """Collects events per case (first-appearance order) and skips into a LogReport."""
+
+    def __init__(self, path: Path, keys: dict[str, str], lifecycle: str) -> None:
+        self.report = LogReport(str(path), keys, [])
+        self.lifecycle = None if lifecycle == "all" else lifecycle.lower()
+        self.events: dict[str, tuple[list[str], list[int]]] = {}
+        self.seen: dict[str, str] = {}  # every case id met -> where it was first met
+
+    def event(
+        self, case: str | None, activity: str | None, stamp: str | None, life: str | None, at: str
+    ) -> None:
+        report = self.report
+        if self.lifecycle is not None and life is not None and life.lower() != self.lifecycle:
+            report.skipped[LIFECYCLE] = report.skipped.get(LIFECYCLE, 0) + 1
+            return
+        if not case:
+            report.skip(NO_CASE_ID, at)
+            return
+        self.seen.setdefault(case, at)
+        where = f"case {case}, {at}"
+        if not activity:
+            report.skip(NO_ACTIVITY, where)
+            return
+        if not stamp:
+            report.skip(NO_TIMESTAMP, where)
+            return
+        micros = _micros(stamp)
+        if micros is None:
+            report.skip(BAD_TIMESTAMP, f"{where}: '{stamp[:40]}'")
+            return
+        activities, times = self.events.setdefault(case, ([], []))
+        activities.append(activity)
+        times.append(micros)
+
+    def case(self, case: str | None, at: str) -> None:
+        """A case met (XES: a trace, even one without events)."""
+        if case:
+            self.seen.setdefault(case, at)
+
+    def finish(self) -> LogReport:
+        report = self.report
+        for case, at in self.seen.items():
+            if case not in self.events:  # no event, or none kept
+                report.skip(EMPTY_CASE, f"case {case}, {at}")
+        for case, (activities, times) in self.events.items():
+            if any(b < a for a, b in itertools.pairwise(times)):
+                report.reordered += 1
+                order = sorted(range(len(times)), key=times.__getitem__)  # stable
+                activities = [activities[i] for i in order]
+                times = [times[i] for i in order]
+            report.cases.append((case, activities, times))
+        return report
+
+
+def _read_xes(path: Path, settings: LogSettings) -> LogReport:
+    keys = {
+        "case": settings.case_key or XES_CASE_KEY,
+        "activity": settings.activity_key or XES_ACTIVITY_KEY,
+        "timestamp": settings.timestamp_key or XES_TIMESTAMP_KEY,
+    }
+    build = _Builder(path, keys, settings.lifecycle)
+    parser = expat.ParserCreate()
+    stack: list[str] = []  # local tag names from the root down
+    trace: dict[str, str] = {}
+    events: list[tuple[dict[str, str], int]] = []  # a trace's events, its case id comes last
+    event: dict[str, str] | None = None
+    trace_line = 0
+
+    def start(tag: str, attrs: dict[str, str]) -> None:
+        nonlocal event, trace, events, trace_line
+        local = tag.rsplit(":", 1)[-1]
+        parent = stack[-1] if stack else None
+        stack.append(local)
+        if local == "trace" and parent == "log":
+            trace, events, trace_line = {}, [], parser.CurrentLineNumber
+        elif local == "event" and parent == "trace":
+            event = {}
+            events.append((event, parser.CurrentLineNumber))
+        elif "key" in attrs and "value" in attrs:  # an attribute, of the element it is in
+            if parent == "event" and event is not None and len(stack) >= 3:
+                event.setdefault(attrs["key"], attrs["value"])
+            elif parent == "trace" and len(stack) == 3:
+                trace.setdefault(attrs["key"], attrs["value"])
+
+    def end(tag: str) -> None:
+        nonlocal event
+        local = stack.pop()
+        if local == "event" and stack and stack[-1] == "trace":
+            event = None
+        elif local == "trace" and stack == ["log"]:
+            case = trace.get(keys["case"])
+            if not case:
+                for _, line in events:
+                    build.report.skip(NO_CASE_ID, f"trace at line {trace_line}, line {line}")
+                return
+            build.case(case, f"line {trace_line}")
+            for attrs, line in events:
+                build.event(
+                    case,
+                    attrs.get(keys["activity"]),
+                    attrs.get(keys["timestamp"]),
+                    attrs.get(LIFECYCLE_KEY),
+                    f"line {line}",
+                )
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.buffer_text = True
+    with _open(path, "rb") as fh:
+        try:
+            parser.ParseFile(fh)
+        except expat.ExpatError as e:
+            raise InputError(
+                f"{path}: line {e.lineno}: malformed XML ({expat.ErrorString(e.code)})"
+            ) from None
+    return build.finish()
+
+
+def _column(header: list[str], given: str | None, candidates: tuple[str, ...], what: str) -> str:
+    """The column holding `what`: the given name, else the first candidate in the header."""
+    if given is not None:
+        if given not in header:
+            raise InputError(f"no column '{given}' for the {what} (columns: {', '.join(header)})")
+        return given
+    lowered = {h.lower(): h for h in header}
+    for name in candidates:
+        if name.lower() in lowered:
+            return lowered[name.lower()]
+    raise InputError(
+        f"no {what} column: none of {', '.join(candidates)} in the header "
+        f"({', '.join(header)}); name it with the {what} key setting"
+    )
+
+
+def _read_csv(path: Path, settings: LogSettings) -> LogReport:
+    with _open(path, "rt") as fh:
+        rows = csv.reader(fh)
+        try:
+            header = [h.strip() for h in next(rows)]
+        except StopIteration:
+            raise InputError(f"{path}: empty file (no header)") from None
+        except csv.Error as e:
+            raise InputError(f"{path}: line 1: {e}") from None
+        try:
+            keys = {
+                "case": _column(header, settings.case_key, CASE_COLUMNS, "case"),
+                "activity": _column(header, settings.activity_key, ACTIVITY_COLUMNS, "activity"),
+                "timestamp": _column(
+                    header, settings.timestamp_key, TIMESTAMP_COLUMNS, "timestamp"
+                ),
+            }
+        except InputError as e:
+            raise InputError(f"{path}: {e}") from None
+        build = _Builder(path, keys, settings.lifecycle)
+        at = [header.index(keys[k]) for k in ("case", "activity", "timestamp")]
+        life = header.index(LIFECYCLE_KEY) if LIFECYCLE_KEY in header else None
+        try:
+            for row in rows:
+                if not any(cell.strip() for cell in row):
+                    continue  # a blank line
+                case, activity, stamp = (row[i].strip() if i < len(row) else "" for i in at)
+                phase = row[life] if life is not None and life < len(row) else None
+                build.event(case, activity, stamp, phase, f"line {rows.line_num}")
+        except csv.Error as e:
+            raise InputError(f"{path}: line {rows.line_num}: {e}") from None
+    return build.finish()
+
+
+# ---- splitting and writing
+
+
+def split_cases(ids: list[str], fractions: tuple[float, float, float], order: str, seed: int):
+    """case id -> train/val/test: by `fractions`, of cases drawn by `seed` (order 'random') or
+    the first cases of the file first (order 'file')."""
+    if order == "random":
+        return assign_splits(ids, fractions, seed)
+    bounds = np.round(np.cumsum(fractions) * len(ids)).astype(int)
+    return {
+        case: SPLITS[int(np.searchsorted(bounds, rank, side="right"))]
+        for rank, case in enumerate(ids)
+    }
+
+
+def cases_table(report: LogReport, split_of: dict[str, str], atoms: dict[str, str]) -> pa.Table:
+    """The artifact's columns, one row per case in file order."""
+    return pa.table(
+        {
+            "case_id": pa.array([c for c, _, _ in report.cases], pa.string()),
+            "activities": pa.array([a for _, a, _ in report.cases], pa.list_(pa.string())),
+            "atoms": pa.array(
+                [[atoms[x] for x in a] for _, a, _ in report.cases], pa.list_(pa.string())
+            ),
+            "timestamps": pa.array([t for _, _, t in report.cases], pa.list_(TIMESTAMP_TYPE)),
+            "split": pa.array([split_of[c] for c, _, _ in report.cases], pa.string()),
+        }
+    )
+
+
+def write_cases(report: LogReport, out: str | os.PathLike, settings: LogSettings) -> dict[str, str]:
+    """Split the cases and write the `cases` artifact atomically; the activity -> atom map."""
+    ids = [c for c, _, _ in report.cases]
+    split_of = split_cases(ids, settings.split, settings.split_order, settings.seed)
+    atoms = activity_atoms(a for _, acts, _ in report.cases for a in acts)
+    table = cases_table(report, split_of, atoms)
+    table = table.replace_schema_metadata({ATOMS_KEY.encode(): json.dumps(atoms).encode()})
+    params = {
+        **asdict(settings),
+        "keys": report.keys,
+        "skipped": report.skipped,
+        "skipped_examples": report.examples,
+        "reordered_cases": report.reordered,
+        "events": report.events,
+    }
+    inputs = describe_inputs([report.path])
+    write_artifact(table, out, kind=KIND, schema=SCHEMA_VERSION, params=params, inputs=inputs)
+    return atoms
+
+
+def read_cases(path: str | os.PathLike) -> Cases:
+    """A `cases` artifact's rows as Cases (file order), with its activity -> atom map."""
+    table, prov = read_artifact(path, KIND, SCHEMA_VERSION)
+    meta = table.schema.metadata or {}
+    try:
+        atoms = json.loads(meta[ATOMS_KEY.encode()])
+    except (KeyError, ValueError):
+        raise InputError(f"{path}: no activity -> atom map in its metadata") from None
+    columns = {name: table.column(name).to_pylist() for name in _COLUMNS}
+    cases = [
+        Case(case, tuple(acts), tuple(ats), tuple(times), split)
+        for case, acts, ats, times, split in zip(*columns.values(), strict=True)
+    ]
+    return Cases(cases, atoms, str(path), prov.params)
+
+
+_COLUMNS = ("case_id", "activities", "atoms", "timestamps", "split")
+
+
+def iter_sequences(cases: Cases, split: str | None = None) -> Iterator[tuple[str, ...]]:
+    """Each case's atoms, in file order (of one split, if given): the log as atom sequences."""
+    for case in cases.cases:
+        if split is None or case.split == split:
+            yield case.atoms
