@@ -1,0 +1,133 @@
+"""Di Francescomarino et al.'s a-priori formulas (BPM 2017) in tleaf's syntax.
+
+Their `formulas.tsv` has one row per (log, kind): the log's name, STRONG or WEAK, the formula in
+their LTL syntax — `[]` always, `<>` eventually, `/\\` and, `\\/` or, `->` implies, `!` not, `X`
+next, `U` until, atoms quoted activity ids such as `"8"` — and the prefix lengths they evaluate
+(from, to exclusive). `peer_formula` rewrites one formula token by token: `[]` -> `G`, `<>` ->
+`F`, `/\\` -> `&`, `\\/` -> `|`, and each quoted activity -> its atom by
+`data.activity_names.activity_atoms` (the map the event-log reader gives the same activities, so
+`"8"` becomes `a8`), or by a map the caller gives (a log's own, where names collide).
+
+**Finite traces.** They check a formula on a *completed* case, a finite sequence of activities;
+their formulas use only always, eventually, and, implies. Read as LTLf on that finite trace — `F`
+"at this step or a later one of the case", `G` "at this and every later step of the case" —
+they mean exactly what they say of the case: `[]("8" -> <>"6") /\\ <>"8"` holds when 8 occurs and
+every 8 is followed, within the case, by a 6. On a prefix of a running case the same formula is
+not yet decided; tleaf decides it on the completed case, as they do.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from tleaf_cli.data.activity_names import activity_atoms
+from tleaf_cli.errors import InputError
+
+_TOKEN = re.compile(r'\s*(?:"(?P<atom>[^"]*)"|(?P<op>\[\]|<>|/\\|\\/|->|<->|!|\(|\)|X|U))')
+_OPERATORS = {"[]": "G", "<>": "F", "/\\": "&", "\\/": "|", "->": "->", "<->": "<->"}
+_OPERATORS.update({"!": "!", "(": "(", ")": ")", "X": "X", "U": "U"})
+_UNARY = {"G", "F", "X", "!"}
+
+
+def peer_activities(text: str) -> list[str]:
+    """The activity ids a formula quotes, in order of appearance."""
+    return [m.group("atom") for m in _tokens(text)]
+
+
+def _tokens(text: str) -> list[re.Match]:
+    out, pos = [], 0
+    while text[pos:].strip():
+        m = _TOKEN.match(text, pos)
+        if m is None:
+            raise InputError(
+                f"formula '{text}': cannot read '{text[pos:].strip()[:20]}' at column {pos + 1}"
+            )
+        out.append(m)
+        pos = m.end()
+    return out
+
+
+def peer_formula(text: str, atoms: Mapping[str, str] | None = None) -> str:
+    """`text` (their syntax) in tleaf's syntax; activities become atoms by `atoms` (default:
+    `activity_atoms` of the activities the formula quotes). InputError for text it cannot read
+    or an activity `atoms` lacks."""
+    tokens = _tokens(text)
+    if atoms is None:
+        atoms = activity_atoms(m.group("atom") for m in tokens if m.group("atom") is not None)
+    out: list[str] = []
+    for m in tokens:
+        name = m.group("atom")
+        if name is not None:
+            if name not in atoms:
+                raise InputError(f"formula '{text}': activity \"{name}\" has no atom")
+            token = atoms[name]
+        else:
+            token = _OPERATORS[m.group("op")]
+        glued = out and (
+            out[-1] in ("(", "!") or token == ")" or (out[-1] in _UNARY and token == "(")
+        )
+        if out and not glued:
+            out.append(" ")
+        out.append(token)
+    return "".join(out)
+
+
+@dataclass(frozen=True)
+class PeerFormula:
+    """One row of their formulas.tsv, converted."""
+
+    log: str
+    kind: str  # STRONG or WEAK
+    original: str
+    formula: str  # tleaf's syntax
+    prefix_lengths: tuple[int, int] | None  # (from, to exclusive)
+
+    @property
+    def name(self) -> str:
+        """The rule's name in a `.ltl` file: `helpdesk.strong`."""
+        return f"{self.log}.{self.kind.lower()}"
+
+
+def read_peer_formulas(text: str, atoms: Mapping[str, str] | None = None) -> list[PeerFormula]:
+    """Every row of a formulas.tsv text (a header line first), converted; InputError naming the
+    line for a row with fewer than three columns, a bad log name or a formula it cannot read."""
+    out: list[PeerFormula] = []
+    lines = text.split("\n")
+    for lineno, raw in enumerate(lines[1:], start=2):
+        line = raw.rstrip("\r")
+        if not line.strip():
+            continue
+        cells = line.split("\t")
+        if len(cells) < 3:
+            raise InputError(f"line {lineno}: expected log, kind, formula separated by tabs")
+        log, kind, original = (c.strip() for c in cells[:3])
+        if not re.fullmatch(r"[A-Za-z0-9_-]+", log) or not re.fullmatch(r"[A-Za-z0-9_-]+", kind):
+            raise InputError(f"line {lineno}: log '{log}' or kind '{kind}' is not a name")
+        lengths = None
+        if len(cells) >= 5 and cells[3].strip().isdigit() and cells[4].strip().isdigit():
+            lengths = (int(cells[3]), int(cells[4]))
+        try:
+            formula = peer_formula(original, atoms)
+        except InputError as e:
+            raise InputError(f"line {lineno}: {e}") from None
+        out.append(PeerFormula(log, kind, original, formula, lengths))
+    names = [p.name for p in out]
+    repeated = {n for n in names if names.count(n) > 1}
+    if repeated:
+        raise InputError(f"(log, kind) {sorted(repeated)[0]} appears twice")
+    return out
+
+
+def peer_ltl_text(formulas: list[PeerFormula], header: list[str]) -> str:
+    """A `.ltl` file of the converted formulas: `header` as comments, then per row a comment
+    with their original text and prefix lengths, and the named rule."""
+    lines = [f"# {h}" for h in header]
+    for p in formulas:
+        lengths = ""
+        if p.prefix_lengths is not None:
+            lengths = f"; prefix lengths {p.prefix_lengths[0]} to {p.prefix_lengths[1] - 1}"
+        lines.append(f"# {p.original}{lengths}")
+        lines.append(f"{p.name}: {p.formula}")
+    return "\n".join(lines) + "\n"
