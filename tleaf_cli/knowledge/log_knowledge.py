@@ -1,0 +1,115 @@
+"""Knowledge for an event log, as files: Declare rules mined from a cases artifact's train split
+(`mine_log`, for `tleaf mine-declare`) and the peers' formulas.tsv as a `.ltl`
+(`convert_peer_file`, for `tleaf peer-formulas`).
+
+`mine_log` writes the knowledge base (`knowledge/declare.py`'s `.ltl`, with a header saying where
+it comes from, the settings, and which activity each atom names) and, beside it, a TSV with
+every rule's measures on the train split and its support on the test split: the share of test
+cases the rule holds on, i.e. how well the mined knowledge carries over to unseen cases.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from tleaf_cli.data.artifacts import write_text_atomic
+from tleaf_cli.data.event_logs import iter_sequences, read_cases
+from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.declare import Measured, declare_text, holding_shares, mine_declare
+from tleaf_cli.knowledge.peer_formulas import PeerFormula, peer_ltl_text, read_peer_formulas
+from tleaf_cli.settings.declare import DeclareSettings
+
+
+def support_table_path(kb: str | os.PathLike) -> Path:
+    """Where `mine_log` writes the rules' measures: beside the knowledge base, `.tsv`."""
+    return Path(kb).with_suffix(".tsv")
+
+
+@dataclass(frozen=True)
+class MinedLog:
+    """What `mine_log` found: the rules with their train measures and test support."""
+
+    rules: list[Measured]
+    test_support: list[float]  # per rule; nan without test cases
+    train_cases: int
+    test_cases: int
+    activities: int  # distinct activities in the train split
+
+
+def mine_log(
+    cases_path: str | os.PathLike, out: str | os.PathLike, settings: DeclareSettings
+) -> MinedLog:
+    """Mine Declare rules from the train split of the cases artifact `cases_path`, write them to
+    `out` (`.ltl`) and their measures to `support_table_path(out)`."""
+    settings.check()
+    cases = read_cases(cases_path)
+    train = list(iter_sequences(cases, "train"))
+    test = list(iter_sequences(cases, "test"))
+    if not train:
+        raise InputError(f"{cases_path}: no train cases to mine rules from")
+    mined = mine_declare(
+        train,
+        min_support=settings.min_support,
+        min_confidence=settings.min_confidence,
+        min_activated=settings.min_activated,
+        templates=settings.templates,
+    )
+    shares = holding_shares([m.constraint for m in mined], test)
+    named = {a for m in mined for a in m.constraint.activities}
+    activity_of = {atom: name for name, atom in cases.activity_atoms.items()}
+    header = [
+        f"Declare constraints mined by tleaf mine-declare from {Path(cases_path).name}: "
+        f"{len(mined)} rules from its {len(train)} train cases",
+        "settings: " + ", ".join(f"{k} {_shown(v)}" for k, v in vars(settings).items()),
+        "each rule: support (share of train cases it holds on); relational rules also confidence "
+        "(share of the cases that activate it) and activated cases",
+        *(f"atom {a} = activity {activity_of.get(a, a)!r}" for a in sorted(named)),
+        "",
+    ]
+    text = declare_text(mined, header)
+    rows = ["rule\tformula\ttrain_support\ttrain_confidence\ttrain_activated\ttest_support"]
+    for m, share in zip(mined, shares, strict=True):
+        rows.append(
+            f"{m.constraint.name}\t{m.constraint.formula}\t{m.support:.4f}\t{m.confidence:.4f}\t"
+            f"{m.activated}\t{share:.4f}"
+        )
+    write_text_atomic(out, text)
+    write_text_atomic(support_table_path(out), "\n".join(rows) + "\n")
+    activities = len({a for case in train for a in case})
+    return MinedLog(mined, shares, len(train), len(test), activities)
+
+
+def _shown(value: object) -> str:
+    return ",".join(map(str, value)) if isinstance(value, tuple) else str(value)
+
+
+def convert_peer_file(
+    tsv: str | os.PathLike, out: str | os.PathLike, cases_path: str | os.PathLike | None = None
+) -> list[PeerFormula]:
+    """Their formulas.tsv as a `.ltl` at `out`, one rule per (log, kind); activities become
+    atoms by the map of the cases artifact `cases_path` when given (the log's own), else by
+    `activity_atoms` of each formula's activities. InputError naming the line for a bad row."""
+    path = Path(tsv)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not UTF-8 text") from None
+    atoms = read_cases(cases_path).activity_atoms if cases_path is not None else None
+    try:
+        formulas = read_peer_formulas(text, atoms)
+    except InputError as e:
+        raise InputError(f"{path}: {e}") from None
+    if not formulas:
+        raise InputError(f"{path}: no formulas (a header line, then log, kind, formula rows)")
+    header = [
+        f"Di Francescomarino et al.'s a-priori formulas, from {path.name}, in tleaf's syntax",
+        "each rule: their formula as written, then <log>.<strong|weak>: the formula (LTLf on "
+        "the completed case)",
+        "",
+    ]
+    write_text_atomic(out, peer_ltl_text(formulas, header))
+    return formulas

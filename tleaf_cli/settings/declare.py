@@ -1,0 +1,67 @@
+"""Settings of `tleaf mine-declare` (`DeclareSettings`): which Declare templates are mined from an
+event log's training cases and how much evidence a rule needs. Pure Python: the command line
+builds the command's options from this module; the templates' meaning is in
+`knowledge/declare.py`."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from tleaf_cli.errors import SettingError
+from tleaf_cli.settings import check_values, setting
+
+# The Declare templates knowledge/declare.py knows (kept equal to its TEMPLATES by a test).
+DECLARE_TEMPLATES = (
+    "existence",
+    "absence",
+    "exactly_once",
+    "init",
+    "end",
+    "response",
+    "precedence",
+    "succession",
+    "chain_response",
+    "not_coexistence",
+)
+
+
+def templates(text: str) -> tuple[str, ...]:
+    """Template names as written on the command line ("init,end,response")."""
+    names = tuple(x.strip() for x in text.split(",") if x.strip())
+    unknown = [x for x in names if x not in DECLARE_TEMPLATES]
+    if not names or unknown:
+        raise SettingError(
+            "templates",
+            f"takes names among {', '.join(DECLARE_TEMPLATES)} separated by commas, not '{text}'",
+        )
+    return names
+
+
+@dataclass(frozen=True)
+class DeclareSettings:
+    """Every setting of a Declare mining run (written in the knowledge base's header)."""
+
+    min_support: float = setting(
+        0.9, "Share of the train cases a rule must hold on (vacuously too).", min=0.0
+    )
+    min_confidence: float = setting(
+        0.9,
+        "Share of the train cases that activate a relational rule (its first activity occurs; "
+        "for precedence its second) that must satisfy it.",
+        min=0.0,
+    )
+    min_activated: int = setting(
+        10, "Train cases that must activate a relational rule (fewer: trivially satisfied).", min=1
+    )
+    templates: tuple[str, ...] = setting(
+        DECLARE_TEMPLATES, "The templates to mine, separated by commas.", parse=templates
+    )
+
+    def check(self) -> None:
+        """SettingError for a share above 1 (the command line checks the lower bounds)."""
+        check_values(self)
+        for name in ("min_support", "min_confidence"):
+            if getattr(self, name) > 1:
+                raise SettingError(
+                    name, f"is a share of cases: at most 1, not {getattr(self, name)}"
+                )
