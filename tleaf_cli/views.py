@@ -143,5 +143,6 @@ def _dfa_brief(row: dict) -> dict:
 def _cell(value) -> str:
     if value is None:
         return "—"
-    text = value if isinstance(value, str) else json.dumps(value)
+    # default=str: a cases artifact's timestamps (datetime) as ISO text
+    text = value if isinstance(value, str) else json.dumps(value, default=str)
     return text if len(text) <= CELL_CHARS else text[: CELL_CHARS - 1] + "…"

@@ -27,8 +27,10 @@ import typer
 from tleaf_cli.settings import default_of, options
 from tleaf_cli.settings.action_recognition import TaskSettings
 from tleaf_cli.settings.data import CompileSettings, FormulaSettings, TraceSettings
+from tleaf_cli.settings.declare import DeclareSettings
 from tleaf_cli.settings.edge import EdgeSettings
 from tleaf_cli.settings.evaluation import EvalSettings, FigureSettings
+from tleaf_cli.settings.event_logs import LogSettings
 from tleaf_cli.settings.gail import GailSettings
 from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 from tleaf_cli.settings.knowledge import ExtractSettings
@@ -240,10 +242,12 @@ DEMOS = SettingsCommand(DemoSettings, "gen-demos")
 COMPILE = SettingsCommand(CompileSettings, "compile-dfa")
 FORMULAS = SettingsCommand(FormulaSettings, "gen-formulas")
 TRACES = SettingsCommand(TraceSettings, "gen-traces")
+READ_LOG = SettingsCommand(LogSettings, "read-log")
+DECLARE = SettingsCommand(DeclareSettings, "mine-declare")
 # kb-extract: what it extracts, and how it compiles the rule sets (one-hot DFAs)
 KB = SettingsCommand(ExtractSettings, "kb-extract", exclude=("alphabet",), also=(CompileSettings,))
 # the data stages (compile-dfa and the generators), then the trainers and evaluations
-DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES]
+DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, READ_LOG, DECLARE]
 SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, EVAL, FIGURE, DEMOS]
 
 

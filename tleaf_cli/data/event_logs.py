@@ -112,12 +112,13 @@ class LogReport:
             places.append(where)
 
     def skip_text(self) -> str:
-        """The skips in one phrase: '3 events without timestamp (case 7, line 12; ...)'."""
-        parts = [f"{self.reordered} cases sorted by time"] if self.reordered else []
+        """What was skipped or repaired, in one phrase: 'cases sorted by time: 2, events without
+        timestamp: 3 (case 7, line 12; ...)', or 'none'."""
+        parts = [f"cases sorted by time: {self.reordered}"] if self.reordered else []
         for kind, count in self.skipped.items():
-            places = "; ".join(self.examples.get(kind, []))
-            more = ", ..." if count > len(self.examples.get(kind, [])) else ""
-            parts.append(f"{count} {kind} ({places}{more})" if places else f"{count} {kind}")
+            places = self.examples.get(kind, [])
+            more = "; ..." if count > len(places) else ""
+            parts.append(f"{kind}: {count}" + (f" ({'; '.join(places)}{more})" if places else ""))
         return ", ".join(parts) or "none"
 
 

@@ -1,0 +1,110 @@
+"""Real event logs: read-log (an XES or CSV event log into a cases artifact), mine-declare (Declare
+rules from its train split) and peer-formulas (Di Francescomarino et al.'s formulas as a `.ltl`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from tleaf_cli import ui
+from tleaf_cli.cli.common import Quiet, exits, file_path, targets
+from tleaf_cli.cli.options import DECLARE, READ_LOG, with_settings
+from tleaf_cli.settings.declare import DeclareSettings
+from tleaf_cli.settings.event_logs import LogSettings
+
+
+@exits
+@with_settings(READ_LOG)
+def read_log(
+    log: Annotated[Path, typer.Argument(help="An event log: .xes, .xes.gz, .csv or .csv.gz.")],
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The cases.parquet to write.")
+    ] = Path("cases.parquet"),
+    quiet: Quiet = False,
+    **values,
+) -> None:
+    """Read an event log into a cases artifact: one row per case, activities in time order.
+
+    Cases without events, events without activity or timestamp, and unreadable timestamps are
+    skipped and counted (the first few named); events out of time order are sorted. A malformed
+    XML file or a truncated .gz exits 2 with nothing written.
+    """
+    from tleaf_cli.data.event_logs import read_log as read
+    from tleaf_cli.data.event_logs import write_cases
+
+    targets([log], [out])
+    settings = LogSettings(**values)
+    settings.check()
+    report = read(log, settings)
+    atoms = write_cases(report, out, settings)
+    keys = ", ".join(f"{k}: {v}" for k, v in report.keys.items())
+    ui.summary(
+        f"{out}: {len(report.cases)} cases, {report.events} events, {len(atoms)} activities "
+        f"({keys}); skipped or sorted: {report.skip_text()}",
+        quiet,
+    )
+
+
+@exits
+@with_settings(DECLARE)
+def mine_declare(
+    cases: Annotated[Path, typer.Argument(help="A cases artifact (tleaf read-log).")],
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", parser=file_path, help="The knowledge base (.ltl) to write."),
+    ] = Path("declare.ltl"),
+    quiet: Quiet = False,
+    **values,
+) -> None:
+    """Mine Declare constraints from the cases' train split into a knowledge base (.ltl).
+
+    One named rule per constraint (template.a[.b]), its support and confidence on the train
+    split in a comment; OUT with .tsv (beside it) gives each rule's support on the test split too.
+    """
+    from tleaf_cli.knowledge.log_knowledge import mine_log, support_table_path
+
+    targets([cases], [out, support_table_path(out)])
+    settings = DeclareSettings(**values)
+    settings.check()
+    found = mine_log(cases, out, settings)
+    shares = [s for s in found.test_support if s == s]  # nan: no test cases
+    test = (
+        f"; on the {found.test_cases} test cases each holds on "
+        f"{min(shares):.1%} to {max(shares):.1%} (mean {sum(shares) / len(shares):.1%})"
+        if shares
+        else "; no test cases"
+    )
+    ui.summary(
+        f"{out}: {len(found.rules)} rules from {found.train_cases} train cases, "
+        f"{found.activities} activities{test}; per rule: {support_table_path(out)}",
+        quiet,
+    )
+
+
+@exits
+def peer_formulas(
+    formulas: Annotated[
+        Path, typer.Argument(help="Their formulas.tsv: log, kind, formula, prefix lengths.")
+    ],
+    out: Annotated[
+        Path, typer.Option("--out", "-o", parser=file_path, help="The .ltl to write.")
+    ] = Path("formulas.ltl"),
+    cases: Annotated[
+        Path | None,
+        typer.Option(
+            "--cases",
+            help="A cases artifact whose activity -> atom map names the activities "
+            "(default: each formula's own activities' atoms).",
+        ),
+    ] = None,
+    quiet: Quiet = False,
+) -> None:
+    """Di Francescomarino et al.'s a-priori formulas in tleaf's syntax: one rule per (log, kind),
+    named <log>.<strong|weak>, their activities as the atoms read-log gives them."""
+    from tleaf_cli.knowledge.log_knowledge import convert_peer_file
+
+    targets([formulas, cases], [out])
+    converted = convert_peer_file(formulas, out, cases)
+    ui.summary(f"{out}: {len(converted)} formulas", quiet)
