@@ -119,6 +119,29 @@ def test_lifecycle_keeps_complete_events_unless_all(tmp_path: Path) -> None:
     report = read_log(log)
     assert report.cases[0][1] == ["A", "B"] and report.skipped == {LIFECYCLE: 1}
     assert read_log(log, LogSettings(lifecycle="all")).cases[0][1] == ["A", "A", "B"]
+    assert read_log(log, LogSettings(lifecycle="start")).cases[0][1] == ["A", "B"]
+
+
+def test_a_log_whose_lifecycle_holds_a_status_keeps_every_event(tmp_path: Path) -> None:
+    """BPI 2013 writes statuses there (Accepted, Queued, Completed): no event is 'complete', so
+    'auto' keeps them all rather than none."""
+    log = _write(
+        tmp_path / "l.xes",
+        _xes(
+            _trace(
+                "c1",
+                _event("A", "2020-01-01T00:00:00Z", "Accepted"),
+                _event("B", "2020-01-01T00:01:00Z", "Completed"),
+            ),
+            _trace("c2", _event("A", "2020-01-02T00:00:00Z", "Queued")),
+        ),
+    )
+    report = read_log(log)
+    assert [a for _, a, _ in report.cases] == [["A", "B"], ["A"]] and report.skipped == {}
+    with_complete = log.read_text().replace('value="Queued"', 'value="complete"')
+    report = read_log(_write(tmp_path / "m.xes", with_complete))
+    assert [a for _, a, _ in report.cases] == [["A"]]
+    assert report.skipped == {LIFECYCLE: 2, EMPTY_CASE: 1}
 
 
 def test_bad_events_and_empty_cases_are_skipped_counted_and_named(tmp_path: Path) -> None:

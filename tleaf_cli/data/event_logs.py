@@ -62,6 +62,8 @@ SCHEMA_VERSION = 1
 ATOMS_KEY = f"{PREFIX}activity_atoms"
 LOG_SUFFIXES = (".xes", ".xes.gz", ".csv", ".csv.gz")
 LIFECYCLE_KEY = "lifecycle:transition"
+AUTO = "auto"  # the lifecycle setting's default: 'complete' events where the log has any
+COMPLETE = "complete"
 EXAMPLES = 5  # places kept per kind of skip, for the report
 TIMESTAMP_TYPE = pa.timestamp("us", tz="UTC")
 _EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
@@ -195,17 +197,22 @@ class _Builder:
 
     def __init__(self, path: Path, keys: dict[str, str], lifecycle: str) -> None:
         self.report = LogReport(str(path), keys, [])
+        # None: keep every event; AUTO: decided in `finish`; else the transition kept
         self.lifecycle = None if lifecycle == "all" else lifecycle.lower()
-        self.events: dict[str, tuple[list[str], list[int]]] = {}
+        self.any_complete = False  # some event's transition is 'complete' (AUTO)
+        # case -> activities, µs times, and whether each event has a transition but not 'complete'
+        self.events: dict[str, tuple[list[str], list[int], list[bool]]] = {}
         self.seen: dict[str, str] = {}  # every case id met -> where it was first met
 
     def event(
         self, case: str | None, activity: str | None, stamp: str | None, life: str | None, at: str
     ) -> None:
         report = self.report
-        if self.lifecycle is not None and life is not None and life.lower() != self.lifecycle:
+        phase = None if life is None else life.strip().lower()
+        if self.lifecycle not in (None, AUTO) and phase is not None and phase != self.lifecycle:
             report.skipped[LIFECYCLE] = report.skipped.get(LIFECYCLE, 0) + 1
             return
+        self.any_complete |= phase == COMPLETE
         if not case:
             report.skip(NO_CASE_ID, at)
             return
@@ -221,9 +228,10 @@ class _Builder:
         if micros is None:
             report.skip(BAD_TIMESTAMP, f"{where}: '{stamp[:40]}'")
             return
-        activities, times = self.events.setdefault(case, ([], []))
+        activities, times, other = self.events.setdefault(case, ([], [], []))
         activities.append(activity)
         times.append(micros)
+        other.append(phase is not None and phase != COMPLETE)
 
     def case(self, case: str | None, at: str) -> None:
         """A case met (XES: a trace, even one without events)."""
@@ -232,10 +240,19 @@ class _Builder:
 
     def finish(self) -> LogReport:
         report = self.report
+        if self.lifecycle == AUTO and self.any_complete:  # a log with lifecycle: complete only
+            for case, (activities, times, other) in list(self.events.items()):
+                if any(other):
+                    report.skipped[LIFECYCLE] = report.skipped.get(LIFECYCLE, 0) + sum(other)
+                    keep = [i for i, o in enumerate(other) if not o]
+                    activities[:] = [activities[i] for i in keep]
+                    times[:] = [times[i] for i in keep]
+                    if not keep:
+                        del self.events[case]
         for case, at in self.seen.items():
             if case not in self.events:  # no event, or none kept
                 report.skip(EMPTY_CASE, f"case {case}, {at}")
-        for case, (activities, times) in self.events.items():
+        for case, (activities, times, _) in self.events.items():
             if any(b < a for a, b in itertools.pairwise(times)):
                 report.reordered += 1
                 order = sorted(range(len(times)), key=times.__getitem__)  # stable

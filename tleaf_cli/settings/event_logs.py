@@ -45,9 +45,10 @@ class LogSettings:
         auto=f"XES: {XES_TIMESTAMP_KEY}; CSV: the first of {', '.join(TIMESTAMP_COLUMNS)}",
     )
     lifecycle: str = setting(
-        "complete",
-        "Keep only events whose lifecycle:transition is this (events without one are kept); "
-        "'all' keeps every event.",
+        "auto",
+        "Which events count by their lifecycle:transition (events without one always do): "
+        "auto: only 'complete' ones if any event of the log is 'complete', else all (logs that "
+        "keep a status there); all: every event; another value: only events of that transition.",
     )
     split: tuple[float, float, float] = setting(
         (0.8, 0.1, 0.1),
