@@ -120,3 +120,83 @@ def test_bad_inputs_are_errors() -> None:
     with pytest.raises(InputError, match="unknown Declare template 'respond'"):
         mine_declare([["a"]], templates=["respond"])
     assert set(TEMPLATES) >= {"existence", "succession", "not_coexistence"}
+
+
+# ---- a log's knowledge, and the commands
+
+
+def _cases_artifact(tmp_path):
+    """A cases artifact of 30 cases, the first 20 train (file order), the last 10 test."""
+    from tleaf_cli.data.event_logs import read_log, write_cases
+    from tleaf_cli.settings.event_logs import LogSettings
+
+    rows = ["CaseID,ActivityID,CompleteTimestamp"]
+    for case in range(30):
+        acts = ["Open ticket", "Assign", "Resolve", "Close"]
+        if case % 10 == 9:
+            acts = ["Open ticket", "Resolve", "Close"]  # no assignment: 2 of 20 train, 1 of 10 test
+        rows += [f"{case},{a},2020-01-01 00:{case:02d}:{k:02d}" for k, a in enumerate(acts)]
+    log = tmp_path / "log.csv"
+    log.write_text("\n".join(rows) + "\n")
+    settings = LogSettings(split=(2 / 3, 0.0, 1 / 3), split_order="file")
+    write_cases(read_log(log, settings), tmp_path / "cases.parquet", settings)
+    return tmp_path / "cases.parquet"
+
+
+def test_mine_log_writes_the_rules_and_their_test_support(tmp_path) -> None:
+    from tleaf_cli.knowledge.log_knowledge import mine_log, support_table_path
+    from tleaf_cli.settings.declare import DeclareSettings
+
+    cases = _cases_artifact(tmp_path)
+    found = mine_log(cases, tmp_path / "kb.ltl", DeclareSettings(min_activated=1))
+    assert (found.train_cases, found.test_cases) == (20, 10)
+    rules = {r.formula_id: r.text for r in parse_ltl_text((tmp_path / "kb.ltl").read_text())}
+    assert rules["init.open_ticket"] == "open_ticket" and "end.close" in rules
+    assert "succession.assign.resolve" in rules  # support 0.9: 2 train cases lack assign
+    assert "precedence.assign.resolve" not in rules  # implied by the succession
+    table = support_table_path(tmp_path / "kb.ltl").read_text().splitlines()
+    assert table[0].split("\t")[-1] == "test_support"
+    by_rule = {row.split("\t")[0]: row.split("\t") for row in table[1:]}
+    assert list(by_rule) == list(rules)
+    # assign once: 18 of 20 train cases, 9 of 10 test cases (implies existence.assign)
+    assert (
+        by_rule["exactly_once.assign"][2] == "0.9000"
+        and by_rule["exactly_once.assign"][-1] == "0.9000"
+    )
+    assert "atom open_ticket = activity 'Open ticket'" in (tmp_path / "kb.ltl").read_text()
+
+
+def test_mine_declare_command(tmp_path, chain_cli) -> None:
+    cases = _cases_artifact(tmp_path)
+    out = tmp_path / "kb.ltl"
+    result = chain_cli("mine-declare", cases, "-o", out, "--templates", "init,end")
+    assert result.exit_code == 0, result.output
+    names = [r.formula_id for r in parse_ltl_text(out.read_text())]
+    assert names == ["init.open_ticket", "end.close"]
+    assert "2 rules" in result.output
+    bad = chain_cli("mine-declare", cases, "-o", tmp_path / "x.ltl", "--templates", "respond")
+    assert bad.exit_code == 2 and "--templates" in bad.output
+    assert not (tmp_path / "x.ltl").exists()
+    bad = chain_cli("mine-declare", cases, "-o", tmp_path / "x.ltl", "--min-support", "1.5")
+    assert bad.exit_code == 2 and "--min-support" in bad.output
+
+
+def test_peer_formulas_command(tmp_path, chain_cli) -> None:
+    tsv = tmp_path / "formulas.tsv"
+    tsv.write_text('log\tkind\tformula\tfrom\tto\nhelpdesk\tWEAK\t<>("8")\t2\t6\n')
+    result = chain_cli("peer-formulas", tsv, "-o", tmp_path / "f.ltl")
+    assert result.exit_code == 0, result.output
+    rules = parse_ltl_text((tmp_path / "f.ltl").read_text())
+    assert [(r.formula_id, r.text) for r in rules] == [("helpdesk.weak", "F(a8)")]
+    result = chain_cli("peer-formulas", tsv, "-o", tmp_path / "g.ltl", "--log", "bpi_11")
+    assert result.exit_code == 2 and "no formulas for log 'bpi_11'" in result.output
+    tsv.write_text('log\tkind\tformula\nhelpdesk\tWEAK\t<>("8") &&\n')
+    result = chain_cli("peer-formulas", tsv, "-o", tmp_path / "g.ltl")
+    assert result.exit_code == 2 and "line 2" in result.output
+    assert not (tmp_path / "g.ltl").exists()
+
+
+def test_the_settings_know_the_templates() -> None:
+    from tleaf_cli.settings.declare import DECLARE_TEMPLATES
+
+    assert DECLARE_TEMPLATES == TEMPLATES

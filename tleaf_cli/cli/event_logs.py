@@ -99,6 +99,9 @@ def peer_formulas(
             "(default: each formula's own activities' atoms).",
         ),
     ] = None,
+    log: Annotated[
+        str | None, typer.Option("--log", help="Only this log's rows (default: every row).")
+    ] = None,
     quiet: Quiet = False,
 ) -> None:
     """Di Francescomarino et al.'s a-priori formulas in tleaf's syntax: one rule per (log, kind),
@@ -106,5 +109,5 @@ def peer_formulas(
     from tleaf_cli.knowledge.log_knowledge import convert_peer_file
 
     targets([formulas, cases], [out])
-    converted = convert_peer_file(formulas, out, cases)
+    converted = convert_peer_file(formulas, out, cases, log)
     ui.summary(f"{out}: {len(converted)} formulas", quiet)

@@ -54,7 +54,7 @@ def mine_log(
         min_support=settings.min_support,
         min_confidence=settings.min_confidence,
         min_activated=settings.min_activated,
-        templates=settings.templates,
+        templates=settings.chosen_templates,
     )
     shares = holding_shares([m.constraint for m in mined], test)
     named = {a for m in mined for a in m.constraint.activities}
@@ -62,7 +62,9 @@ def mine_log(
     header = [
         f"Declare constraints mined by tleaf mine-declare from {Path(cases_path).name}: "
         f"{len(mined)} rules from its {len(train)} train cases",
-        "settings: " + ", ".join(f"{k} {_shown(v)}" for k, v in vars(settings).items()),
+        "settings: "
+        + ", ".join(f"{k} {_shown(v)}" for k, v in vars(settings).items() if k != "templates")
+        + f", templates {_shown(settings.chosen_templates)}",
         "each rule: support (share of train cases it holds on); relational rules also confidence "
         "(share of the cases that activate it) and activated cases",
         *(f"atom {a} = activity {activity_of.get(a, a)!r}" for a in sorted(named)),
@@ -86,11 +88,15 @@ def _shown(value: object) -> str:
 
 
 def convert_peer_file(
-    tsv: str | os.PathLike, out: str | os.PathLike, cases_path: str | os.PathLike | None = None
+    tsv: str | os.PathLike,
+    out: str | os.PathLike,
+    cases_path: str | os.PathLike | None = None,
+    log: str | None = None,
 ) -> list[PeerFormula]:
-    """Their formulas.tsv as a `.ltl` at `out`, one rule per (log, kind); activities become
-    atoms by the map of the cases artifact `cases_path` when given (the log's own), else by
-    `activity_atoms` of each formula's activities. InputError naming the line for a bad row."""
+    """Their formulas.tsv as a `.ltl` at `out`, one rule per (log, kind) (only `log`'s rows when
+    given); activities become atoms by the map of the cases artifact `cases_path` when given (the
+    log's own), else by `activity_atoms` of each formula's activities. InputError naming the line
+    for a bad row."""
     path = Path(tsv)
     try:
         text = path.read_text(encoding="utf-8-sig")
@@ -100,11 +106,12 @@ def convert_peer_file(
         raise InputError(f"{path}: not UTF-8 text") from None
     atoms = read_cases(cases_path).activity_atoms if cases_path is not None else None
     try:
-        formulas = read_peer_formulas(text, atoms)
+        formulas = read_peer_formulas(text, atoms, log)
     except InputError as e:
         raise InputError(f"{path}: {e}") from None
     if not formulas:
-        raise InputError(f"{path}: no formulas (a header line, then log, kind, formula rows)")
+        which = f" for log '{log}'" if log is not None else ""
+        raise InputError(f"{path}: no formulas{which} (a header, then log, kind, formula rows)")
     header = [
         f"Di Francescomarino et al.'s a-priori formulas, from {path.name}, in tleaf's syntax",
         "each rule: their formula as written, then <log>.<strong|weak>: the formula (LTLf on "

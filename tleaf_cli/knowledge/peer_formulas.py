@@ -90,9 +90,12 @@ class PeerFormula:
         return f"{self.log}.{self.kind.lower()}"
 
 
-def read_peer_formulas(text: str, atoms: Mapping[str, str] | None = None) -> list[PeerFormula]:
-    """Every row of a formulas.tsv text (a header line first), converted; InputError naming the
-    line for a row with fewer than three columns, a bad log name or a formula it cannot read."""
+def read_peer_formulas(
+    text: str, atoms: Mapping[str, str] | None = None, log: str | None = None
+) -> list[PeerFormula]:
+    """Every row of a formulas.tsv text (a header line first), converted (only `log`'s rows when
+    given); InputError naming the line for a row with fewer than three columns, a bad log name
+    or a formula it cannot read."""
     out: list[PeerFormula] = []
     lines = text.split("\n")
     for lineno, raw in enumerate(lines[1:], start=2):
@@ -102,9 +105,11 @@ def read_peer_formulas(text: str, atoms: Mapping[str, str] | None = None) -> lis
         cells = line.split("\t")
         if len(cells) < 3:
             raise InputError(f"line {lineno}: expected log, kind, formula separated by tabs")
-        log, kind, original = (c.strip() for c in cells[:3])
-        if not re.fullmatch(r"[A-Za-z0-9_-]+", log) or not re.fullmatch(r"[A-Za-z0-9_-]+", kind):
-            raise InputError(f"line {lineno}: log '{log}' or kind '{kind}' is not a name")
+        name, kind, original = (c.strip() for c in cells[:3])
+        if log is not None and name != log:
+            continue
+        if not re.fullmatch(r"[A-Za-z0-9_-]+", name) or not re.fullmatch(r"[A-Za-z0-9_-]+", kind):
+            raise InputError(f"line {lineno}: log '{name}' or kind '{kind}' is not a name")
         lengths = None
         if len(cells) >= 5 and cells[3].strip().isdigit() and cells[4].strip().isdigit():
             lengths = (int(cells[3]), int(cells[4]))
@@ -112,7 +117,7 @@ def read_peer_formulas(text: str, atoms: Mapping[str, str] | None = None) -> lis
             formula = peer_formula(original, atoms)
         except InputError as e:
             raise InputError(f"line {lineno}: {e}") from None
-        out.append(PeerFormula(log, kind, original, formula, lengths))
+        out.append(PeerFormula(name, kind, original, formula, lengths))
     names = [p.name for p in out]
     repeated = {n for n in names if names.count(n) > 1}
     if repeated:

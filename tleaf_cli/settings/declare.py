@@ -53,9 +53,18 @@ class DeclareSettings:
     min_activated: int = setting(
         10, "Train cases that must activate a relational rule (fewer: trivially satisfied).", min=1
     )
-    templates: tuple[str, ...] = setting(
-        DECLARE_TEMPLATES, "The templates to mine, separated by commas.", parse=templates
+    templates: tuple[str, ...] | None = setting(
+        None,
+        "The templates to mine, separated by commas: existence, absence, exactly_once, init, end, "
+        "response, precedence, succession, chain_response, not_coexistence.",
+        auto="all",
+        parse=templates,
     )
+
+    @property
+    def chosen_templates(self) -> tuple[str, ...]:
+        """The templates to mine (all when none were named)."""
+        return self.templates or DECLARE_TEMPLATES
 
     def check(self) -> None:
         """SettingError for a share above 1 (the command line checks the lower bounds)."""
