@@ -203,6 +203,7 @@ class _Builder:
         # case -> activities, µs times, and whether each event has a transition but not 'complete'
         self.events: dict[str, tuple[list[str], list[int], list[bool]]] = {}
         self.seen: dict[str, str] = {}  # every case id met -> where it was first met
+        self.names: dict[str, str] = {}  # each activity name once, shared by its events
 
     def event(
         self, case: str | None, activity: str | None, stamp: str | None, life: str | None, at: str
@@ -229,7 +230,7 @@ class _Builder:
             report.skip(BAD_TIMESTAMP, f"{where}: '{stamp[:40]}'")
             return
         activities, times, other = self.events.setdefault(case, ([], [], []))
-        activities.append(activity)
+        activities.append(self.names.setdefault(activity, activity))  # one str per name
         times.append(micros)
         other.append(phase is not None and phase != COMPLETE)
 
