@@ -275,3 +275,11 @@ def test_read_log_refuses_bad_split_text(tmp_path: Path) -> None:
     log = _write(tmp_path / "l.csv", "CaseID,ActivityID,CompleteTimestamp\n1,a,2020-01-01\n")
     result = tleaf("read-log", log, "-o", tmp_path / "c.parquet", "--split", "0.5,0.6")
     assert result.exit_code == 2 and "--split" in result.output, result.output
+
+
+def test_read_log_refuses_a_seed_that_file_order_would_ignore(tmp_path: Path) -> None:
+    log = _write(tmp_path / "l.csv", "CaseID,ActivityID,CompleteTimestamp\n1,a,2020-01-01\n")
+    out = tmp_path / "c.parquet"
+    result = tleaf("read-log", log, "-o", out, "--split-order", "file", "--seed", "3")
+    assert result.exit_code == 2 and "--seed" in result.output, result.output
+    assert not out.exists()

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from tleaf_cli import ui
-from tleaf_cli.cli.common import Quiet, exits, file_path, targets
+from tleaf_cli.cli.common import Quiet, exits, file_path, given_flags, refuse, targets
 from tleaf_cli.cli.options import DECLARE, READ_LOG, with_settings
 from tleaf_cli.settings.declare import DeclareSettings
 from tleaf_cli.settings.event_logs import LogSettings
@@ -18,6 +18,7 @@ from tleaf_cli.settings.event_logs import LogSettings
 @exits
 @with_settings(READ_LOG)
 def read_log(
+    ctx: typer.Context,
     log: Annotated[Path, typer.Argument(help="An event log: .xes, .xes.gz, .csv or .csv.gz.")],
     out: Annotated[
         Path, typer.Option("--out", "-o", parser=file_path, help="The cases.parquet to write.")
@@ -35,6 +36,10 @@ def read_log(
     from tleaf_cli.data.event_logs import write_cases
 
     targets([log], [out])
+    if values["split_order"] == "file":
+        refuse(
+            given_flags(ctx, "seed"), "only with --split-order random (file order draws nothing)"
+        )
     settings = LogSettings(**values)
     settings.check()
     report = read(log, settings)
