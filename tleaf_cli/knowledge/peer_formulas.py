@@ -128,7 +128,7 @@ def read_peer_formulas(
 def peer_ltl_text(formulas: list[PeerFormula], header: list[str]) -> str:
     """A `.ltl` file of the converted formulas: `header` as comments, then per row a comment
     with their original text and prefix lengths, and the named rule."""
-    lines = [f"# {h}" for h in header]
+    lines = [f"# {h}" if h else "#" for h in header]
     for p in formulas:
         lengths = ""
         if p.prefix_lengths is not None:
