@@ -4,7 +4,7 @@ learning-curve, choose-lambda and violations."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 import typer
 
@@ -15,6 +15,7 @@ from tleaf_cli.cli.common import (
     exits,
     file_path,
     given_flags,
+    preset_option,
     refuse,
     targets,
 )
@@ -22,7 +23,7 @@ from tleaf_cli.cli.options import TASK, given, setting_option, with_settings
 from tleaf_cli.settings.action_recognition import ReportSettings, TaskSettings
 
 ReportDecoding = setting_option(ReportSettings, "decode")  # whose figures eval's table shows
-TaskPreset = Literal[tuple(TaskSettings.PRESETS)]
+TaskPreset = preset_option(TaskSettings)
 DEFAULT_TASK_PRESET = TaskSettings.default_preset()
 
 
@@ -36,14 +37,7 @@ def train_task_action_recognition(
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
-    preset: Annotated[
-        TaskPreset,
-        typer.Option(
-            help="Settings to start from; options given on the command line override them. "
-            + "; ".join(f"{name}: {text}" for name, text in TaskSettings.PRESET_HELP.items())
-            + "."
-        ),
-    ] = DEFAULT_TASK_PRESET,
+    preset: TaskPreset = DEFAULT_TASK_PRESET,
     resume: Resume = False,
     quiet: Quiet = False,
     **values,

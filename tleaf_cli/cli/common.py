@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import os
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any, Literal
 
 import typer
 
@@ -30,6 +30,21 @@ def file_path(value: str | Path) -> Path:
 
 
 Quiet = Annotated[bool, typer.Option("--quiet", "-q", help="No progress bar or summary.")]
+
+
+def preset_option(cls: type) -> Any:
+    """The `--preset` option of a command whose settings class names presets (`cls.PRESETS`):
+    its choices and each preset's help from the class; its default is `cls.default_preset()`."""
+    return Annotated[
+        Literal[tuple(cls.PRESETS)],
+        typer.Option(
+            help="Settings to start from; options given on the command line override them. "
+            + "; ".join(f"{name}: {text}" for name, text in cls.PRESET_HELP.items())
+            + "."
+        ),
+    ]
+
+
 Jobs = Annotated[int, typer.Option("--jobs", "-j", min=1, help="Parallel worker processes.")]
 Cluster = Annotated[
     str | None,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 import typer
 
@@ -15,6 +15,7 @@ from tleaf_cli.cli.common import (
     cache_folder,
     exits,
     given_flags,
+    preset_option,
     refuse,
     targets,
 )
@@ -22,7 +23,7 @@ from tleaf_cli.cli.options import GAIL, given, with_settings
 from tleaf_cli.settings.data import CompileSettings
 from tleaf_cli.settings.gail import GailSettings
 
-GailPreset = Literal[tuple(GailSettings.PRESETS)]
+GailPreset = preset_option(GailSettings)
 DEFAULT_GAIL_PRESET = GailSettings.default_preset()
 
 
@@ -35,14 +36,7 @@ def train_task_cooking(
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
-    preset: Annotated[
-        GailPreset,
-        typer.Option(
-            help="Settings to start from; options given on the command line override them. "
-            + "; ".join(f"{name}: {text}" for name, text in GailSettings.PRESET_HELP.items())
-            + "."
-        ),
-    ] = DEFAULT_GAIL_PRESET,
+    preset: GailPreset = DEFAULT_GAIL_PRESET,
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
     quiet: Quiet = False,

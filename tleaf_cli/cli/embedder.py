@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated
 
 import typer
 
@@ -14,6 +14,7 @@ from tleaf_cli.cli.common import (
     epoch_printer,
     exits,
     file_path,
+    preset_option,
     refuse,
     targets,
 )
@@ -21,7 +22,7 @@ from tleaf_cli.cli.options import EDGE, META, flag, given, with_settings
 from tleaf_cli.settings.edge import EdgeSettings
 from tleaf_cli.settings.meta import MetaSettings
 
-MetaPreset = Literal[tuple(MetaSettings.PRESETS)]
+MetaPreset = preset_option(MetaSettings)
 DEFAULT_META_PRESET = MetaSettings.default_preset()
 
 
@@ -66,14 +67,7 @@ def train_meta(
     out: Annotated[Path, typer.Option("--out", "-o", help="Model directory to write.")] = Path(
         "meta_model"
     ),
-    preset: Annotated[
-        MetaPreset,
-        typer.Option(
-            help="Settings to start from; options given on the command line override them. "
-            + "; ".join(f"{name}: {text}" for name, text in MetaSettings.PRESET_HELP.items())
-            + "."
-        ),
-    ] = DEFAULT_META_PRESET,
+    preset: MetaPreset = DEFAULT_META_PRESET,
     resume: Resume = False,
     quiet: Quiet = False,
     **values,
