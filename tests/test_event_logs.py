@@ -203,6 +203,65 @@ def test_csv_columns_given_by_name_and_pm4py_defaults(tmp_path: Path) -> None:
         read_log(own, LogSettings(case_key="ticket", activity_key="nope"))
 
 
+def test_xes_traces_sharing_a_case_id_stay_apart_renamed_and_counted(tmp_path: Path) -> None:
+    # pm4py keeps two traces named c1 as two traces: merging them would interleave two runs
+    log = _write(
+        tmp_path / "dup.xes",
+        _xes(
+            _trace("c1", _event("A", "2020-01-01T00:00:00Z")),
+            _trace("c1#2", _event("B", "2020-01-02T00:00:00Z")),  # an id the renaming must skip
+            _trace("c1", _event("C", "2020-01-03T00:00:00Z")),
+            _trace("c1", _event("D", "2020-01-04T00:00:00Z")),
+            _trace("c2", _event("E", "2020-01-05T00:00:00Z")),
+        ),
+    )
+    report = read_log(log)
+    assert report.cases == [
+        ("c1", ["A"], [1577836800000000]),
+        ("c1#2", ["B"], [1577923200000000]),
+        ("c1#3", ["C"], [1578009600000000]),
+        ("c1#4", ["D"], [1578096000000000]),
+        ("c2", ["E"], [1578182400000000]),
+    ]
+    assert report.duplicates == ["c1", "c1"]
+    assert "duplicate case ids (kept apart as <id>#2, ...): 2 (c1, c1)" in report.skip_text()
+    out = tmp_path / "cases.parquet"
+    result = tleaf("read-log", log, "-o", out)
+    assert result.exit_code == 0 and "duplicate case ids" in result.output, result.output
+    assert read_provenance(out).params["duplicate_case_ids"] == {
+        "count": 2,
+        "examples": ["c1", "c1"],
+    }
+    assert len({c.case_id for c in read_cases(out).cases}) == 5
+
+
+def test_csv_rows_of_a_case_spread_over_the_file_are_merged_and_counted(tmp_path: Path) -> None:
+    text = (
+        "CaseID,ActivityID,CompleteTimestamp\n"
+        "a,1,2020-01-01\n"
+        "a,2,2020-01-02\n"
+        "b,1,2020-01-01\n"
+        "a,3,2020-01-03\n"  # a again after b
+        "c,1,2020-01-01\n"
+        "b,2,2020-01-02\n"  # b again after a and c
+        "b,3,2020-01-03\n"
+    )
+    log = _write(tmp_path / "spread.csv", text)
+    report = read_log(log)
+    assert [(c, a) for c, a, _ in report.cases] == [
+        ("a", ["1", "2", "3"]),
+        ("b", ["1", "2", "3"]),
+        ("c", ["1"]),
+    ]
+    assert report.spread == 2 and report.duplicates == []
+    assert "cases merged from rows spread over the file: 2" in report.skip_text()
+    out = tmp_path / "cases.parquet"
+    write_cases(report, out, LogSettings())
+    assert read_provenance(out).params["spread_cases"] == 2
+    contiguous = _write(tmp_path / "ok.csv", text.replace("a,3,", "b,0,").replace("c,1", "b,9"))
+    assert read_log(contiguous).spread == 0
+
+
 def test_split_order_file_takes_the_first_cases_for_training(tmp_path: Path) -> None:
     rows = "".join(f"{i},A,2020-01-01\n" for i in range(9))
     log = _write(tmp_path / "l.csv", "CaseID,ActivityID,CompleteTimestamp\n" + rows)

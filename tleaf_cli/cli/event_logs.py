@@ -29,8 +29,10 @@ def read_log(
     """Read an event log into a cases artifact: one row per case, activities in time order.
 
     Cases without events, events without activity or timestamp, and unreadable timestamps are
-    skipped and counted (the first few named); events out of time order are sorted. A malformed
-    XML file or a truncated .gz exits 2 with nothing written.
+    skipped and counted (the first few named); events out of time order are sorted. XES traces
+    that repeat a case id are kept apart as <id>#2, ... and counted; CSV rows of one case spread
+    over the file are merged and counted. A malformed XML file or a truncated .gz exits 2 with
+    nothing written.
     """
     from tleaf_cli.data.event_logs import read_log as read
     from tleaf_cli.data.event_logs import write_cases
@@ -47,7 +49,7 @@ def read_log(
     keys = ", ".join(f"{k}: {v}" for k, v in report.keys.items())
     ui.summary(
         f"{out}: {len(report.cases)} cases, {report.events} events, {len(atoms)} activities "
-        f"({keys}); skipped or sorted: {report.skip_text()}",
+        f"({keys}); skipped or repaired: {report.skip_text()}",
         quiet,
     )
 

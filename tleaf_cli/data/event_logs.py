@@ -23,6 +23,11 @@ Bad input: a case with no events is skipped and counted; events out of time orde
 or with a timestamp that is no ISO 8601 date, is skipped and counted with the first few places
 (case id and line) kept for the report; a malformed XML file or a truncated .gz is an InputError
 naming the file and, where known, the line. Nothing is written until the whole log is read.
+
+One case id twice: in XES two `<trace>` elements with one id are two cases (as pm4py keeps them),
+the later ones renamed `<id>#2`, `#3`, ... and counted as duplicate case ids, the first few named;
+in CSV rows of one case spread over the file are one case (exports often interleave cases), and
+the cases whose rows are not contiguous are counted.
 """
 
 from __future__ import annotations
@@ -75,6 +80,7 @@ BAD_TIMESTAMP = "events with an unreadable timestamp"
 NO_CASE_ID = "events without case id"
 EMPTY_CASE = "cases without events"
 LIFECYCLE = "events of another lifecycle transition"
+DUPLICATE_SUFFIX = "#"  # XES: the second trace named c1 is case c1#2
 
 
 @dataclass(frozen=True)
@@ -102,6 +108,8 @@ class LogReport:
     skipped: dict[str, int] = field(default_factory=dict)
     examples: dict[str, list[str]] = field(default_factory=dict)
     reordered: int = 0  # cases whose events were not in time order in the file (sorted)
+    duplicates: list[str] = field(default_factory=list)  # XES: ids of traces met again (renamed)
+    spread: int = 0  # CSV: cases whose rows are not contiguous in the file (merged)
 
     @property
     def events(self) -> int:
@@ -117,6 +125,14 @@ class LogReport:
         """What was skipped or repaired, in one phrase: 'cases sorted by time: 2, events without
         timestamp: 3 (case 7, line 12; ...)', or 'none'."""
         parts = [f"cases sorted by time: {self.reordered}"] if self.reordered else []
+        if self.duplicates:
+            more = ", ..." if len(self.duplicates) > EXAMPLES else ""
+            parts.append(
+                f"duplicate case ids (kept apart as <id>{DUPLICATE_SUFFIX}2, ...): "
+                f"{len(self.duplicates)} ({', '.join(self.duplicates[:EXAMPLES])}{more})"
+            )
+        if self.spread:
+            parts.append(f"cases merged from rows spread over the file: {self.spread}")
         for kind, count in self.skipped.items():
             places = self.examples.get(kind, [])
             more = "; ..." if count > len(places) else ""
@@ -239,6 +255,18 @@ class _Builder:
         if case:
             self.seen.setdefault(case, at)
 
+    def trace_id(self, case: str) -> str:
+        """An XES trace's case id: its own, or, for a trace whose id an earlier trace took,
+        the first free `<id>#2`, `<id>#3`, ... (counted: one id twice is a data error, and
+        merging two traces would interleave two runs of the process)."""
+        if case not in self.seen:
+            return case
+        self.report.duplicates.append(case)
+        n = 2
+        while f"{case}{DUPLICATE_SUFFIX}{n}" in self.seen:
+            n += 1
+        return f"{case}{DUPLICATE_SUFFIX}{n}"
+
     def finish(self) -> LogReport:
         report = self.report
         if self.lifecycle == AUTO and self.any_complete:  # a log with lifecycle: complete only
@@ -304,6 +332,7 @@ def _read_xes(path: Path, settings: LogSettings) -> LogReport:
                 for _, line in events:
                     build.report.skip(NO_CASE_ID, f"trace at line {trace_line}, line {line}")
                 return
+            case = build.trace_id(case)
             build.case(case, f"line {trace_line}")
             for attrs, line in events:
                 build.event(
@@ -365,15 +394,22 @@ def _read_csv(path: Path, settings: LogSettings) -> LogReport:
         build = _Builder(path, keys, settings.lifecycle)
         at = [header.index(keys[k]) for k in ("case", "activity", "timestamp")]
         life = header.index(LIFECYCLE_KEY) if LIFECYCLE_KEY in header else None
+        last, met, spread = None, set(), set()  # previous row's case; cases met; met again
         try:
             for row in rows:
                 if not any(cell.strip() for cell in row):
                     continue  # a blank line
                 case, activity, stamp = (row[i].strip() if i < len(row) else "" for i in at)
+                if case and case != last:
+                    if case in met:
+                        spread.add(case)
+                    met.add(case)
+                    last = case
                 phase = row[life] if life is not None and life < len(row) else None
                 build.event(case, activity, stamp, phase, f"line {rows.line_num}")
         except csv.Error as e:
             raise InputError(f"{path}: line {rows.line_num}: {e}") from None
+    build.report.spread = len(spread)
     return build.finish()
 
 
@@ -420,6 +456,11 @@ def write_cases(report: LogReport, out: str | os.PathLike, settings: LogSettings
         "skipped": report.skipped,
         "skipped_examples": report.examples,
         "reordered_cases": report.reordered,
+        "duplicate_case_ids": {
+            "count": len(report.duplicates),
+            "examples": report.duplicates[:EXAMPLES],
+        },
+        "spread_cases": report.spread,
         "events": report.events,
     }
     inputs = describe_inputs([report.path])
