@@ -342,3 +342,28 @@ def test_read_log_refuses_a_seed_that_file_order_would_ignore(tmp_path: Path) ->
     result = tleaf("read-log", log, "-o", out, "--split-order", "file", "--seed", "3")
     assert result.exit_code == 2 and "--seed" in result.output, result.output
     assert not out.exists()
+
+
+def test_inspect_stats_of_a_cases_artifact_gives_the_logs_figures(tmp_path: Path) -> None:
+    # lengths 1, 2, 3, 3 (median 2.5); variants: (A), (A, B), (A, B, C) twice -> 3
+    rows = [("1", "A"), ("2", "A"), ("2", "B"), ("3", "A"), ("3", "B"), ("3", "C")]
+    rows += [("4", "A"), ("4", "B"), ("4", "C")]
+    text = "CaseID,ActivityID,CompleteTimestamp\n" + "".join(
+        f"{case},{act},2020-01-0{i % 9 + 1}\n" for i, (case, act) in enumerate(rows)
+    )
+    log = _write(tmp_path / "l.csv", text)
+    out = tmp_path / "cases.parquet"
+    read = tleaf("read-log", log, "-o", out, "--split-order", "file", "--split", "0.5,0.25,0.25")
+    assert read.exit_code == 0, read.output
+    shown = tleaf("inspect", out, "--stats")
+    assert shown.exit_code == 0, shown.output
+    assert "no statistics" not in shown.output
+    assert "cases: train 2, val 1, test 1" in shown.output
+    assert "events: 9; activities: 3; variants: 3" in shown.output
+    assert "case length: min 1, median 2.5, max 3, mean 2.2" in shown.output
+    lines = [line for line in shown.output.splitlines() if "│" in line or "|" in line]
+    table = [[c.strip() for c in line.replace("│", "|").split("|")[1:-1]] for line in lines]
+    assert ["A", "4", "44.4%", "4", "100.0%"] in table
+    assert ["C", "2", "22.2%", "2", "50.0%"] in table
+    order = [row[0] for row in table if row and row[0] in ("A", "B", "C")]
+    assert order == ["A", "B", "C"]  # most frequent first

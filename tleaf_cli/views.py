@@ -15,10 +15,12 @@ from tleaf_cli import ui
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.dfa_table import KIND as DFA_KIND
 from tleaf_cli.data.dfa_table import read_dfas
+from tleaf_cli.data.event_logs import KIND as CASES_KIND
 from tleaf_cli.data.graphs import render_dot, row_to_dot
 from tleaf_cli.errors import InputError
 
 CELL_CHARS = 60
+TOP_ACTIVITIES = 10  # the most frequent activities a cases artifact's --stats lists
 
 
 def show_artifact(path: Path, limit: int = 10) -> None:
@@ -49,7 +51,8 @@ def show_artifact(path: Path, limit: int = 10) -> None:
 
 
 def show_stats(path: Path) -> None:
-    """Distributions: DFA sizes for a dfas.parquet; labels, sources, splits, lengths for traces."""
+    """Distributions: DFA sizes for a dfas.parquet; labels, sources, splits, lengths for traces;
+    splits, events, case lengths, variants and the most frequent activities for cases."""
     prov = read_provenance(path)
     with _reading(path):
         table = pq.read_table(path)
@@ -83,8 +86,45 @@ def show_stats(path: Path) -> None:
             ["length", "satisfying", "violating"],
             [[str(k), str(by_label[True][k]), str(by_label[False][k])] for k in keys],
         )
+    elif prov.kind == CASES_KIND:
+        _show_cases_stats(table)
     else:
         ui.text("(no statistics for this kind)")
+
+
+def _show_cases_stats(table: pa.Table) -> None:
+    """An event log's figures as process mining reports them: cases per split, events,
+    activities, variants (distinct activity sequences), case length min / median / max, and the
+    most frequent activities with their share of events and of cases."""
+    sequences = [tuple(a) for a in table.column("activities").to_pylist()]
+    splits = Counter(table.column("split").to_pylist())
+    ui.text("cases: " + ", ".join(f"{k} {splits.get(k, 0)}" for k in ("train", "val", "test")))
+    lengths = sorted(len(s) for s in sequences)
+    events = sum(lengths)
+    counts = Counter(a for s in sequences for a in s)
+    ui.text(f"events: {events}; activities: {len(counts)}; variants: {len(set(sequences))}")
+    if not lengths:
+        return
+    ui.text(
+        f"case length: min {lengths[0]}, median {_median(lengths):g}, max {lengths[-1]}, "
+        f"mean {events / len(lengths):.1f}"
+    )
+    in_cases = Counter(a for s in sequences for a in set(s))
+    top = counts.most_common(TOP_ACTIVITIES)
+    ui.table(
+        f"{len(top)} most frequent activities of {len(counts)}",
+        ["activity", "events", "share of events", "cases", "share of cases"],
+        [
+            [a, str(n), f"{n / events:.1%}", str(in_cases[a]), f"{in_cases[a] / len(lengths):.1%}"]
+            for a, n in top
+        ],
+    )
+
+
+def _median(ordered: list[int]) -> float:
+    """The median of sorted numbers (the mean of the middle two for an even count)."""
+    mid = len(ordered) // 2
+    return ordered[mid] if len(ordered) % 2 else (ordered[mid - 1] + ordered[mid]) / 2
 
 
 def show_dfa(path: Path, formula_id: str, dot: bool = False, draw: Path | None = None) -> None:

@@ -87,7 +87,12 @@ def inspect(
         int | None, typer.Option(min=0, help="How many first rows to show. \\[default: 10]")
     ] = None,
     stats: Annotated[
-        bool, typer.Option("--stats", help="Distributions: DFA sizes; trace labels and lengths.")
+        bool,
+        typer.Option(
+            "--stats",
+            help="Distributions: DFA sizes; trace labels and lengths; cases' splits, lengths, "
+            "activities.",
+        ),
     ] = False,
 ) -> None:
     """Show an artifact: kind, schema, provenance, row count, first rows; or one DFA with --id."""
