@@ -112,13 +112,18 @@ def test_written_file_reads_back_as_formulas(tmp_path: Path) -> None:
     assert "# atom rinse_rinse_the_rice = step s3 'Rinse-Rinse the rice'" in text
 
 
-def test_shared_text_shares_an_atom_and_drops_the_self_edge(tmp_path: Path) -> None:
+def test_steps_with_the_same_text_give_no_rule(tmp_path: Path) -> None:
+    # heat, stir, heat again, serve: "stir before the second heating" would read as "stir before
+    # the first", which every correct order breaks, so no edge touching a heating gives a rule
     data = {
-        "steps": {"0": "START", "1": "Heat-Heat it", "2": "Stir-Stir", "3": "Heat -Heat it"},
-        "edges": [[1, 2], [2, 3], [1, 3]],
+        "steps": {"1": "Heat-Heat it", "2": "Stir-Stir", "3": "Heat -Heat it", "4": "Serve-Serve"},
+        "edges": [[1, 2], [2, 3], [2, 4]],
     }
-    rules = graph_rules(read_task_graph(write_json(tmp_path, data)))
-    assert [r.name for r in rules] == ["rice.before.s1.s2", "rice.before.s2.s3"]
+    graph = read_task_graph(write_json(tmp_path, data))
+    rules = graph_rules(graph, at_most_once=True)
+    assert [r.name for r in rules] == ["rice.before.s2.s4", "rice.once.s2", "rice.once.s4"]
+    correct = [{graph.atoms[n]} for n in ("1", "2", "3", "4")]
+    assert all(satisfies(correct, parse(r.formula)) for r in rules)
 
 
 @pytest.mark.parametrize(
@@ -149,3 +154,23 @@ def test_bad_graphs_name_file_and_edge(tmp_path: Path, content, name: str, messa
     with pytest.raises(InputError) as e:
         read_task_graph(path)
     assert str(e.value).startswith(str(path)) and message in str(e.value)
+
+
+def test_cli_writes_compilable_rules_and_refuses_a_cycle(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    runner = CliRunner()
+    graph = write_json(tmp_path, TEA)
+    out = tmp_path / "kb.ltl"
+    result = runner.invoke(app, ["task-graph", str(graph), "-o", str(out), "--at-most-once"])
+    assert result.exit_code == 0, result.output
+    assert "7 rules from 1 graphs" in result.output
+    dfas = tmp_path / "dfas.parquet"
+    result = runner.invoke(app, ["compile-dfa", str(out), "--one-hot", "-o", str(dfas)])
+    assert result.exit_code == 0 and "7 of 7 formulas compiled" in result.output, result.output
+    bad = write_json(tmp_path, "a -> b\nb -> a\n", "bad.txt")
+    result = runner.invoke(app, ["task-graph", str(bad), "-o", str(tmp_path / "bad.ltl")])
+    assert result.exit_code == 2 and "a cycle: a -> b -> a" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "bad.ltl").exists()

@@ -9,8 +9,10 @@ A graph says which step must come before which. Two inputs are read:
 
 A step's atom is `step_atom(text)` (data/recordings.py): the same words, lower case, joined by _,
 so a recording's steps read by `read-recordings` name the same atoms. Two nodes with the same
-text (CaptainCook4D repeats a few, e.g. "Microwave for 1.5 minutes") share their atom: a
-recording cannot tell them apart. An edge between two such nodes says nothing and is skipped.
+text (CaptainCook4D repeats a few, e.g. "Microwave for 1.5 minutes" in dressedupmeatballs) share
+their atom, and a recording cannot tell them apart: an edge that touches such a node would speak
+of "the second microwaving" while the rule sees the first, so it gives no rule, nor does such a
+step get an at-most-once rule (the file's header counts them).
 
 **The rules** (names `<recipe>.<kind>.<steps>`, the recipe being the file's stem, the steps
 `s<id>` for JSON nodes and the atoms for an edge list):
@@ -33,6 +35,7 @@ from __future__ import annotations
 import json
 import os
 import re
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -168,16 +171,17 @@ def graph_rules(
     graph: TaskGraph, at_most_once: bool = False, last_step_ends: bool = False
 ) -> list[GraphRule]:
     """The graph's rules (see the module docstring), `before` rules in edge order, then `once`
-    in node order, then `ends`. An edge whose ends share an atom, or that repeats another edge's
-    atoms, gives no rule."""
+    in node order, then `ends`. An edge or step whose atom names two nodes (`shared_atoms`) gives
+    no rule, nor does an edge that repeats another edge's atoms."""
     r, text, atom = graph.recipe, graph.steps, graph.atoms
+    shared = shared_atoms(graph)
     rules: list[GraphRule] = []
     seen: set[tuple[str, str]] = set()
     for a, b in graph.edges:
         if START in (text[a], text[b]) or text[b] == END or text[a] == END:
             continue
         pair = (atom[a], atom[b])
-        if pair[0] == pair[1] or pair in seen:
+        if shared & set(pair) or pair in seen:
             continue
         seen.add(pair)
         rules.append(
@@ -190,7 +194,7 @@ def graph_rules(
     if at_most_once:
         done: set[str] = set()
         for n in graph.step_nodes():
-            if atom[n] not in done:
+            if atom[n] not in done and atom[n] not in shared:
                 done.add(atom[n])
                 rules.append(
                     GraphRule(
@@ -210,6 +214,12 @@ def graph_rules(
                 )
             )
     return rules
+
+
+def shared_atoms(graph: TaskGraph) -> set[str]:
+    """The atoms that name two or more steps of the graph (steps with the same text)."""
+    counts = Counter(graph.atoms[n] for n in graph.step_nodes())
+    return {a for a, n in counts.items() if n > 1}
 
 
 def _last_steps(graph: TaskGraph) -> list[str]:
@@ -257,7 +267,9 @@ def write_graph_knowledge(
         f"# options: {', '.join(chosen) or 'none'}",
     ]
     for graph, rules in done:
-        lines += ["", f"# recipe {graph.recipe}: {Path(graph.path).name}, {len(rules)} rules"]
+        shared = shared_atoms(graph)
+        note = f"; no rule on {len(shared)} atoms that name two steps" if shared else ""
+        lines += ["", f"# recipe {graph.recipe}: {Path(graph.path).name}, {len(rules)} rules{note}"]
         lines += [
             f"# atom {graph.atoms[n]} = step {graph.label[n]} {graph.steps[n]!r}"
             for n in graph.step_nodes()
