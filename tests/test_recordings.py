@@ -144,3 +144,16 @@ def test_an_atomic_write_leaves_nothing_on_failure(folder: Path, tmp_path: Path)
     with pytest.raises(InputError, match="no recordings to write"):
         write_recordings(report, out)
     assert not out.exists()
+
+
+def test_cli_summary_counts_splits_and_skips(folder: Path, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    out = tmp_path / "r.parquet"
+    args = ["read-recordings", str(folder), "--splits", str(tmp_path / "splits.json")]
+    result = CliRunner().invoke(app, [*args, "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "2 recordings (2 with errors; none 1, train 1)" in result.output
+    assert "1 steps without times" in result.output and out.exists()

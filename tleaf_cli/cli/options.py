@@ -35,6 +35,7 @@ from tleaf_cli.settings.gail import GailSettings
 from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 from tleaf_cli.settings.knowledge import ExtractSettings
 from tleaf_cli.settings.meta import MetaSettings
+from tleaf_cli.settings.procedures import TaskGraphSettings
 
 # The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
 FLAGS = {
@@ -244,10 +245,11 @@ FORMULAS = SettingsCommand(FormulaSettings, "gen-formulas")
 TRACES = SettingsCommand(TraceSettings, "gen-traces")
 READ_LOG = SettingsCommand(LogSettings, "read-log")
 DECLARE = SettingsCommand(DeclareSettings, "mine-declare")
+TASK_GRAPH = SettingsCommand(TaskGraphSettings, "task-graph")
 # kb-extract: what it extracts, and how it compiles the rule sets (one-hot DFAs)
 KB = SettingsCommand(ExtractSettings, "kb-extract", exclude=("alphabet",), also=(CompileSettings,))
 # the data stages (compile-dfa and the generators), then the trainers and evaluations
-DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, READ_LOG, DECLARE]
+DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, READ_LOG, DECLARE, TASK_GRAPH]
 SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, EVAL, FIGURE, DEMOS]
 
 

@@ -30,6 +30,7 @@ from tleaf_cli.cli.formatting import Command, Group
 from tleaf_cli.cli.generate import gen_activities, gen_demos, gen_formulas, gen_traces
 from tleaf_cli.cli.knowledge import cooking_kb, demos_kb, kb_extract
 from tleaf_cli.cli.model_checking import eval_model_checking, eval_table, eval_tsne
+from tleaf_cli.cli.procedures import read_recordings, task_graph
 
 app = typer.Typer(
     name="tleaf",
@@ -73,6 +74,8 @@ for name, function in {
     "read-log": read_log,
     "mine-declare": mine_declare,
     "peer-formulas": peer_formulas,
+    "task-graph": task_graph,
+    "read-recordings": read_recordings,
     "kb-extract": kb_extract,
     "train-edge": train_edge,
     "train-meta": train_meta,

@@ -1,0 +1,92 @@
+"""Real procedures: task-graph (a precedence graph, or a folder of them, into a knowledge base)
+and read-recordings (CaptainCook4D's annotations into a recordings artifact)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from tleaf_cli import ui
+from tleaf_cli.cli.common import Quiet, exits, file_path, targets
+from tleaf_cli.cli.options import TASK_GRAPH, with_settings
+from tleaf_cli.settings.procedures import TaskGraphSettings
+
+
+@exits
+@with_settings(TASK_GRAPH)
+def task_graph(
+    graph: Annotated[
+        Path,
+        typer.Argument(
+            help="A task graph (CaptainCook4D's .json, or a .txt edge list: 'a -> b' or 'a,b' a "
+            "line), or a folder of them."
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", parser=file_path, help="The knowledge base (.ltl) to write."),
+    ] = Path("task_graph.ltl"),
+    quiet: Quiet = False,
+    **values,
+) -> None:
+    """Turn a precedence graph into a knowledge base: an edge a -> b as (!b U a) | G !b.
+
+    A folder gives one .ltl with every graph's rules, named <recipe>.before.<a>.<b> (the recipe
+    is the file's stem). An unknown node in an edge, a cycle or a file that does not read exits 2
+    naming the file and the edge or line, with nothing written.
+    """
+    from tleaf_cli.knowledge.task_graphs import write_graph_knowledge
+
+    targets([graph], [out])
+    settings = TaskGraphSettings(**values)
+    settings.check()
+    done = write_graph_knowledge(graph, out, settings.at_most_once, settings.last_step_ends)
+    rules = sum(len(r) for _, r in done)
+    steps = sum(len(g.step_nodes()) for g, _ in done)
+    ui.summary(f"{out}: {rules} rules from {len(done)} graphs ({steps} steps)", quiet)
+
+
+@exits
+def read_recordings(
+    annotations: Annotated[
+        Path,
+        typer.Argument(
+            help="CaptainCook4D's annotation_json/ folder (complete_step_annotations.json, "
+            "error_annotations.json, activity_idx_step_idx.json)."
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", parser=file_path, help="The recordings.parquet to write."),
+    ] = Path("recordings.parquet"),
+    splits: Annotated[
+        Path | None,
+        typer.Option(
+            "--splits",
+            help="A split file {split: list of recording ids}, e.g. the dataset's recordings split "
+            "(default: every recording's split is 'none').",
+        ),
+    ] = None,
+    quiet: Quiet = False,
+) -> None:
+    """Read CaptainCook4D's annotations into a recordings artifact: one row per recording, its
+    steps in time order with their times, error flags and categories, and its split.
+
+    Steps without times or with an unknown step id, and recordings without steps, are skipped
+    and counted; a file that is not JSON exits 2 naming it, with nothing written.
+    """
+    from tleaf_cli.data.recordings import read_recordings as read
+    from tleaf_cli.data.recordings import write_recordings
+
+    targets([annotations, splits], [out])
+    report = read(annotations, splits)
+    write_recordings(report, out)
+    errors = sum(r["has_errors"] for r in report.rows)
+    per_split = ", ".join(f"{k} {n}" for k, n in report.split_counts().items())
+    ui.summary(
+        f"{out}: {len(report.rows)} recordings ({errors} with errors; {per_split}); "
+        f"skipped: {report.skip_text()}",
+        quiet,
+    )
