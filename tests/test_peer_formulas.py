@@ -81,5 +81,5 @@ def test_bad_rows_name_their_line() -> None:
 def test_one_logs_rows_keep_their_line_numbers() -> None:
     rows = read_peer_formulas(TSV, log="env_permit")
     assert [r.name for r in rows] == ["env_permit.strong"]
-    with pytest.raises(InputError, match='line 4: .*activity "5" has no atom'):
+    with pytest.raises(InputError, match=r'line 4: .*activity "5" has no atom'):
         read_peer_formulas(TSV, {"3": "a3"}, log="bpi_13_incidents")
