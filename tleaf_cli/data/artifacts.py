@@ -37,6 +37,24 @@ class Provenance:
     inputs: list[dict[str, str]]
 
 
+def read_text_file(path: str | os.PathLike) -> str:
+    """A user's text file as text: UTF-8, a byte-order mark at the start dropped (Notepad writes
+    one; read as text it would join the first line's first word). InputError naming the file
+    when it is missing or unreadable, or not UTF-8 (with the first bad byte)."""
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file") from None
+    except OSError as e:
+        raise InputError(f"{path}: cannot read ({e.strerror})") from None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:  # e.object is the data after the mark
+        byte = e.start + len(data) - len(e.object)
+        raise InputError(f"{path}: not UTF-8 text (byte {byte})") from None
+
+
 def file_sha256(path: str | os.PathLike) -> str:
     digest = hashlib.sha256()
     with open(path, "rb") as fh:

@@ -17,6 +17,7 @@ from pathlib import Path
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from tleaf_cli.data.artifacts import read_text_file
 from tleaf_cli.errors import InputError
 
 _NAMED = re.compile(r"^\s*([^\s:][^:]*?)\s*:(.*)$")
@@ -71,17 +72,7 @@ def read_formulas(path: str | Path) -> list[FormulaSource]:
         raise InputError(f"{path}: no such file")
     if path.suffix == ".parquet":
         return _read_parquet(path)
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise InputError(f"{path}: cannot read ({e.strerror})") from None
-    try:
-        # utf-8-sig: a byte-order mark at the start (Notepad writes one) is not text; read as
-        # UTF-8 it would join the first line's name and make it invalid.
-        text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as e:  # e.object is the data after the mark
-        byte = e.start + len(data) - len(e.object)
-        raise InputError(f"{path}: not UTF-8 text (byte {byte})") from None
+    text = read_text_file(path)
     return parse_ltl_text(text, str(path))
 
 

@@ -34,7 +34,7 @@ from typing import Any
 import pyarrow as pa
 
 from tleaf_cli.data.activity_names import activity_atom
-from tleaf_cli.data.artifacts import describe_inputs, read_artifact, write_artifact
+from tleaf_cli.data.artifacts import describe_inputs, read_artifact, read_text_file, write_artifact
 from tleaf_cli.errors import InputError
 
 KIND = "recordings"
@@ -88,12 +88,9 @@ class RecordingsReport:
 
 
 def _load(path: Path) -> Any:
+    text = read_text_file(path)
     try:
-        return json.loads(path.read_text(encoding="utf-8-sig"))
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not UTF-8 text") from None
+        return json.loads(text)
     except json.JSONDecodeError as e:
         raise InputError(f"{path}: not JSON (line {e.lineno}: {e.msg})") from None
 

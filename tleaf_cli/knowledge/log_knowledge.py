@@ -14,7 +14,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from tleaf_cli.data.artifacts import write_text_atomic
+from tleaf_cli.data.artifacts import read_text_file, write_text_atomic
 from tleaf_cli.data.event_logs import iter_sequences, read_cases
 from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge.declare import Measured, declare_text, holding_shares, mine_declare
@@ -98,12 +98,7 @@ def convert_peer_file(
     log's own), else by `activity_atoms` of each formula's activities. InputError naming the line
     for a bad row."""
     path = Path(tsv)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not UTF-8 text") from None
+    text = read_text_file(path)
     atoms = read_cases(cases_path).activity_atoms if cases_path is not None else None
     try:
         formulas = read_peer_formulas(text, atoms, log)

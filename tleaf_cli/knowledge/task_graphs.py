@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tleaf_cli.data.activity_names import activity_atoms
-from tleaf_cli.data.artifacts import write_text_atomic
+from tleaf_cli.data.artifacts import read_text_file, write_text_atomic
 from tleaf_cli.data.recordings import step_atom
 from tleaf_cli.errors import InputError
 
@@ -82,12 +82,7 @@ def recipe_name(path: str | os.PathLike) -> str:
 def read_task_graph(path: str | os.PathLike) -> TaskGraph:
     """A graph from CaptainCook4D's JSON (`.json`) or a plain edge list (any other suffix)."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not UTF-8 text") from None
+    text = read_text_file(path)
     graph = _from_json(path, text) if path.suffix.lower() == ".json" else _from_edges(path, text)
     _check_acyclic(graph)
     return graph
