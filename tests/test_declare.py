@@ -132,7 +132,8 @@ def test_bad_inputs_are_errors() -> None:
 
 def _cases_artifact(tmp_path):
     """A cases artifact of 30 cases, the first 20 train (file order), the last 10 test."""
-    from tleaf_cli.data.event_logs import read_log, write_cases
+    from tleaf_cli.data.event_logs import write_cases
+    from tleaf_cli.data.log_readers import read_log
     from tleaf_cli.settings.event_logs import LogSettings
 
     rows = ["CaseID,ActivityID,CompleteTimestamp"]

@@ -12,15 +12,14 @@ from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
 from tleaf_cli.data.artifacts import read_provenance
-from tleaf_cli.data.event_logs import (
+from tleaf_cli.data.event_logs import read_cases, write_cases
+from tleaf_cli.data.log_readers import (
     BAD_TIMESTAMP,
     EMPTY_CASE,
     LIFECYCLE,
     NO_ACTIVITY,
     NO_TIMESTAMP,
-    read_cases,
     read_log,
-    write_cases,
 )
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.event_logs import LogSettings

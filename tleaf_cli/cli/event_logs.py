@@ -34,8 +34,8 @@ def read_log(
     over the file are merged and counted. A malformed XML file or a truncated .gz exits 2 with
     nothing written.
     """
-    from tleaf_cli.data.event_logs import read_log as read
     from tleaf_cli.data.event_logs import write_cases
+    from tleaf_cli.data.log_readers import read_log as read
 
     targets([log], [out])
     if values["split_order"] == "file":
