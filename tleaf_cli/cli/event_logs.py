@@ -111,8 +111,10 @@ def peer_formulas(
     ] = None,
     quiet: Quiet = False,
 ) -> None:
-    """Di Francescomarino et al.'s a-priori formulas in tleaf's syntax: one rule per (log, kind),
-    named <log>.<strong|weak>, their activities as the atoms read-log gives them."""
+    """Write Di Francescomarino et al.'s a-priori formulas in tleaf's syntax (.ltl).
+
+    One rule per (log, kind), named <log>.<strong|weak>, their activities as the atoms read-log
+    gives them."""
     from tleaf_cli.knowledge.log_knowledge import convert_peer_file
 
     targets([formulas, cases], [out])

@@ -51,8 +51,10 @@ def kb_extract(
     quiet: Quiet = False,
     **values,
 ) -> None:
-    """Give every video the conjunction of the rules whose atoms all occur in it; compile each
-    distinct rule set once (one-hot DFAs).
+    """Give every video the rule set of the rules whose atoms all occur in it, compiled once.
+
+    A video's rule set is the conjunction of those rules; each distinct one is compiled once
+    (one-hot DFAs).
 
     Writes OUT/samples.parquet (video -> rule set) and OUT/dfas.parquet (one row per rule set).
     """

@@ -71,8 +71,10 @@ def read_recordings(
     ] = None,
     quiet: Quiet = False,
 ) -> None:
-    """Read CaptainCook4D's annotations into a recordings artifact: one row per recording, its
-    steps in time order with their times, error flags and categories, and its split.
+    """Read CaptainCook4D's annotations into a recordings artifact, one row per recording.
+
+    Each row: the recording's steps in time order with their times, error flags and categories,
+    and its split.
 
     Steps without times or with an unknown step id, and recordings without steps, are skipped
     and counted; a file that is not JSON exits 2 naming it, with nothing written.
