@@ -55,9 +55,6 @@ Cluster = Annotated[
         "needs tleaf\\[cluster]) instead of local processes; --jobs is then unused.",
     ),
 ]
-Seed = Annotated[int, typer.Option(help="Random seed; the same seed writes the same file.")]
-MinLen = Annotated[int, typer.Option(min=1, help="Shortest trace length.")]
-MaxLen = Annotated[int, typer.Option(min=1, help="Longest trace length.")]
 CacheDir = Annotated[
     Path | None,
     typer.Option(help="Compile cache \\[default: $TLEAF_CACHE_DIR or ~/.cache/tleaf]."),
@@ -88,9 +85,7 @@ def exits(func):
         try:
             return func(*args, **kwargs)
         except MissingSplitError as e:
-            ui.fatal(
-                f"{e}; draw them with one: tleaf gen-traces DFAS --split 0.8,0.1,0.1 -o TRACES"
-            )
+            ui.fatal(f"{e}; draw them with one: {SPLIT_FIX}")
             raise typer.Exit(e.exit_code) from None
         except SettingError as e:
             ui.fatal(f"{flag(e.setting)}: {e.args[0]}")

@@ -23,13 +23,12 @@ from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from typing import Any
 
-import numpy as np
 import pyarrow as pa
 
 from tleaf_cli.data.activity_names import activity_atoms
 from tleaf_cli.data.artifacts import PREFIX, describe_inputs, read_artifact, write_artifact
 from tleaf_cli.data.log_readers import EXAMPLES, LogReport
-from tleaf_cli.data.traces import SPLITS, assign_splits
+from tleaf_cli.data.traces import assign_splits, splits_in_order
 from tleaf_cli.errors import InputError
 from tleaf_cli.settings.event_logs import LogSettings
 
@@ -62,14 +61,6 @@ class Cases:
     path: str
     params: dict[str, Any] = field(default_factory=dict)
 
-    def split(self, name: str) -> list[Case]:
-        return [c for c in self.cases if c.split == name]
-
-    @property
-    def activities(self) -> tuple[str, ...]:
-        """The activity names, sorted."""
-        return tuple(sorted(self.activity_atoms))
-
 
 # ---- splitting and writing
 
@@ -79,11 +70,7 @@ def split_cases(ids: list[str], fractions: tuple[float, float, float], order: st
     the first cases of the file first (order 'file')."""
     if order == "random":
         return assign_splits(ids, fractions, seed)
-    bounds = np.round(np.cumsum(fractions) * len(ids)).astype(int)
-    return {
-        case: SPLITS[int(np.searchsorted(bounds, rank, side="right"))]
-        for rank, case in enumerate(ids)
-    }
+    return splits_in_order(ids, fractions)
 
 
 def cases_table(report: LogReport, split_of: dict[str, str], atoms: dict[str, str]) -> pa.Table:

@@ -197,11 +197,16 @@ def _formula_job(row: dict, index: int, settings: TraceSettings) -> tuple[list[d
 def assign_splits(ids: Sequence[str], fractions: tuple[float, float, float], seed: int) -> dict:
     """formula_id -> split, by formula (never one formula in two splits), deterministic."""
     order = np.random.default_rng([seed, 7919]).permutation(len(ids))
+    return splits_in_order([ids[i] for i in order], fractions)
+
+
+def splits_in_order(ids: Sequence[str], fractions: tuple[float, float, float]) -> dict:
+    """id -> split: the first `fractions[0]` of `ids` (in the order given) train, then val, test."""
     bounds = np.round(np.cumsum(fractions) * len(ids)).astype(int)
-    split_of = {}
-    for rank, i in enumerate(order):
-        split_of[ids[i]] = SPLITS[int(np.searchsorted(bounds, rank, side="right"))]
-    return split_of
+    return {
+        case: SPLITS[int(np.searchsorted(bounds, rank, side="right"))]
+        for rank, case in enumerate(ids)
+    }
 
 
 def generate_traces(

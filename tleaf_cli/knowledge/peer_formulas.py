@@ -31,11 +31,6 @@ _OPERATORS.update({"!": "!", "(": "(", ")": ")", "X": "X", "U": "U"})
 _UNARY = {"G", "F", "X", "!"}
 
 
-def peer_activities(text: str) -> list[str]:
-    """The activity ids a formula quotes, in order of appearance."""
-    return [m.group("atom") for m in _tokens(text)]
-
-
 def _tokens(text: str) -> list[re.Match]:
     out, pos = [], 0
     while text[pos:].strip():
