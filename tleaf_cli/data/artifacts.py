@@ -55,6 +55,15 @@ def read_text_file(path: str | os.PathLike) -> str:
         raise InputError(f"{path}: not UTF-8 text (byte {byte})") from None
 
 
+def read_json_file(path: str | os.PathLike) -> Any:
+    """A user's JSON file (`read_text_file`, then parsed); InputError naming the file and the
+    line for text that is not JSON."""
+    try:
+        return json.loads(read_text_file(path))
+    except json.JSONDecodeError as e:
+        raise InputError(f"{path}: not JSON (line {e.lineno}: {e.msg})") from None
+
+
 def file_sha256(path: str | os.PathLike) -> str:
     digest = hashlib.sha256()
     with open(path, "rb") as fh:

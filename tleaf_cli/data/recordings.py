@@ -23,7 +23,6 @@ split file's ids that no recording has. Steps are sorted by start time (ties kee
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from collections import Counter
@@ -34,7 +33,7 @@ from typing import Any
 import pyarrow as pa
 
 from tleaf_cli.data.activity_names import activity_atom
-from tleaf_cli.data.artifacts import describe_inputs, read_artifact, read_text_file, write_artifact
+from tleaf_cli.data.artifacts import describe_inputs, read_artifact, read_json_file, write_artifact
 from tleaf_cli.errors import InputError
 
 KIND = "recordings"
@@ -87,14 +86,6 @@ class RecordingsReport:
         return dict(sorted(Counter(r["split"] for r in self.rows).items()))
 
 
-def _load(path: Path) -> Any:
-    text = read_text_file(path)
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError as e:
-        raise InputError(f"{path}: not JSON (line {e.lineno}: {e.msg})") from None
-
-
 def _number(value: Any) -> float | None:
     if isinstance(value, bool) or not isinstance(value, int | float) or value != value:
         return None
@@ -104,7 +95,7 @@ def _number(value: Any) -> float | None:
 def read_splits(path: str | os.PathLike) -> dict[str, str]:
     """recording id -> split from a {split: [ids]} file; InputError for an id in two splits."""
     path = Path(path)
-    data = _load(path)
+    data = read_json_file(path)
     if not isinstance(data, dict) or not all(isinstance(v, list) for v in data.values()):
         raise InputError(f"{path}: expected an object {{split: [recording ids]}}")
     split_of: dict[str, str] = {}
@@ -144,18 +135,18 @@ def read_recordings(
         raise InputError(f"{folder}: not a folder (the dataset's annotation_json/)")
     report = RecordingsReport(str(folder))
     steps_path = folder / STEPS_FILE
-    data = _load(steps_path)
+    data = read_json_file(steps_path)
     if not isinstance(data, dict):
         raise InputError(f"{steps_path}: expected an object {{recording_id: recording}}")
     report.inputs.append(steps_path)
     tags: dict[tuple[str, int], list[str]] = {}
     is_error: dict[str, bool] = {}
     if (folder / ERRORS_FILE).exists():
-        tags, is_error = _step_errors(folder / ERRORS_FILE, _load(folder / ERRORS_FILE))
+        tags, is_error = _step_errors(folder / ERRORS_FILE, read_json_file(folder / ERRORS_FILE))
         report.inputs.append(folder / ERRORS_FILE)
     known: dict[str, set[int]] | None = None
     if (folder / RECIPE_STEPS_FILE).exists():
-        recipe_steps = _load(folder / RECIPE_STEPS_FILE)
+        recipe_steps = read_json_file(folder / RECIPE_STEPS_FILE)
         if not isinstance(recipe_steps, dict):
             raise InputError(f"{folder / RECIPE_STEPS_FILE}: expected {{activity_id: [step ids]}}")
         known = {str(k): {int(s) for s in v} for k, v in recipe_steps.items()}

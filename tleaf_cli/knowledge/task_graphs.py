@@ -32,15 +32,15 @@ naming the file and the edge or line.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from tleaf_cli.data.activity_names import activity_atoms
-from tleaf_cli.data.artifacts import read_text_file, write_text_atomic
+from tleaf_cli.data.artifacts import read_json_file, read_text_file, write_text_atomic
 from tleaf_cli.data.recordings import step_atom
 from tleaf_cli.errors import InputError
 
@@ -82,17 +82,15 @@ def recipe_name(path: str | os.PathLike) -> str:
 def read_task_graph(path: str | os.PathLike) -> TaskGraph:
     """A graph from CaptainCook4D's JSON (`.json`) or a plain edge list (any other suffix)."""
     path = Path(path)
-    text = read_text_file(path)
-    graph = _from_json(path, text) if path.suffix.lower() == ".json" else _from_edges(path, text)
+    if path.suffix.lower() == ".json":
+        graph = _from_json(path, read_json_file(path))
+    else:
+        graph = _from_edges(path, read_text_file(path))
     _check_acyclic(graph)
     return graph
 
 
-def _from_json(path: Path, text: str) -> TaskGraph:
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise InputError(f"{path}: not JSON (line {e.lineno}: {e.msg})") from None
+def _from_json(path: Path, data: Any) -> TaskGraph:
     if not isinstance(data, dict) or not isinstance(data.get("steps"), dict):
         raise InputError(f"{path}: expected an object with 'steps' {{id: text}} and 'edges'")
     edges_in = data.get("edges")
