@@ -43,6 +43,7 @@ from tleaf_cli.data.activity_names import activity_atoms
 from tleaf_cli.data.artifacts import read_json_file, read_text_file, write_text_atomic
 from tleaf_cli.data.recordings import step_atom
 from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.declare import Constraint
 
 START, END = "START", "END"
 GRAPH_SUFFIXES = (".json", ".txt")
@@ -180,7 +181,7 @@ def graph_rules(
         rules.append(
             GraphRule(
                 f"{r}.before.{graph.label[a]}.{graph.label[b]}",
-                f"(!{atom[b]} U {atom[a]}) | G !{atom[b]}",
+                Constraint("precedence", pair).formula,  # Declare's precedence
                 f"{text[a]!r} before {text[b]!r}",
             )
         )
