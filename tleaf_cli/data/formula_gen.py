@@ -4,6 +4,10 @@ Candidates of an exact syntax-tree size over an exact number of atoms (`random_f
 compiled in batches (through the compile stage, so `--jobs` and the cache apply) and kept only if
 their language is new and has both satisfying and violating traces at some length that
 `gen-traces` will use. Rejections are counted by reason.
+
+With `protocol="paper"` the candidates are spot randltl's and the filters the authors' (their
+text not drawn before, at most 20 states, at least 5 accepting paths, a rejected word within 40
+letters: `paper_protocol.py`); lengths and pairs then play no part.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from tleaf_cli.data.artifacts import write_text_atomic
 from tleaf_cli.data.compile_dfas import compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.formula_files import NAME_CHARS, FormulaSource, check_names, is_valid_name
+from tleaf_cli.data.paper_protocol import paper_reason, spot_formula
 from tleaf_cli.data.random_formulas import random_formula
 from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.dfa import DFA
@@ -96,6 +101,9 @@ def generate_formulas(
     )
     report = FormulaReport(kept=[])
     languages: set[bytes] = set()
+    paper = settings.protocol == "paper"
+    drawn_texts: set[str] = set()  # paper: spot's randltl never yields a text twice
+    judge_rng = np.random.default_rng([settings.seed, 1])
     max_draws = 50 * settings.n + 1000
     while len(report.kept) < settings.n and report.drawn < max_draws:
         # Draw about what the rejection rate so far says is needed, plus a margin.
@@ -103,7 +111,18 @@ def generate_formulas(
         rate = min((rejected + 1) / (report.drawn + 10), 0.9)
         missing = settings.n - len(report.kept)
         batch = min(int(missing / (1 - rate) * 1.1) + 16, max_draws - report.drawn)
-        texts = [random_formula(rng, atoms, settings.size) for _ in range(batch)]
+        if paper:
+            texts = []
+            for _ in range(batch):
+                text = spot_formula(rng, atoms, settings.size)
+                if text in drawn_texts:
+                    report.drawn += 1
+                    report.rejected["same text as an earlier draw"] += 1
+                    continue
+                drawn_texts.add(text)
+                texts.append(text)
+        else:
+            texts = [random_formula(rng, atoms, settings.size) for _ in range(batch)]
         sources = [
             FormulaSource(f"c{k}", t, "<generated>", f"draw {report.drawn + k}")
             for k, t in enumerate(texts)
@@ -117,6 +136,13 @@ def generate_formulas(
                 report.rejected["did not compile"] += 1
                 continue
             dfa = dfa_from_row(row)
+            if paper:
+                reason = paper_reason(dfa, judge_rng)
+                if reason is not None:
+                    report.rejected[reason] += 1
+                else:
+                    report.kept.append((f"{settings.prefix}{len(report.kept):05d}", text))
+                continue
             reason = judge(
                 dfa, settings.min_len, settings.max_len, settings.one_hot, settings.pairs
             )
@@ -145,6 +171,7 @@ def write_formula_file(report: FormulaReport, settings: FormulaSettings, out: st
         "max_len": settings.max_len,
         "pairs": settings.pairs,
         "one_hot": settings.one_hot,
+        "protocol": settings.protocol,
         "drawn": report.drawn,
         "kept": len(report.kept),
         "rejected": dict(report.rejected),

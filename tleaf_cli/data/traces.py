@@ -9,6 +9,7 @@ With `once_each`, traces instead read each of the formula's atoms exactly once
 (`logic.sampling.once_each_words`), for rule sets of labelled videos.
 A formula every trace satisfies (`true`) has no violating trace, so no pairs: it is skipped and
 counted (`TraceReport.always_true`), not reported as short.
+With `protocol="paper"`, traces are the authors' Table I traces instead (`paper_traces`).
 """
 
 from __future__ import annotations
@@ -27,6 +28,11 @@ from tleaf_cli.data.artifacts import (
     write_artifact,
 )
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
+from tleaf_cli.data.paper_protocol import (
+    accepting_paths,
+    paper_negative_words,
+    paper_positive_words,
+)
 from tleaf_cli.data.parallel import parallel_map
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.dfa import DFA
@@ -75,6 +81,8 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
     """K satisfying and K violating traces paired by length; fewer, with a reason, if impossible."""
     if settings.once_each:
         return once_each_traces(dfa, settings, rng)
+    if settings.protocol == "paper":
+        return paper_traces(dfa, rng)
     letters = one_hot_letters(dfa) if settings.one_hot else None
     sampler = WordSampler(dfa, settings.max_len, letters)
     acc, rej = sampler.counts(True), sampler.counts(False)
@@ -128,6 +136,24 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
             f"exist at {span}"
         )
     return FormulaTraces(words, labels, sources, shortfall)
+
+
+def paper_traces(dfa: DFA, rng: np.random.Generator) -> FormulaTraces:
+    """The authors' traces (data/paper_protocol.py): three draws of the letters of up to 10
+    simple accepting paths, each paired with a uniform rejected word of its length."""
+    paths = accepting_paths(dfa)
+    if not paths:
+        return FormulaTraces([], [], [], "no accepting path that visits no state twice")
+    positives = paper_positive_words(dfa, rng, paths)
+    negatives = paper_negative_words(dfa, rng, [len(w) for w in positives])
+    words, labels = [], []
+    for sat, neg in zip(positives, negatives, strict=True):
+        if neg is not None:
+            words += [sat, neg]
+            labels += [True, False]
+    missing = len(positives) - len(words) // 2
+    shortfall = f"{missing} paths' lengths have no rejected word" if missing else None
+    return FormulaTraces(words, labels, ["uniform"] * len(words), shortfall)
 
 
 def once_each_traces(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) -> FormulaTraces:

@@ -22,6 +22,9 @@ ALPHABETS = ("powerset", "one-hot")
 # How a formula becomes a DFA (logic/compile.py's ENGINES).
 ENGINES = ("auto", "progression", "mona")
 MAX_ATOMS = 26  # gen-formulas names its atoms a, b, c, ...
+# How synthetic formulas and their traces are drawn: tleaf's tiers, or the authors' Table I
+# protocol (data/paper_protocol.py).
+PROTOCOLS = ("tleaf", "paper")
 
 SEED_HELP = "Random seed; the same seed writes the same file."
 
@@ -98,6 +101,14 @@ class FormulaSettings:
         min=1,
     )
     one_hot: bool = setting(False, "Judge formulas on one-hot traces.")
+    protocol: str = setting(
+        "tleaf",
+        "tleaf: every atom in, every operator, kept if new in language with --pairs pairs at "
+        "--min-len..--max-len; paper: the authors' Table I data (spot randltl's tree of "
+        "--size over true false ! X F G & | U, atoms optional, new in text, at most 20 "
+        "states, at least 5 accepting paths, a rejected word within 40 letters).",
+        choices=PROTOCOLS,
+    )
     prefix: str = setting(
         "f", "Formula id prefix: ASCII letters, digits, _ . - (with --tier: the tier and a dash)."
     )
@@ -113,7 +124,7 @@ class FormulaSettings:
         are made, data/formula_gen.py)."""
         if not 1 <= self.atoms <= MAX_ATOMS:
             raise SettingError("atoms", f"must be 1..{MAX_ATOMS}, got {self.atoms}")
-        if self.size < 2 * self.atoms - 1:
+        if self.protocol == "tleaf" and self.size < 2 * self.atoms - 1:
             raise SettingError(
                 "size",
                 f"{self.size} cannot hold {self.atoms} distinct atoms "
@@ -144,6 +155,14 @@ class TraceSettings:
         "With --once-each: at most this many 'none' steps (other pairs of the video; more for "
         "per-ingredient rule sets).",
         min=0,
+    )
+    protocol: str = setting(
+        "tleaf",
+        "tleaf: K length-matched pairs as above; paper: the authors' Table I traces (up to 10 "
+        "simple accepting paths, each letter a random completion of a disjunct of its guard, "
+        "the set three times; each paired with a uniform rejected word of its length); "
+        "ignores --per-formula, --min-len, --max-len, --hard-fraction.",
+        choices=PROTOCOLS,
     )
     split: tuple[float, float, float] | None = setting(
         None,
