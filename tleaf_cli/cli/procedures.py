@@ -92,3 +92,50 @@ def read_recordings(
         f"skipped: {report.skip_text()}",
         quiet,
     )
+
+
+@exits
+def check_recordings(
+    recordings: Annotated[
+        Path, typer.Argument(help="A recordings artifact (read-recordings' recordings.parquet).")
+    ],
+    knowledge: Annotated[
+        Path,
+        typer.Argument(
+            help="The recipes' rules: a .ltl knowledge base from task-graph (rules named "
+            "<recipe>.<kind>...), or a folder of .ltl files."
+        ),
+    ],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Report folder.")] = Path(
+        "recording_checks"
+    ),
+    quiet: Quiet = False,
+) -> None:
+    """Check every recording against its recipe's rules, exactly (one DFA per rule).
+
+    Reports per recipe how many normal and error recordings break a rule, and which; how well
+    "breaks a rule" finds the recordings with errors (precision, recall, F1 against has_errors),
+    overall, per split and per kind of rule; and each error category's recall. Writes
+    metrics.json, report.md and checks.parquet (one row per recording: its broken rules).
+    """
+    from tleaf_cli.tasks.procedure_checks import (
+        CHECKS_FILE,
+        METRICS_FILE,
+        REPORT_FILE,
+        check_recordings_report,
+        report_tables,
+    )
+
+    files = [out / METRICS_FILE, out / REPORT_FILE, out / CHECKS_FILE]
+    targets([recordings, knowledge], files, [out])
+    report = check_recordings_report(recordings, knowledge, out)
+    if not quiet:
+        for title, columns, rows in report_tables(report):
+            ui.table(title, columns, rows)
+    d = report["detection"]["all"]
+    ui.summary(
+        f"{out}/metrics.json: {report['checked']} of {report['recordings']} recordings checked "
+        f"against {report['rules']} rules; breaks a rule: precision {d['precision'] or 0:.3f}, "
+        f"recall {d['recall'] or 0:.3f}",
+        quiet,
+    )

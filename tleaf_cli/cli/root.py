@@ -25,12 +25,12 @@ from tleaf_cli.cli.action_recognition import (
 from tleaf_cli.cli.compile import compile_dfa, inspect
 from tleaf_cli.cli.cooking import eval_cooking, train_task_cooking
 from tleaf_cli.cli.embedder import embed, train_edge, train_meta
-from tleaf_cli.cli.event_logs import mine_declare, peer_formulas, read_log
+from tleaf_cli.cli.event_logs import mine_declare, peer_formulas, read_log, split_cases
 from tleaf_cli.cli.formatting import Command, Group
 from tleaf_cli.cli.generate import gen_activities, gen_demos, gen_formulas, gen_traces
 from tleaf_cli.cli.knowledge import cooking_kb, demos_kb, kb_extract
 from tleaf_cli.cli.model_checking import eval_model_checking, eval_table, eval_tsne
-from tleaf_cli.cli.procedures import read_recordings, task_graph
+from tleaf_cli.cli.procedures import check_recordings, read_recordings, task_graph
 
 app = typer.Typer(
     name="tleaf",
@@ -72,10 +72,12 @@ for name, function in {
     "gen-traces": gen_traces,
     "gen-activities": gen_activities,
     "read-log": read_log,
+    "split-cases": split_cases,
     "mine-declare": mine_declare,
     "peer-formulas": peer_formulas,
     "task-graph": task_graph,
     "read-recordings": read_recordings,
+    "check-recordings": check_recordings,
     "kb-extract": kb_extract,
     "train-edge": train_edge,
     "train-meta": train_meta,
