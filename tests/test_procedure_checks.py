@@ -139,6 +139,13 @@ def test_summary_per_recipe_split_kind_and_category(files: tuple[Path, Path]) ->
     assert c["Missing Step"]["only_recordings"] == 0 and c["Missing Step"]["only_recall"] is None
     assert c["Measurement Error"]["recall"] == 0.0
     assert "Timing Error" not in c  # only on the unchecked recording
+    sequence = report["by_sequence_errors"]
+    assert sequence["Order Error or Missing Step"] == {
+        "recordings": 2,
+        "breaking": 2,
+        "recall": 1.0,
+    }
+    assert sequence["other errors only"] == {"recordings": 1, "breaking": 0, "recall": 0.0}
 
 
 def test_rule_kinds_once_and_ends(tmp_path: Path) -> None:

@@ -16,7 +16,9 @@ The report (`summarise`):
   when it breaks a rule of that kind);
 - per error category (the annotation's tags, e.g. Order Error, Missing Step): of the recordings
   that have it, how many break a rule (its recall), and the same on the recordings whose only
-  category it is, so a category's recall is not borrowed from another error in the recording.
+  category it is, so a category's recall is not borrowed from another error in the recording;
+  and the same on the error recordings with an Order Error or a Missing Step (the categories
+  about the steps' order and presence) against those with other errors only.
 
 A recording whose recipe has no rule is not checked (counted per recipe); rules of recipes that
 no recording has are counted. A rule without a recipe in its name, a formula file line with a
@@ -51,6 +53,8 @@ METRICS_FILE = "metrics.json"
 CHECKS_FILE = "checks.parquet"
 REPORT_FILE = "report.md"
 ALL = "all"
+# the error categories about which steps happen in which order: what precedence rules speak of
+SEQUENCE_CATEGORIES = ("Order Error", "Missing Step")
 
 
 @dataclass(frozen=True)
@@ -208,6 +212,13 @@ def summarise(checks: Sequence[dict[str, Any]], rules: dict[str, list[RecipeRule
     }
     categories = sorted({t for c in done for t in c["error_categories"]})
     by_category = {t: _category(done, t) for t in categories}
+    errors = [c for c in done if c["has_errors"]]
+    sequence = [c for c in errors if set(SEQUENCE_CATEGORIES) & set(c["error_categories"])]
+    others = [c for c in errors if c not in sequence]
+    by_sequence = {
+        " or ".join(SEQUENCE_CATEGORIES): _caught(sequence),
+        "other errors only": _caught(others),
+    }
     unchecked = Counter(c["recipe"] for c in checks if not c["checked"])
     return {
         "recordings": len(checks),
@@ -220,6 +231,7 @@ def summarise(checks: Sequence[dict[str, Any]], rules: dict[str, list[RecipeRule
         "detection": by_split,
         "detection_by_kind": by_kind,
         "by_category": by_category,
+        "by_sequence_errors": by_sequence,
         "by_recipe": [_recipe(done, r, rules[r]) for r in sorted({c["recipe"] for c in done})],
     }
 
@@ -236,6 +248,15 @@ def _category(done: Sequence[dict[str, Any]], tag: str) -> dict[str, Any]:
         "only_recordings": len(only),
         "only_breaking": caught_only,
         "only_recall": _ratio(caught_only, len(only)),
+    }
+
+
+def _caught(recordings: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    caught = sum(1 for c in recordings if c["broken_rules"])
+    return {
+        "recordings": len(recordings),
+        "breaking": caught,
+        "recall": _ratio(caught, len(recordings)),
     }
 
 
@@ -333,6 +354,10 @@ def report_tables(report: dict) -> list[Table]:
             _pct(c["only_recall"]),
         ]
         for tag, c in report["by_category"].items()
+    ]
+    categories += [
+        [name, f"{c['breaking']} / {c['recordings']}", _pct(c["recall"]), "", ""]
+        for name, c in report["by_sequence_errors"].items()
     ]
     return [
         (
