@@ -1,5 +1,6 @@
-"""Real event logs: read-log (an XES or CSV event log into a cases artifact), mine-declare (Declare
-rules from its train split) and peer-formulas (Di Francescomarino et al.'s formulas as a `.ltl`)."""
+"""Real event logs: read-log (an XES or CSV event log into a cases artifact), split-cases (its
+cases split anew by a published protocol), mine-declare (Declare rules from its train split) and
+peer-formulas (Di Francescomarino et al.'s formulas as a `.ltl`)."""
 
 from __future__ import annotations
 
@@ -10,9 +11,9 @@ import typer
 
 from tleaf_cli import ui
 from tleaf_cli.cli.common import Quiet, exits, file_path, given_flags, refuse, targets
-from tleaf_cli.cli.options import DECLARE, READ_LOG, with_settings
+from tleaf_cli.cli.options import DECLARE, READ_LOG, SPLIT_CASES, with_settings
 from tleaf_cli.settings.declare import DeclareSettings
-from tleaf_cli.settings.event_logs import LogSettings
+from tleaf_cli.settings.event_logs import FoldSettings, LogSettings
 
 
 @exits
@@ -50,6 +51,46 @@ def read_log(
     ui.summary(
         f"{out}: {len(report.cases)} cases, {report.events} events, {len(atoms)} activities "
         f"({keys}); skipped or repaired: {report.skip_text()}",
+        quiet,
+    )
+
+
+@exits
+@with_settings(SPLIT_CASES)
+def split_cases(
+    ctx: typer.Context,
+    cases: Annotated[Path, typer.Argument(help="A cases artifact (tleaf read-log).")],
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", parser=file_path, help="The cases.parquet to write."),
+    ],
+    quiet: Quiet = False,
+    **values,
+) -> None:
+    """Split a cases artifact anew: one fold of k-fold cross-validation, or Tax et al.'s thirds.
+
+    The same cases, activities and timestamps, only the split changed: kfold (Rama-Maneiro et
+    al.) holds out fold --fold of --folds as test and takes the last --val of its training cases
+    as validation; thirds trains on the first two thirds of the cases in file order.
+    """
+    from tleaf_cli.data.case_folds import split_anew
+
+    if values["protocol"] == "thirds":
+        refuse(
+            given_flags(ctx, "folds", "fold", "seed", "case_order"),
+            "only with --protocol kfold (thirds draws nothing)",
+        )
+    settings = FoldSettings(**values)
+    settings.check()
+    counts = split_anew(cases, out, settings)
+    what = (
+        f"fold {settings.fold} of {settings.folds}"
+        if settings.protocol == "kfold"
+        else "the first two thirds train"
+    )
+    ui.summary(
+        f"{out}: {sum(counts.values())} cases, {what}: "
+        + ", ".join(f"{counts[s]} {s}" for s in ("train", "val", "test")),
         quiet,
     )
 

@@ -30,7 +30,7 @@ from tleaf_cli.settings.data import CompileSettings, FormulaSettings, TraceSetti
 from tleaf_cli.settings.declare import DeclareSettings
 from tleaf_cli.settings.edge import EdgeSettings
 from tleaf_cli.settings.evaluation import EvalSettings, FigureSettings
-from tleaf_cli.settings.event_logs import LogSettings
+from tleaf_cli.settings.event_logs import FoldSettings, LogSettings
 from tleaf_cli.settings.gail import GailSettings
 from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 from tleaf_cli.settings.knowledge import ExtractSettings
@@ -244,12 +244,14 @@ COMPILE = SettingsCommand(CompileSettings, "compile-dfa")
 FORMULAS = SettingsCommand(FormulaSettings, "gen-formulas")
 TRACES = SettingsCommand(TraceSettings, "gen-traces")
 READ_LOG = SettingsCommand(LogSettings, "read-log")
+SPLIT_CASES = SettingsCommand(FoldSettings, "split-cases")
 DECLARE = SettingsCommand(DeclareSettings, "mine-declare")
 TASK_GRAPH = SettingsCommand(TaskGraphSettings, "task-graph")
 # kb-extract: what it extracts, and how it compiles the rule sets (one-hot DFAs)
 KB = SettingsCommand(ExtractSettings, "kb-extract", exclude=("alphabet",), also=(CompileSettings,))
 # the data stages (compile-dfa and the generators), then the trainers and evaluations
-DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, READ_LOG, DECLARE, TASK_GRAPH]
+LOG_COMMANDS = [READ_LOG, SPLIT_CASES, DECLARE]  # the event-log stages
+DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, *LOG_COMMANDS, TASK_GRAPH]
 SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, EVAL, FIGURE, DEMOS]
 
 

@@ -25,7 +25,7 @@ from tleaf_cli.cli.action_recognition import (
 from tleaf_cli.cli.compile import compile_dfa, inspect
 from tleaf_cli.cli.cooking import eval_cooking, train_task_cooking
 from tleaf_cli.cli.embedder import embed, train_edge, train_meta
-from tleaf_cli.cli.event_logs import mine_declare, peer_formulas, read_log
+from tleaf_cli.cli.event_logs import mine_declare, peer_formulas, read_log, split_cases
 from tleaf_cli.cli.formatting import Command, Group
 from tleaf_cli.cli.generate import gen_activities, gen_demos, gen_formulas, gen_traces
 from tleaf_cli.cli.knowledge import cooking_kb, demos_kb, kb_extract
@@ -72,6 +72,7 @@ for name, function in {
     "gen-traces": gen_traces,
     "gen-activities": gen_activities,
     "read-log": read_log,
+    "split-cases": split_cases,
     "mine-declare": mine_declare,
     "peer-formulas": peer_formulas,
     "task-graph": task_graph,

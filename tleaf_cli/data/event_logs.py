@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from typing import Any
@@ -36,6 +36,8 @@ KIND = "cases"
 SCHEMA_VERSION = 1
 ATOMS_KEY = f"{PREFIX}activity_atoms"
 TIMESTAMP_TYPE = pa.timestamp("us", tz="UTC")
+# A case as written: id, activities, timestamps (µs since 1970 UTC, or UTC datetimes)
+Row = tuple[str, Sequence[str], Sequence[int] | Sequence[datetime]]
 
 
 @dataclass(frozen=True)
@@ -73,17 +75,15 @@ def split_cases(ids: list[str], fractions: tuple[float, float, float], order: st
     return splits_in_order(ids, fractions)
 
 
-def cases_table(report: LogReport, split_of: dict[str, str], atoms: dict[str, str]) -> pa.Table:
-    """The artifact's columns, one row per case in file order."""
+def cases_table(rows: list[Row], split_of: dict[str, str], atoms: dict[str, str]) -> pa.Table:
+    """The artifact's columns, one row per case in the order given."""
     return pa.table(
         {
-            "case_id": pa.array([c for c, _, _ in report.cases], pa.string()),
-            "activities": pa.array([a for _, a, _ in report.cases], pa.list_(pa.string())),
-            "atoms": pa.array(
-                [[atoms[x] for x in a] for _, a, _ in report.cases], pa.list_(pa.string())
-            ),
-            "timestamps": pa.array([t for _, _, t in report.cases], pa.list_(TIMESTAMP_TYPE)),
-            "split": pa.array([split_of[c] for c, _, _ in report.cases], pa.string()),
+            "case_id": pa.array([c for c, _, _ in rows], pa.string()),
+            "activities": pa.array([a for _, a, _ in rows], pa.list_(pa.string())),
+            "atoms": pa.array([[atoms[x] for x in a] for _, a, _ in rows], pa.list_(pa.string())),
+            "timestamps": pa.array([t for _, _, t in rows], pa.list_(TIMESTAMP_TYPE)),
+            "split": pa.array([split_of[c] for c, _, _ in rows], pa.string()),
         }
     )
 
@@ -93,8 +93,6 @@ def write_cases(report: LogReport, out: str | os.PathLike, settings: LogSettings
     ids = [c for c, _, _ in report.cases]
     split_of = split_cases(ids, settings.split, settings.split_order, settings.seed)
     atoms = activity_atoms(a for _, acts, _ in report.cases for a in acts)
-    table = cases_table(report, split_of, atoms)
-    table = table.replace_schema_metadata({ATOMS_KEY.encode(): json.dumps(atoms).encode()})
     params = {
         **asdict(settings),
         "keys": report.keys,
@@ -108,9 +106,24 @@ def write_cases(report: LogReport, out: str | os.PathLike, settings: LogSettings
         "spread_cases": report.spread,
         "events": report.events,
     }
-    inputs = describe_inputs([report.path])
-    write_artifact(table, out, kind=KIND, schema=SCHEMA_VERSION, params=params, inputs=inputs)
+    write_case_rows(report.cases, split_of, atoms, out, params, describe_inputs([report.path]))
     return atoms
+
+
+def write_case_rows(
+    rows: list[Row],
+    split_of: dict[str, str],
+    atoms: dict[str, str],
+    out: str | os.PathLike,
+    params: dict[str, Any],
+    inputs: list[dict[str, str]],
+) -> None:
+    """Write cases (id, activities, timestamps) with their splits, their activity -> atom map and
+    provenance as the `cases` artifact, atomically: the one writer of the artifact, for a log
+    read (`write_cases`) and for a cases artifact split anew (data/case_folds.py)."""
+    table = cases_table(rows, split_of, atoms)
+    table = table.replace_schema_metadata({ATOMS_KEY.encode(): json.dumps(atoms).encode()})
+    write_artifact(table, out, kind=KIND, schema=SCHEMA_VERSION, params=params, inputs=inputs)
 
 
 def read_cases(path: str | os.PathLike) -> Cases:

@@ -58,7 +58,7 @@ class LogSettings:
     split_order: str = setting(
         "random",
         "random: cases drawn by --seed; file: the first fractions of cases in file order "
-        "(the protocol of suffix-prediction papers: the first 2/3 train).",
+        "(the published protocols' exact splits: tleaf split-cases).",
         choices=SPLIT_ORDERS,
     )
     seed: int = setting(0, SEED_HELP)
@@ -72,3 +72,55 @@ class LogSettings:
         for name in ("case_key", "activity_key", "timestamp_key", "lifecycle"):
             if getattr(self, name) == "":
                 raise SettingError(name, "must not be empty")
+
+
+# split-cases: the protocols, and the orders k-fold cross-validation may take the cases in.
+FOLD_PROTOCOLS = ("kfold", "thirds")
+CASE_ORDERS = ("id", "file")
+
+
+@dataclass(frozen=True)
+class FoldSettings:
+    """How `split-cases` splits a cases artifact anew: one fold of k-fold cross-validation over
+    its case ids (Rama-Maneiro et al.'s protocol), or the first two thirds of its cases against
+    the last (Tax et al.'s and Di Francescomarino et al.'s)."""
+
+    protocol: str = setting(
+        "kfold",
+        "kfold: the cases --fold of --folds held out as test (scikit-learn's KFold, shuffled by "
+        "--seed); thirds: the last third of the cases in file order test, as Tax et al.'s code "
+        "counts it (2 * round((cases + 1) / 3) cases before it).",
+        choices=FOLD_PROTOCOLS,
+    )
+    folds: int = setting(5, "Folds of the cross-validation (kfold).", min=2)
+    fold: int | None = setting(
+        None,
+        "The fold whose cases are the test split: 0 to --folds minus 1, in KFold's order (kfold).",
+        min=0,
+        auto="required with kfold",
+    )
+    seed: int = setting(42, "KFold's random_state: the same seed gives the same folds (kfold).")
+    val: float = setting(
+        0.2,
+        "Share of the training cases that is validation: the last ones, in --case-order (kfold) "
+        "or file order (thirds).",
+        min=0,
+    )
+    case_order: str = setting(
+        "id",
+        "The order KFold takes the cases in (kfold): id: by case id, as integers where every id "
+        "is one (Rama-Maneiro et al.'s code sorts the ids); file: as the artifact holds them.",
+        choices=CASE_ORDERS,
+    )
+
+    def check(self) -> None:
+        check_values(self)
+        if not 0 <= self.val < 1:
+            raise SettingError("val", f"must be at least 0 and below 1, not {self.val}")
+        if self.protocol == "kfold":
+            if self.fold is None:
+                raise SettingError("fold", f"is required: 0 to {self.folds - 1}")
+            if self.fold >= self.folds:
+                raise SettingError(
+                    "fold", f"must be 0 to {self.folds - 1} (--folds {self.folds}), not {self.fold}"
+                )
