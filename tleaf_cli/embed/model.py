@@ -3,7 +3,8 @@ its settings (`build_model`) the same way by the trainer (`train_meta`) and by t
 (`load.load_embedder`).
 
 `embedder="dfa"` (T-LEAF): formulas are expanded DFA graphs and traces chains, both through one
-AutomatonEncoder whose edge nodes carry the frozen q_e's vectors. `embedder="syntax"` (the
+AutomatonEncoder (or, `encoder="authors"`, the authors' code's GCN, `paper_encoder.py`) whose edge
+nodes carry the frozen q_e's vectors. `embedder="syntax"` (the
 paper's baseline): formulas are parse trees through a SyntaxEncoder; traces as before.
 """
 
@@ -16,10 +17,11 @@ from torch_geometric.data import Batch
 from tleaf_cli.embed.automaton import AutomatonEncoder
 from tleaf_cli.embed.batches import join
 from tleaf_cli.embed.evidence import MonitorEvidence, chain_lengths
+from tleaf_cli.embed.paper_encoder import AuthorsEncoder
 from tleaf_cli.embed.radius import RadiusClassifier
 from tleaf_cli.embed.syntax import SyntaxEncoder
 from tleaf_cli.errors import SettingError
-from tleaf_cli.settings.meta import MetaSettings
+from tleaf_cli.settings.meta import MetaSettings, widths_of
 
 
 class TripletEmbedder(nn.Module):
@@ -89,6 +91,18 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
     if settings.monitors is None or settings.evidence is None or settings.sphere is None:
         raise SettingError("monitors", "resolve the settings first (MetaSettings.resolved)")
     settings.check()
+    if settings.encoder == "authors":  # the authors' code's GCN (embed/paper_encoder.py)
+        encoder = AuthorsEncoder(
+            edge_dim,
+            widths=widths_of(settings.widths),
+            directed=settings.directed,
+            readout=settings.readout,
+            paths=settings.paths,
+            steps=settings.steps,
+            walk_from=settings.walk_from,
+        )
+        radius = RadiusClassifier(settings.margin) if settings.radius_weight > 0 else None
+        return TripletEmbedder(encoder, encoder, radius, settings.sphere)
     trace = AutomatonEncoder(
         edge_dim,
         hidden=settings.hidden,

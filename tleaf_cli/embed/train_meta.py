@@ -196,6 +196,7 @@ def train_meta(
             embed,
             settings.margin,
             extra_loss if settings.pull or settings.radius_weight else None,
+            settings.distance,
         ),
         lambda: scores(val)["accuracy"],
         loop,

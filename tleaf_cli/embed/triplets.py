@@ -21,12 +21,18 @@ Triplet = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
 SCORE = "heldout_accuracy"  # the loop's name for the embedders' held-out (or val) accuracy
 
 
-def triplet_loss(anchor, positive, negative, margin: float) -> torch.Tensor:
-    """mean max(d(a, p) - d(a, n) + m, 0) with d the squared Euclidean distance.
+def triplet_loss(
+    anchor, positive, negative, margin: float, distance: str = "squared"
+) -> torch.Tensor:
+    """mean max(d(a, p) - d(a, n) + m, 0) with d the squared Euclidean distance, or with
+    `distance="euclidean"` the Euclidean one (torch's `TripletMarginLoss(margin, p=2)`, the
+    authors' code).
 
     The paper prints the two distances the other way round, which would pull violating traces
     closer; this is the form that does what its text says.
     """
+    if distance == "euclidean":
+        return torch.nn.functional.triplet_margin_loss(anchor, positive, negative, margin, p=2)
     d_pos = (anchor - positive).pow(2).sum(dim=1)
     d_neg = (anchor - negative).pow(2).sum(dim=1)
     return torch.relu(d_pos - d_neg + margin).mean()
@@ -65,13 +71,14 @@ def triplet_step(
     embed: Callable[[Any], Triplet],
     margin: float,
     extra_loss: Callable[[Triplet], torch.Tensor] | None = None,
+    distance: str = "squared",
 ) -> Callable[[Any], Step]:
     """The loop's `step` for batches that `embed` turns into (anchor, positive, negative);
-    `extra_loss`, when given, is added to the triplet loss of every batch."""
+    `extra_loss`, when given, is added to the triplet loss (on `distance`) of every batch."""
 
     def step(batch: Any) -> Step:
         anchor, pos, neg = embed(batch)
-        loss = triplet_loss(anchor, pos, neg, margin)
+        loss = triplet_loss(anchor, pos, neg, margin, distance)
         if extra_loss is not None:
             loss = loss + extra_loss((anchor, pos, neg))
         accuracy = triplet_accuracy(anchor.detach(), pos.detach(), neg.detach())

@@ -16,7 +16,24 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings import DEVICES, SCHEDULES, Presets, check_values, default_of, setting
 
 EMBEDDERS = ("dfa", "syntax")
-READOUTS = ("walk", "steps", "accept", "runs")
+ENCODERS = ("tleaf", "authors")  # embed/automaton.py's AutomatonEncoder, embed/paper_encoder.py's
+READOUTS = ("walk", "steps", "accept", "runs", "paths")
+AUTHORS_READOUTS = ("paths", "walk")  # what the authors' encoder reads out
+WALK_STARTS = ("initial", "node1")
+DISTANCES = ("squared", "euclidean")  # the triplet loss's distance (embed/triplets.py)
+
+
+def widths_of(text: str) -> tuple[int, ...]:
+    """Layer widths as written on the command line ("2048,512,256,200")."""
+    try:
+        widths = tuple(int(x) for x in text.split(","))
+    except ValueError:
+        widths = ()
+    if not widths or min(widths) < 1:
+        raise SettingError("widths", f"takes positive widths like 2048,512,256,200, not '{text}'")
+    return widths
+
+
 RUN_READOUTS = ("accept", "runs")  # the readouts of `automaton.accepted_run_weights`
 SETTINGS_VERSION = 2  # config.json's "settings_version"; `settings_from_config` reads older ones
 AUTO_MONITORS = 10  # monitors=None: the most atoms of a training formula, at most this many
@@ -36,22 +53,43 @@ class MetaSettings(Presets):
         "dfa (T-LEAF: the formula's automaton) or syntax (the paper's syntax-tree baseline).",
         choices=EMBEDDERS,
     )
+    encoder: str = setting(
+        "tleaf",
+        "tleaf: --layers GCN layers of --hidden, a linear head to --out-dim after the readout; "
+        "authors: the authors' code's GCN (layers of --widths, ReLU after every one, no head, "
+        "the last width is the vector size; readout paths or walk, from --walk-from).",
+        choices=ENCODERS,
+    )
+    widths: str = setting(
+        "2048,512,256,200",
+        "--encoder authors: the GCN layers' widths, comma-separated; the last is the vector size.",
+    )
     hidden: int = setting(100, "GCN width.", min=1)
     layers: int = setting(4, "GCN layers.", min=1)
     out_dim: int = setting(200, "Size of the learned part of q's vectors.", min=1)
     directed: bool = setting(
         True,
         "Messages along and against the arcs through separate weights (off: the paper's "
-        "GCN over arcs taken both ways).",
+        "GCN over arcs taken both ways). With --encoder authors: messages along the arcs "
+        "only, as in the authors' directed graph (off: arcs taken both ways).",
     )
     readout: str = setting(
         "runs",
         "walk: expected visits of a random walk from the initial state (the paper); "
         "steps: one projection per walk step; accept: where accepted runs of 1..--max-length "
-        "letters go; runs: accepted and rejected runs, each with their own projections.",
+        "letters go; runs: accepted and rejected runs, each with their own projections; "
+        "paths (--encoder authors): the mean node state over --paths random paths of at "
+        "most --steps + 1 nodes, drawn while training, their expectation otherwise.",
         choices=READOUTS,
     )
-    steps: int = setting(24, "walk/steps readouts: random-walk steps.", min=1)
+    steps: int = setting(24, "walk/steps/paths readouts: random-walk steps.", min=1)
+    paths: int = setting(10, "paths readout: random paths per graph.", min=1)
+    walk_from: str = setting(
+        "initial",
+        "--encoder authors: where walks and paths start: the initial state (the paper's "
+        "text), or node index 1 (the authors' code: state 1; a trace's second state).",
+        choices=WALK_STARTS,
+    )
     bins: int = setting(
         5, "accept/runs readouts: a run is cut in this many parts, one projection each.", min=1
     )
@@ -109,7 +147,14 @@ class MetaSettings(Presets):
         0.0, "Weight of the mean d(formula, satisfying trace) added to the loss; 0: none.", min=0.0
     )
     margin: float = setting(1.0, "Triplet loss margin.")
+    distance: str = setting(
+        "squared",
+        "The triplet loss's distance: squared Euclidean, or Euclidean (torch's "
+        "TripletMarginLoss(p=2), the authors' code).",
+        choices=DISTANCES,
+    )
     lr: float = setting(1e-3, "Adam learning rate.")
+    weight_decay: float = setting(0.0, "Adam weight decay (L2 on the weights).", min=0.0)
     schedule: str = setting(
         "cosine",
         "Learning rate: constant, or cosine (falls to 0 over --epochs).",
@@ -143,12 +188,57 @@ class MetaSettings(Presets):
             "epochs": 30,
             "patience": 5,
         },
+        # clear-nus/T-LEAF src/Synthetic: meta_embedder_train.py (Node_only_random_agg_min_clip,
+        # TripletMarginLoss(margin=1, p=2), Adam(lr=0.01, weight_decay=5e-4), a step every 256)
+        "paper-code": {
+            "encoder": "authors",
+            "directed": True,
+            "readout": "paths",
+            "steps": 4,
+            "walk_from": "node1",
+            "monitors": 0,
+            "evidence": False,
+            "sphere": True,
+            "radius_weight": 0.0,
+            "distance": "euclidean",
+            "lr": 0.01,
+            "weight_decay": 5e-4,
+            "batch_size": 256,
+            "schedule": "constant",
+            "epochs": 200,
+            "patience": None,
+        },
+        # the paper's text: "random walks from the initial state"
+        "paper-text": {
+            "encoder": "authors",
+            "directed": True,
+            "readout": "paths",
+            "steps": 4,
+            "walk_from": "initial",
+            "monitors": 0,
+            "evidence": False,
+            "sphere": True,
+            "radius_weight": 0.0,
+            "distance": "euclidean",
+            "lr": 0.01,
+            "weight_decay": 5e-4,
+            "batch_size": 256,
+            "schedule": "constant",
+            "epochs": 200,
+            "patience": None,
+        },
     }
     PRESET_HELP: ClassVar[dict[str, str]] = {
         "best": "the Table I pipeline's q: directed messages, the runs readout in 5 parts, "
         "temporal monitors and their naive-Bayes evidence, one radius, cosine schedule, 6 epochs",
-        "paper": "the 2021 paper's q: GCN over arcs taken both ways, walk readout, triplet loss "
-        "alone, constant learning rate, 30 epochs, early stop after 5",
+        "paper": "tleaf's reading of the 2021 paper's q (the committed Table I rows): GCN over "
+        "arcs taken both ways, walk readout, triplet loss alone, constant learning rate, 30 "
+        "epochs, early stop after 5",
+        "paper-code": "the authors' code's q: GCN 2048-512-256-200 along the arcs, ReLU after "
+        "every layer, mean over 10 random paths of 5 nodes from node 1, unit vectors, "
+        "Euclidean triplet loss, Adam 0.01 with weight decay 5e-4, 256 triplets a step, 200 "
+        "epochs",
+        "paper-text": "paper-code with the walks from the initial state, as the paper's text says",
     }
 
     def preset_name(self) -> str:
@@ -160,7 +250,7 @@ class MetaSettings(Presets):
             if all(
                 want[k] is None or want[k] == getattr(self, k)
                 for k in PRESET_FIELDS
-                if k not in ("epochs", "patience")
+                if k not in LOOP_FIELDS
             ):
                 return name
         return "custom"
@@ -171,7 +261,8 @@ class MetaSettings(Presets):
         check_values(self)
         monitors = self.monitors
         if monitors is None:
-            monitors = 0 if self.embedder != "dfa" else min(max_atoms, AUTO_MONITORS)
+            tleaf_dfa = self.embedder == "dfa" and self.encoder == "tleaf"
+            monitors = min(max_atoms, AUTO_MONITORS) if tleaf_dfa else 0
         evidence = self.evidence
         if evidence is None:
             evidence = monitors > 0 and self.readout == "runs" and self.embedder == "dfa"
@@ -191,6 +282,18 @@ class MetaSettings(Presets):
             )
         if self.probes and self.readout not in RUN_READOUTS:
             raise SettingError("probes", f"need an accept/runs readout, not {self.readout!r}")
+        widths_of(self.widths)
+        authors = self.encoder == "authors"
+        if authors and self.readout not in AUTHORS_READOUTS:
+            raise SettingError(
+                "readout", f"--encoder authors reads out paths or walk, not {self.readout!r}"
+            )
+        if not authors and self.readout == "paths":
+            raise SettingError("readout", "paths is the authors' readout: --encoder authors")
+        if authors and (self.monitors or self.probes or self.embedder != "dfa"):
+            raise SettingError(
+                "encoder", "authors: the dfa embedder without monitors, evidence or probes"
+            )
 
 
 def recommended_lambda(figures: dict) -> float:
@@ -252,5 +355,7 @@ def settings_from_config(config: dict, where: str | Path) -> MetaSettings:
     return MetaSettings(**saved)
 
 
-# the fields a preset sets: what tells one preset's q from another's
+# the fields a preset sets: what tells one preset's q from another's (but how long and how
+# fast it trains: `LOOP_FIELDS`)
+LOOP_FIELDS = ("epochs", "patience", "lr", "batch_size", "weight_decay")
 PRESET_FIELDS = sorted({k for values in MetaSettings.PRESETS.values() for k in values})
