@@ -30,7 +30,7 @@ SOURCES = ("given", "recommended", "default", "validation", "candidate", "unused
 @dataclass(frozen=True)
 class LambdaChoice:
     """A run's λ and where it came from; `candidates`: with `validation`, every λ tried and its
-    best val action accuracy (increasing λ)."""
+    best val score, e.g. `val_action_accuracy` (increasing λ)."""
 
     value: float
     source: str
@@ -45,14 +45,18 @@ class LambdaChoice:
             "unused": "unused: no logic loss",
             "candidate": "a candidate for the choice on validation",
             "validation": "chosen on validation among "
-            + ", ".join(
-                f"{c['lambda']:g} ({100 * c['val_action_accuracy']:.2f}%)" for c in self.candidates
-            ),
+            + ", ".join(f"{c['lambda']:g} ({100 * _val_score(c):.2f}%)" for c in self.candidates),
         }[self.source]
         return f"λ {self.value:g} ({why})"
 
     def as_dict(self) -> dict:
         return asdict(self)
+
+
+def _val_score(candidate: dict) -> float:
+    """A candidate's val score: its one `val_...` entry (action accuracy, next-activity
+    accuracy)."""
+    return next(v for k, v in candidate.items() if k.startswith("val_"))
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ import shutil
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from tleaf_cli.data.artifacts import relative_to, write_text_atomic
 from tleaf_cli.settings.action_recognition import EXACT_LAMBDA, TaskSettings, lambda_candidates
@@ -35,23 +36,25 @@ def resolve_lambda(settings: TaskSettings, recommended: float | None) -> LambdaC
     )
 
 
-def best_candidate(candidates: list[dict]) -> dict:
-    """The candidate with the best val action accuracy; ties go to the smaller λ (so 0, no
-    logic loss, wins a tie)."""
-    return max(candidates, key=lambda c: (c["val_action_accuracy"], -c["lambda"]))
+def best_candidate(candidates: list[dict], score: str = "val_action_accuracy") -> dict:
+    """The candidate with the best val `score`; ties go to the smaller λ (so 0, no logic loss,
+    wins a tie)."""
+    return max(candidates, key=lambda c: (c[score], -c["lambda"]))
 
 
 def train_choosing_lambda(
     train: Callable[..., dict],
     out_dir: Path,
-    settings: TaskSettings,
+    settings: TaskSettings | Any,
     on_setup: Callable[[RunSetup], None] | None,
+    score: str = "val_action_accuracy",
     **kwargs,
 ) -> dict:
-    """One run of `train` (`train.train_action_recognition`) per λ of `settings.lambdas` and 0,
-    each in out_dir/lambda-choice/lambda-<λ>/ from the same seed; the run with the best val
-    action accuracy (`best_candidate`) is copied to out_dir, its metrics.json's "lambda" naming
-    the choice and every candidate. Returns its metrics."""
+    """One run of `train` (`train.train_action_recognition`, or another task's trainer with
+    the same arguments) per λ of `settings.lambdas` and 0, each in out_dir/lambda-choice/
+    lambda-<λ>/ from the same seed; the run with the best val `score` (its metrics' "best"
+    entry, `best_candidate`) is copied to out_dir, its metrics.json's "lambda" naming the choice
+    and every candidate. Returns its metrics."""
     candidates = []
     for value in lambda_candidates(settings.lambdas or ""):
         one = replace(settings, lam=value, lambdas=None)
@@ -60,11 +63,11 @@ def train_choosing_lambda(
         candidates.append(
             {
                 "lambda": value,
-                "val_action_accuracy": metrics["best"]["val_action_accuracy"],
+                score: metrics["best"][score],
                 "run": f"{CANDIDATES}/{folder.name}",
             }
         )
-    best = best_candidate(candidates)
+    best = best_candidate(candidates, score)
     choice = LambdaChoice(best["lambda"], "validation", candidates)
     chosen = out_dir / best["run"]
     for name in RUN_FILES:

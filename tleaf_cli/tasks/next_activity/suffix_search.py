@@ -62,7 +62,18 @@ from tleaf_cli.rule_set import RuleSet
 NextLogProbs = Callable[[Sequence[Sequence[int]]], np.ndarray]
 """Given N sequences of activity indices (each a prefix plus the continuation so far), float
 [N, V + 1]: log-probabilities of the next token; indices 0..V-1 are activities, index V is the
-end of the case."""
+end of the case. The sequences come as `Rows`: their `owners` say which prefix each continues
+(for a model that reads more of a case than its activities, e.g. the prefix's times)."""
+
+
+class Rows(list):
+    """The sequences of one model call; `owners[i]`: the index, in `predict_suffixes`'
+    `prefixes`, of the prefix that row i continues."""
+
+    def __init__(self, rows: list[tuple[int, ...]], owners: list[int]) -> None:
+        super().__init__(rows)
+        self.owners = owners
+
 
 # log-probabilities above this are refused: the stopping rule needs scores that never rise
 _POSITIVE_TOLERANCE = 1e-6
@@ -133,9 +144,10 @@ def predict_suffixes(
         automaton = _Automaton(rules, num_activities)
     stats = stats if stats is not None else SearchStats()
     search = _Search(next_log_probs, num_activities, beam_width, max_length, stats)
-    best = search.run(checked, automaton)
+    best = search.run(checked, automaton, list(range(len(checked))))
     missing = [i for i, b in enumerate(best) if b is None]
-    fallback = dict(zip(missing, search.run([checked[i] for i in missing], None), strict=True))
+    again = search.run([checked[i] for i in missing], None, missing)
+    fallback = dict(zip(missing, again, strict=True))
     stats.fallbacks += len(missing)
     out = []
     for i, prefix in enumerate(checked):
@@ -197,10 +209,11 @@ class _Search:
         self.stats = stats
 
     def run(
-        self, prefixes: list[tuple[int, ...]], automaton: _Automaton | None
+        self, prefixes: list[tuple[int, ...]], automaton: _Automaton | None, owners: list[int]
     ) -> list[tuple[tuple[int, ...], float] | None]:
         """Per prefix, (continuation, score) of the best finished branch, or None when no
-        branch can finish (only under rules: no accepted continuation within max_length)."""
+        branch can finish (only under rules: no accepted continuation within max_length);
+        `owners`: each prefix's index for the model (`Rows.owners`)."""
         v, width, max_length = self.v, self.width, self.max_length
         best: list[tuple[tuple[int, ...], float] | None] = [None] * len(prefixes)
         start = np.zeros(len(prefixes), dtype=np.int64)
@@ -223,9 +236,11 @@ class _Search:
         while len(ids):
             opened = present & ~finished  # every open branch has `step` activities
             where = np.argwhere(opened)
-            rows = [
-                prefixes[ids[p]] + tuple(tokens[p, k, :step].tolist()) for p, k in where.tolist()
-            ]
+            pairs = where.tolist()
+            rows = Rows(
+                [prefixes[ids[p]] + tuple(tokens[p, k, :step].tolist()) for p, k in pairs],
+                [owners[ids[p]] for p, _ in pairs],
+            )
             block = np.full((len(ids), width, v + 1), -np.inf)
             block[opened] = self._call(rows)
             candidates = scores[..., None] + block
@@ -270,7 +285,7 @@ class _Search:
             step += 1
         return best
 
-    def _call(self, rows: list[tuple[int, ...]]) -> np.ndarray:
+    def _call(self, rows: Rows) -> np.ndarray:
         """The model's log-probabilities [len(rows), V + 1] as float64, checked."""
         out = np.asarray(self.model(rows), dtype=np.float64)
         self.stats.model_calls += 1

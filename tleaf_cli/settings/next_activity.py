@@ -1,0 +1,119 @@
+"""Settings of next-activity prediction on an event log (`tleaf train-task next-activity`,
+`tleaf eval next-activity`): fields and presets. `NextActivitySettings()` is preset `best`;
+`NextActivitySettings.preset("tax")` is Tax et al.'s (CAiSE 2017) training as published (Nadam's
+learning rate 0.002 as Adam's, early stop after 42 epochs). `SuffixSettings`: how eval predicts
+the rest of a running case. Pure Python: the command line builds the options from this module."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from tleaf_cli.errors import SettingError
+from tleaf_cli.settings import DEVICES, Presets, check_values, setting
+from tleaf_cli.settings.action_recognition import lambda_candidates
+
+NEXT_ACTIVITY_LOSSES = ("none", "exact", "tleaf")  # `tl.logic_loss` kinds with a gradient
+EXACT_LAMBDA = 0.1  # λ of the exact loss when none is given
+
+
+@dataclass(frozen=True)
+class NextActivitySettings(Presets):
+    """Every setting of the next-activity model's training (saved as config.json's "settings").
+
+    The field defaults are preset `best`."""
+
+    logic_loss: str = setting(
+        "none",
+        "none (reference), exact (−log P(the case's soft trace satisfies the rules)) or tleaf "
+        "(the paper's ‖q(A_φ) − q(w̃)‖², needs --embedder).",
+        choices=NEXT_ACTIVITY_LOSSES,
+    )
+    lam: float | None = setting(
+        None,
+        "Weight λ of the logic loss.",
+        min=0.0,
+        auto=f"auto: with tleaf, the λ the embedder's folder recommends; with exact {EXACT_LAMBDA}",
+    )
+    lambdas: str | None = setting(
+        None,
+        "Choose λ on validation: one run per value of this list (commas or spaces), 0 (no logic "
+        "loss) always among them, each from the same seed; the run with the best val accuracy is "
+        "kept (ties: the smaller λ), every candidate's run in its lambda-choice folder.",
+        auto="none: one run, at --lambda",
+    )
+    hidden: int = setting(100, "Units of each LSTM layer (Tax et al.: 100).", min=1)
+    layers: int = setting(2, "Stacked LSTM layers (Tax et al.: one shared, one per output).", min=1)
+    dropout: float = setting(0.2, "Dropout between the layers (Tax et al.: 0.2).")
+    batch_size: int = setting(32, "Cases per batch.", min=1)
+    epochs: int = setting(100, "Most epochs to train.", min=1)
+    patience: int | None = setting(
+        10, "Stop after this many epochs without a better val accuracy.", min=1
+    )
+    lr: float = setting(2e-3, "Adam learning rate.")
+    seed: int = setting(0, "Random seed; the same seed trains the same model.")
+    device: str = setting("cpu", "Where to compute.", choices=DEVICES)
+
+    PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
+        "best": {},
+        "tax": {"patience": 42, "epochs": 500, "batch_size": 16},
+    }
+    PRESET_HELP: ClassVar[dict[str, str]] = {
+        "best": "Adam lr 2e-3, batches of 32 cases, up to 100 epochs, early stop after 10",
+        "tax": "Tax et al.'s: batches of 16, up to 500 epochs, early stop after 42",
+    }
+
+    def check(self) -> None:
+        """SettingError for a setting out of range or settings that do not fit together."""
+        check_values(self)
+        if not 0 <= self.dropout < 1:
+            raise SettingError("dropout", f"must be in [0, 1), not {self.dropout}")
+        if self.lambdas is not None:
+            lambda_candidates(self.lambdas)
+            if self.lam is not None:
+                raise SettingError("lambdas", "chooses λ itself: not with lam")
+            if self.logic_loss == "none":
+                raise SettingError("lambdas", "λ weighs nothing without a logic loss")
+
+
+@dataclass(frozen=True)
+class SuffixSettings:
+    """How `tleaf eval next-activity` predicts suffixes and which cases it scores."""
+
+    beam_width: int = setting(
+        5, "Continuations kept per step by the suffix search (1: greedy argmax).", min=1
+    )
+    max_suffix: int = setting(
+        60, "Most activities a predicted suffix adds (the longest test case's is typical).", min=1
+    )
+    prefix_lengths: str | None = setting(
+        None,
+        "Suffixes predicted from the prefixes of these lengths ('2-5' or '2,3,4,5').",
+        auto="none: accuracy only, no suffix prediction",
+    )
+    only_satisfying: bool = setting(
+        False,
+        "Score only the test cases that satisfy --rules (Di Francescomarino et al.'s protocol).",
+    )
+
+    def check(self) -> None:
+        check_values(self)
+        if self.prefix_lengths is not None:
+            prefix_lengths(self.prefix_lengths)
+
+
+def prefix_lengths(text: str) -> tuple[int, ...]:
+    """The prefix lengths '2-5' (both ends included) or '2,3,5' names; SettingError otherwise."""
+    values: set[int] = set()
+    for word in text.replace(",", " ").split():
+        low, _, high = word.partition("-")
+        try:
+            start, end = int(low), int(high or low)
+        except ValueError:
+            raise SettingError("prefix_lengths", f"{word!r} is not a length or a range") from None
+        if start < 1 or end < start:
+            raise SettingError("prefix_lengths", f"{word!r}: lengths are at least 1, low to high")
+        values.update(range(start, end + 1))
+    if not values:
+        raise SettingError("prefix_lengths", "names no length")
+    return tuple(sorted(values))

@@ -1,0 +1,68 @@
+"""Cases padded into one batch of tensors for the next-activity model."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from tleaf_cli.data.event_logs import Case
+from tleaf_cli.tasks.next_activity.encoding import TIME_FEATURES, Encoder
+
+PAD = -100  # a padded step's activity and target (cross-entropy's ignore_index)
+
+
+@dataclass
+class CaseBatch:
+    """B cases padded to the longest: activities, targets [B, T] (PAD past a length), times
+    [B, T, F], lengths [B]."""
+
+    cases: Sequence[Case]
+    activities: torch.Tensor
+    targets: torch.Tensor
+    times: torch.Tensor
+    lengths: torch.Tensor
+
+    @classmethod
+    def of(cls, cases: Sequence[Case], encoder: Encoder, device: torch.device) -> CaseBatch:
+        return cls.of_sequences(
+            [encoder.indices(c) for c in cases],
+            [c.timestamps for c in cases],
+            encoder,
+            device,
+            cases=cases,
+            targets=[encoder.targets(c) for c in cases],
+        )
+
+    @classmethod
+    def of_sequences(
+        cls,
+        activities: Sequence[Sequence[int]],
+        timestamps: Sequence[Sequence],
+        encoder: Encoder,
+        device: torch.device,
+        *,
+        cases: Sequence[Case] = (),
+        targets: Sequence[np.ndarray] | None = None,
+    ) -> CaseBatch:
+        """A batch of activity sequences whose times are the given timestamps (events past
+        them placed by `Encoder.features`); targets PAD where not given."""
+        lengths = [len(a) for a in activities]
+        b, t = len(activities), max(lengths)
+        acts = np.full((b, t), PAD, dtype=np.int64)
+        tgts = np.full((b, t), PAD, dtype=np.int64)
+        times = np.zeros((b, t, TIME_FEATURES), dtype=np.float32)
+        for i, (seq, stamps) in enumerate(zip(activities, timestamps, strict=True)):
+            acts[i, : len(seq)] = seq
+            times[i, : len(seq)] = encoder.features(list(seq), stamps)
+            if targets is not None:
+                tgts[i, : len(seq)] = targets[i]
+        return cls(
+            cases,
+            torch.from_numpy(acts).to(device),
+            torch.from_numpy(tgts).to(device),
+            torch.from_numpy(times).to(device),
+            torch.tensor(lengths, dtype=torch.long),
+        )

@@ -1,0 +1,129 @@
+"""Cases as a next-activity model's inputs and targets, in the shape of Tax et al. (CAiSE 2017).
+
+Vocabulary: the log's activities as atoms, index i = `atoms[i]` (sorted, so a run and its
+evaluation agree), and index V = **end of case**. A case a_1..a_n gives n steps; step t reads
+event t — activity a_t one-hot and five time features — and its target is a_{t+1}, or the end
+for t = n. A causal LSTM over the whole case thus learns every prefix's next activity at once
+(the same terms as Tax et al.'s training on each prefix apart), and accuracy over a case's
+steps is accuracy pooled over its prefixes of length 1..n with the end as a target.
+
+Time features of event t (divisors are means over the training split, so they are ~1):
+position t / mean case length; seconds since event t−1 / mean gap; seconds since the case's
+first event / mean elapsed time; seconds since midnight / 86400; weekday / 7 (all UTC).
+
+Suffix prediction appends activities whose times are not known: an appended event is placed
+its activity's mean gap (training split) after the event before it (`Encoder.features` with
+fewer timestamps than activities). No torch here: arrays in, arrays out.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from datetime import datetime, timedelta
+
+import numpy as np
+
+from tleaf_cli.data.event_logs import Case, Cases
+from tleaf_cli.errors import InputError
+
+TIME_FEATURES = 5
+_DAY = 86400.0
+
+
+@dataclass(frozen=True)
+class Encoder:
+    """What turns cases into arrays: the vocabulary and the training split's time scales."""
+
+    atoms: tuple[str, ...]  # index i: activity atom i; index len(atoms): end of case
+    activities: tuple[str, ...]  # the activities' own names, in the atoms' order
+    mean_length: float
+    mean_gap: float  # seconds between consecutive events
+    mean_elapsed: float  # seconds since the case's first event
+    activity_gap: tuple[float, ...]  # per activity: mean seconds since the event before it
+
+    @property
+    def end(self) -> int:
+        """The end-of-case token's index (= the number of activities)."""
+        return len(self.atoms)
+
+    @classmethod
+    def fit(cls, cases: Cases, split: str = "train") -> Encoder:
+        """The encoder of a cases artifact, its time scales measured on `split`."""
+        atom_of = cases.activity_atoms
+        pairs = sorted((atom, name) for name, atom in atom_of.items())
+        atoms = tuple(a for a, _ in pairs)
+        index = {a: i for i, a in enumerate(atoms)}
+        train = [c for c in cases.cases if c.split == split]
+        if not train:
+            raise InputError(f"{cases.path}: no cases in the {split} split")
+        gaps, elapsed, per_activity = [], [], [[] for _ in atoms]
+        for case in train:
+            seconds = _seconds(case.timestamps)
+            for t in range(1, len(case)):
+                gap = seconds[t] - seconds[t - 1]
+                gaps.append(gap)
+                per_activity[index[case.atoms[t]]].append(gap)
+            elapsed.extend(seconds - seconds[0])
+        mean_gap = float(np.mean(gaps)) if gaps else 0.0
+        return cls(
+            atoms=atoms,
+            activities=tuple(n for _, n in pairs),
+            mean_length=float(np.mean([len(c) for c in train])),
+            mean_gap=mean_gap,
+            mean_elapsed=float(np.mean(elapsed)),
+            activity_gap=tuple(float(np.mean(g)) if g else mean_gap for g in per_activity),
+        )
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Encoder:
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
+
+    def indices(self, case: Case) -> np.ndarray:
+        """int64 [n]: the case's activity indices; InputError for an activity the encoder has
+        not seen (a cases artifact other than the run's)."""
+        index = {a: i for i, a in enumerate(self.atoms)}
+        try:
+            return np.array([index[a] for a in case.atoms], dtype=np.int64)
+        except KeyError as missing:
+            raise InputError(
+                f"case {case.case_id!r}: activity atom {missing.args[0]} is not in the model's "
+                f"vocabulary ({len(self.atoms)} activities): the run was trained on another log"
+            ) from None
+
+    def targets(self, case: Case) -> np.ndarray:
+        """int64 [n]: step t's next activity, the end token at the last step."""
+        return np.append(self.indices(case)[1:], self.end)
+
+    def features(self, activities: Sequence[int], timestamps: Sequence[datetime]) -> np.ndarray:
+        """float32 [n, TIME_FEATURES] for `activities`; events past the given `timestamps`
+        are placed their activity's mean gap after the event before them."""
+        if not timestamps:
+            raise InputError("a case's features need at least its first event's time")
+        times = list(timestamps[: len(activities)])
+        for a in activities[len(times) :]:
+            times.append(times[-1] + timedelta(seconds=self.activity_gap[a]))
+        seconds = _seconds(times)
+        gap = np.diff(seconds, prepend=seconds[0])
+        midnight = np.array(
+            [t.hour * 3600 + t.minute * 60 + t.second + t.microsecond / 1e6 for t in times]
+        )
+        return np.stack(
+            [
+                np.arange(1, len(times) + 1) / max(self.mean_length, 1e-9),
+                gap / max(self.mean_gap, 1e-9),
+                (seconds - seconds[0]) / max(self.mean_elapsed, 1e-9),
+                midnight / _DAY,
+                np.array([t.weekday() for t in times]) / 7.0,
+            ],
+            axis=1,
+        ).astype(np.float32)
+
+
+def _seconds(times: Sequence[datetime]) -> np.ndarray:
+    """float64 [n]: seconds since the first of `times`."""
+    first = times[0]
+    return np.array([(t - first).total_seconds() for t in times], dtype=np.float64)

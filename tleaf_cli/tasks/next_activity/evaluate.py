@@ -1,0 +1,193 @@
+"""Scoring a next-activity run on the test split (`tleaf eval next-activity`).
+
+- **Next-activity accuracy**, pooled over every prefix of length ≥ 1 of the test cases, the end
+  of case a target (Rama-Maneiro et al.'s protocol; train.accuracy).
+- **Suffix prediction** from the prefixes of the given lengths k (every test case with at least
+  k activities; Tax et al.'s and Di Francescomarino et al.'s protocol), three ways:
+  `argmax` (the most probable next activity at each step, Tax et al.'s), `beam` (beam search,
+  no rules) and, with rules, `rules` (the most probable continuation whose completed case
+  satisfies them, searched in the product of the model and the rules' DFA:
+  suffix_search.py). Each: the mean Damerau-Levenshtein similarity of the predicted and the
+  true suffix (similarity.py), the share of predicted cases that satisfy the rules, and
+  milliseconds per case.
+
+With `only_satisfying`, only the test cases that satisfy the rules are scored (Di
+Francescomarino et al. evaluate on the cases whose outcome their formula describes).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
+from tleaf_cli.data.event_logs import Case, read_cases
+from tleaf_cli.embed.training import device_for
+from tleaf_cli.errors import InputError
+from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
+from tleaf_cli.tasks.next_activity.batch import CaseBatch
+from tleaf_cli.tasks.next_activity.encoding import Encoder
+from tleaf_cli.tasks.next_activity.model import NextActivityLSTM
+from tleaf_cli.tasks.next_activity.rules import Rules, read_rules
+from tleaf_cli.tasks.next_activity.similarity import dl_similarity
+from tleaf_cli.tasks.next_activity.suffix_search import Rows, SearchStats, predict_suffixes
+from tleaf_cli.tasks.next_activity.train import accuracy, new_model
+
+CHUNK = 1024  # rows per model forward in the suffix search
+
+
+def load_run(run_dir: str | Path) -> tuple[NextActivityLSTM, Encoder, NextActivitySettings]:
+    """A train-task next-activity folder's best model (eval mode, CPU), encoder and settings;
+    InputError naming the file when the folder is not such a run."""
+    run_dir = Path(run_dir)
+    config_path, weights_path = run_dir / "config.json", run_dir / "weights.pt"
+    for path in (config_path, weights_path):
+        if not path.is_file():
+            raise InputError(f"{path}: missing (not a train-task next-activity folder)")
+    try:
+        config = json.loads(config_path.read_text())
+        if config.get("kind") != "next-activity":
+            raise InputError(f"{config_path}: not a next-activity run (kind {config.get('kind')})")
+        encoder = Encoder.from_dict(config["encoder"])
+        settings = NextActivitySettings(**config["settings"])
+    except (ValueError, KeyError, TypeError) as e:
+        raise InputError(f"{config_path}: not a next-activity run's config ({e})") from None
+    model = new_model(encoder, settings)
+    try:
+        model.load_state_dict(torch.load(weights_path, map_location="cpu", weights_only=True))
+    except (RuntimeError, OSError, EOFError, ValueError) as e:
+        first = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise InputError(f"{weights_path}: not this run's model's weights ({first})") from None
+    return model.eval(), encoder, settings
+
+
+def evaluate_next_activity(
+    run_dir: str | Path,
+    cases_path: str | Path,
+    out_dir: str | Path,
+    settings: SuffixSettings,
+    rules_path: str | Path | None = None,
+    rule_names: Sequence[str] = (),
+    on_length: Callable[[int, int], None] | None = None,
+) -> dict:
+    """Score the run on the test split of `cases_path`; write and return metrics.json.
+
+    `rules_path` / `rule_names`: the rules of the suffix search (and of `only_satisfying`).
+    `on_length(done, total)` hears each prefix length finished."""
+    settings.check()
+    out_dir = Path(out_dir)
+    check_writable(out_dir / "metrics.json")
+    if settings.only_satisfying and rules_path is None:
+        raise InputError("--only-satisfying needs --rules: which cases satisfy what?")
+    model, encoder, trained = load_run(run_dir)
+    device = device_for(trained.device if trained.device == "cpu" else "cpu")
+    cases = read_cases(cases_path)
+    test = [c for c in cases.cases if c.split == "test"]
+    if not test:
+        raise InputError(f"{cases_path}: no cases in the test split")
+    rules = None if rules_path is None else read_rules(rules_path, encoder.atoms, rule_names)
+    scored = test
+    if settings.only_satisfying:
+        scored = [c for c in test if satisfies(rules, encoder.indices(c))]
+        if not scored:
+            raise InputError(f"{cases_path}: no test case satisfies the rules of {rules_path}")
+    metrics: dict = {
+        "task": "next-activity",
+        "run": str(run_dir),
+        "test_cases": len(test),
+        "scored_cases": len(scored),
+        "rules": None if rules is None else {"path": rules.path, "names": list(rules.names)},
+        "settings": asdict(settings),
+        "accuracy": accuracy(model, encoder, scored, 256, device),
+        "suffix": {},
+        "inputs": describe_inputs([p for p in (cases_path, rules_path) if p is not None]),
+    }
+    if settings.prefix_lengths is not None:
+        lengths = prefix_lengths(settings.prefix_lengths)
+        for done, k in enumerate(lengths, start=1):
+            metrics["suffix"][str(k)] = suffix_scores(model, encoder, scored, k, settings, rules)
+            if on_length is not None:
+                on_length(done, len(lengths))
+    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
+    return metrics
+
+
+def satisfies(rules: Rules, activities: Sequence[int]) -> bool:
+    """The activity sequence satisfies the rules (their DFA accepts it)."""
+    dfa = rules.rule_set.dfa
+    return bool(dfa.accepting[dfa.run(rules.rule_set.letters(np.asarray(activities)))])
+
+
+def suffix_scores(
+    model: NextActivityLSTM,
+    encoder: Encoder,
+    cases: Sequence[Case],
+    k: int,
+    settings: SuffixSettings,
+    rules: Rules | None,
+) -> dict:
+    """Suffix prediction from the k-prefixes of the cases at least k long: per way (argmax,
+    beam, rules), mean DL similarity, share satisfying the rules, ms per case."""
+    chosen = [c for c in cases if len(c) >= k]
+    if not chosen:
+        return {"cases": 0}
+    indices = [encoder.indices(c) for c in chosen]
+    prefixes = [tuple(a[:k].tolist()) for a in indices]
+    truth = [tuple(a[k:].tolist()) for a in indices]
+    stamps = [c.timestamps[:k] for c in chosen]
+    step = next_log_probs(model, encoder, stamps)
+    ways = {"argmax": (1, None), "beam": (settings.beam_width, None)}
+    if rules is not None:
+        ways["rules"] = (settings.beam_width, rules.rule_set)
+    out: dict = {"cases": len(chosen)}
+    for way, (width, rule_set) in ways.items():
+        stats = SearchStats()
+        start = time.perf_counter()
+        found = predict_suffixes(
+            step, prefixes, len(encoder.atoms), rules=rule_set, beam_width=width,
+            max_length=settings.max_suffix, stats=stats,
+        )  # fmt: skip
+        seconds = time.perf_counter() - start
+        similarity = [dl_similarity(f.activities, t) for f, t in zip(found, truth, strict=True)]
+        out[way] = {
+            "dl_similarity": float(np.mean(similarity)),
+            "ms_per_case": 1000 * seconds / len(chosen),
+            "model_calls": stats.model_calls,
+        }
+        if rules is not None:
+            pairs = zip(prefixes, found, strict=True)
+            kept = [satisfies(rules, p + f.activities) for p, f in pairs]
+            out[way]["satisfying"] = float(np.mean(kept))
+        if rule_set is not None:
+            out[way]["not_found"] = stats.fallbacks
+    return out
+
+
+def next_log_probs(
+    model: NextActivityLSTM, encoder: Encoder, stamps: Sequence[Sequence]
+) -> Callable[[Rows], np.ndarray]:
+    """The suffix search's model: log-probabilities [N, V + 1] of the token after each row, a
+    row's times those of its prefix (`stamps[owner]`), the appended events' placed by the
+    encoder."""
+    device = torch.device("cpu")
+
+    def call(rows: Rows) -> np.ndarray:
+        out = []
+        with torch.no_grad():
+            for i in range(0, len(rows), CHUNK):
+                part = rows[i : i + CHUNK]
+                owners = rows.owners[i : i + CHUNK]
+                batch = CaseBatch.of_sequences(part, [stamps[o] for o in owners], encoder, device)
+                logits = model(batch.activities, batch.times, batch.lengths)
+                last = batch.lengths - 1
+                picked = logits[torch.arange(len(part)), last]
+                out.append(torch.log_softmax(picked.double(), dim=-1).numpy())
+        return np.concatenate(out)
+
+    return call
