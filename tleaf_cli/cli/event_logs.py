@@ -67,11 +67,11 @@ def split_cases(
     quiet: Quiet = False,
     **values,
 ) -> None:
-    """Split a cases artifact anew: one fold of k-fold cross-validation, or Tax et al.'s thirds.
+    """Split a cases artifact anew by a published protocol (k-fold, thirds).
 
-    The same cases, activities and timestamps, only the split changed: kfold (Rama-Maneiro et
-    al.) holds out fold --fold of --folds as test and takes the last --val of its training cases
-    as validation; thirds trains on the first two thirds of the cases in file order.
+    Only the split changes. kfold (Rama-Maneiro et al.): fold --fold of --folds is the test
+    split, the last --val of its training cases validation. thirds (Tax et al.): the first two
+    thirds of the cases in file order train.
     """
     from tleaf_cli.data.case_folds import split_anew
 
