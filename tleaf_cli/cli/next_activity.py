@@ -1,0 +1,132 @@
+"""Next-activity prediction on an event log: train-task next-activity and eval next-activity."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from tleaf_cli import ui
+from tleaf_cli.cli.common import Quiet, Resume, exits, given_flags, preset_option, refuse, targets
+from tleaf_cli.cli.options import NEXT, SUFFIX, given, with_settings
+from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings
+
+NextPreset = preset_option(NextActivitySettings)
+DEFAULT_NEXT_PRESET = NextActivitySettings.default_preset()
+
+
+@exits
+@with_settings(NEXT)
+def train_task_next_activity(
+    ctx: typer.Context,
+    cases: Annotated[Path, typer.Argument(help="A cases artifact (read-log, split-cases).")],
+    kb: Annotated[
+        Path | None,
+        typer.Option(
+            help="Rules of the logic loss (.ltl: mine-declare, peer-formulas), all "
+            "conjoined; needed for --logic-loss exact / tleaf."
+        ),
+    ] = None,
+    embedder: Annotated[
+        Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
+    preset: NextPreset = DEFAULT_NEXT_PRESET,
+    resume: Resume = False,
+    quiet: Quiet = False,
+    **values,
+) -> None:
+    """Train an LSTM to predict each prefix's next activity (or the end of the case), with
+    ℓ_task + λ·ℓ_logic; the best val accuracy is kept.
+
+    Writes config.json (settings, vocabulary, time scales), weights.pt and metrics.json (per
+    epoch: task and logic loss, seconds, val accuracy; test accuracy pooled over prefixes; the
+    λ used and where it came from).
+    """
+    from tleaf_cli.tasks.next_activity.train import train_next_activity
+
+    targets([cases, kb, embedder], folders=[out])
+    settings = NextActivitySettings.preset(preset, **given(ctx, values))
+    if settings.logic_loss == "none":
+        refuse(given_flags(ctx, "lam", "lambdas"), "only with a logic loss, not --logic-loss none")
+
+    def on_setup(setup) -> None:
+        ui.summary(setup.lam.text(given="given with --lambda"), quiet)
+
+    with ui.progress(f"training next-activity ({settings.logic_loss})", quiet) as update:
+
+        def on_epoch(r) -> None:
+            update(r.epoch, settings.epochs)
+            ui.summary(
+                f"epoch {r.epoch}: task {r.task_loss:.4f}, logic {r.logic_loss:.4f}, "
+                f"val acc {r.val_accuracy:.4f} ({r.seconds:.1f} s)",
+                quiet,
+            )
+
+        metrics = train_next_activity(
+            cases, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup
+        )
+    if settings.lambdas is not None:
+        from tleaf_cli.tasks.lambda_source import LambdaChoice
+
+        ui.summary(LambdaChoice(**metrics["lambda"]).text(), quiet)
+    test = metrics["test"]
+    ui.summary(
+        f"{out}: test next-activity accuracy {100 * test['accuracy']:.2f}% over "
+        f"{test['prefixes']} prefixes of {test['cases']} cases (best epoch "
+        f"{metrics['best']['epoch']}, {metrics['mean_epoch_seconds']:.2f} s/epoch)",
+        quiet,
+    )
+
+
+@exits
+@with_settings(SUFFIX)
+def eval_next_activity(
+    run: Annotated[Path, typer.Argument(help="A train-task next-activity run directory.")],
+    cases: Annotated[Path, typer.Argument(help="The cases artifact whose test split to score.")],
+    rules: Annotated[
+        Path | None,
+        typer.Option(help="Rules of the suffix search (.ltl); also --only-satisfying's."),
+    ] = None,
+    rule: Annotated[
+        list[str] | None,
+        typer.Option(help="Only the rule of this name from --rules (repeat for several)."),
+    ] = None,
+    out: Annotated[Path, typer.Option("--out", "-o", help="Folder for metrics.json.")] = Path(
+        "eval"
+    ),
+    quiet: Quiet = False,
+    **values,
+) -> None:
+    """Next-activity accuracy on the test split, and suffix prediction from prefixes of
+    --prefix-lengths: by argmax, by beam search, and under --rules (the most probable
+    continuation whose completed case satisfies them), each with Damerau-Levenshtein
+    similarity, the share satisfying the rules and ms per case.
+    """
+    from tleaf_cli.tasks.next_activity.evaluate import evaluate_next_activity
+
+    targets([run, cases, rules], folders=[out])
+    if rules is None and rule:
+        refuse(["--rule"], "only with --rules")
+    settings = SuffixSettings(**values)
+    with ui.progress("suffix prediction", quiet) as update:
+        metrics = evaluate_next_activity(
+            run, cases, out, settings, rules, tuple(rule or ()), on_length=update
+        )
+    acc = metrics["accuracy"]
+    ui.summary(
+        f"{out}: next-activity accuracy {100 * acc['accuracy']:.2f}% over {acc['prefixes']} "
+        f"prefixes of {metrics['scored_cases']} test cases",
+        quiet,
+    )
+    for k, row in metrics["suffix"].items():
+        if not row.get("cases"):
+            continue
+        ways = [w for w in ("argmax", "beam", "rules") if w in row]
+        text = ", ".join(
+            f"{w} {row[w]['dl_similarity']:.3f}"
+            + (f" ({100 * row[w]['satisfying']:.0f}% satisfying)" if "satisfying" in row[w] else "")
+            for w in ways
+        )
+        ui.summary(f"prefix length {k} ({row['cases']} cases): DL similarity {text}", quiet)
