@@ -35,6 +35,7 @@ from tleaf_cli.settings.gail import GailSettings
 from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 from tleaf_cli.settings.knowledge import ExtractSettings
 from tleaf_cli.settings.meta import MetaSettings
+from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings
 from tleaf_cli.settings.procedures import TaskGraphSettings
 
 # The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
@@ -236,6 +237,8 @@ EDGE = SettingsCommand(EdgeSettings, "train-edge")
 META = SettingsCommand(MetaSettings, "train-meta")
 TASK = SettingsCommand(TaskSettings, "train-task action-recognition")
 GAIL = SettingsCommand(GailSettings, "train-task cooking")
+NEXT = SettingsCommand(NextActivitySettings, "train-task next-activity")
+SUFFIX = SettingsCommand(SuffixSettings, "eval next-activity")
 EVAL = SettingsCommand(EvalSettings, "eval model-checking")
 FIGURE = SettingsCommand(FigureSettings, "eval tsne")
 ACTIVITIES = SettingsCommand(ActivitySettings, "gen-activities")
@@ -252,7 +255,7 @@ KB = SettingsCommand(ExtractSettings, "kb-extract", exclude=("alphabet",), also=
 # the data stages (compile-dfa and the generators), then the trainers and evaluations
 LOG_COMMANDS = [READ_LOG, SPLIT_CASES, DECLARE]  # the event-log stages
 DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, *LOG_COMMANDS, TASK_GRAPH]
-SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, EVAL, FIGURE, DEMOS]
+SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, NEXT, EVAL, SUFFIX, FIGURE, DEMOS]
 
 
 # ---- docs/cli.md's option tables

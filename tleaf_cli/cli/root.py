@@ -30,6 +30,7 @@ from tleaf_cli.cli.formatting import Command, Group
 from tleaf_cli.cli.generate import gen_activities, gen_demos, gen_formulas, gen_traces
 from tleaf_cli.cli.knowledge import cooking_kb, demos_kb, kb_extract
 from tleaf_cli.cli.model_checking import eval_model_checking, eval_table, eval_tsne
+from tleaf_cli.cli.next_activity import eval_next_activity, train_task_next_activity
 from tleaf_cli.cli.procedures import check_recordings, read_recordings, task_graph
 
 app = typer.Typer(
@@ -97,11 +98,13 @@ for name, function in {
     "choose-lambda": eval_choose_lambda,
     "violations": eval_violations,
     "cooking": eval_cooking,
+    "next-activity": eval_next_activity,
 }.items():
     eval_app.command(name, cls=Command)(function)
 for name, function in {
     "action-recognition": train_task_action_recognition,
     "cooking": train_task_cooking,
+    "next-activity": train_task_next_activity,
 }.items():
     train_task_app.command(name, cls=Command)(function)
 app.add_typer(eval_app, name="eval")
