@@ -161,8 +161,8 @@ def test_an_older_model_folder_loads_with_the_same_vectors_and_a_lambda(chain, b
 
 def test_docs_cli_md_holds_the_settings_tables_as_generated() -> None:
     """docs/cli.md's option tables of the training commands are the settings dataclasses'
-    (regenerate with `python -m tleaf_cli.cli.options docs/cli.md`)."""
-    from tleaf_cli.cli.options import render_docs
+    (regenerate with `python -m tleaf_cli.cli.docs_tables docs/cli.md`)."""
+    from tleaf_cli.cli.docs_tables import render_docs
 
     text = (ROOT / "docs" / "cli.md").read_text()
     assert render_docs(text) == text

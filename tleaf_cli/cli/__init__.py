@@ -1,7 +1,7 @@
 """The `tleaf` command line, the top floor of tleaf: one thin module per stage family.
 
 `app` (the Typer app) and `main` (the entry point) live in `tleaf_cli.cli.root`; they are loaded
-on first use, so that `python -m tleaf_cli.cli.options docs/cli.md` and the settings' option
+on first use, so that `python -m tleaf_cli.cli.docs_tables docs/cli.md` and the settings' option
 builders can be imported without every command module.
 """
 

@@ -87,7 +87,7 @@ def eval_next_activity(
     cases: Annotated[Path, typer.Argument(help="The cases artifact whose test split to score.")],
     rules: Annotated[
         Path | None,
-        typer.Option(help="Rules of the suffix search (.ltl); also --only-satisfying's."),
+        typer.Option(help="Rules of the suffix search (.ltl), and of --scored satisfying."),
     ] = None,
     rule: Annotated[
         list[str] | None,

@@ -4,9 +4,9 @@ A training command declares only its own arguments (inputs, --out, --quiet, ...)
 the settings class it runs; `with_settings` adds one option per setting of that class, with the
 setting's help, bounds and values, its default shown as the default preset's value. The command
 then gets the values the user gave (`given`) and builds its settings from a preset plus those.
-`settings_table` writes the same options as the Markdown rows of docs/cli.md;
-`python -m tleaf_cli.cli.options docs/cli.md` rewrites every table between its markers, and a
-test checks that docs/cli.md is up to date.
+`cli/docs_tables.py` writes the same options as the Markdown rows of docs/cli.md
+(`python -m tleaf_cli.cli.docs_tables docs/cli.md`; a test checks that docs/cli.md is up to
+date).
 
 Only the command line knows flags: a setting's flag is `--` + its name with dashes, except where
 `FLAGS` (another name) or `SWITCHES` (one flag selecting one of two values) say otherwise.
@@ -16,10 +16,8 @@ from __future__ import annotations
 
 import functools
 import inspect
-import sys
 import typing
 from dataclasses import Field, dataclass
-from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import typer
@@ -256,47 +254,3 @@ KB = SettingsCommand(ExtractSettings, "kb-extract", exclude=("alphabet",), also=
 LOG_COMMANDS = [READ_LOG, SPLIT_CASES, DECLARE]  # the event-log stages
 DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, *LOG_COMMANDS, TASK_GRAPH]
 SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, NEXT, EVAL, SUFFIX, FIGURE, DEMOS]
-
-
-# ---- docs/cli.md's option tables
-
-
-def settings_table(command: SettingsCommand) -> str:
-    """The Markdown table of a command's settings: option, default, what it does."""
-    rows = ["| option | default | what it does |", "|---|---|---|"]
-    for f in command.fields():
-        name = flag(f.name)
-        if f.name in SWITCHES:
-            pass
-        elif f.metadata["choices"] is not None:
-            name += " " + "\\|".join(f.metadata["choices"])
-        elif _types(f, command.owner(f))[0] is bool:
-            name = f"{flag(f.name)}/--no-{flag(f.name)[2:]}"
-        help_text = f.metadata["help"].replace("|", "\\|")
-        rows.append(f"| `{name}` | {default_text(f, command.owner(f))} | {help_text} |")
-    presets = getattr(command.cls, "PRESET_HELP", {})
-    if presets:
-        rows.append("")
-        rows.append("Presets (`--preset NAME`; options given on the command line override it):")
-        rows.append("")
-        rows += [f"- `{name}`: {text}" for name, text in presets.items()]
-    return "\n".join(rows)
-
-
-def render_docs(text: str) -> str:
-    """`text` (docs/cli.md) with each table between `<!-- settings: NAME -->` and
-    `<!-- /settings -->` rewritten from the settings."""
-    out = text
-    for command in SETTINGS_COMMANDS:
-        begin, end = f"<!-- settings: {command.name} -->", "<!-- /settings -->"
-        if begin not in out:
-            raise ValueError(f"no '{begin}' marker")
-        head, rest = out.split(begin, 1)
-        _, tail = rest.split(end, 1)
-        out = f"{head}{begin}\n{settings_table(command)}\n{end}{tail}"
-    return out
-
-
-if __name__ == "__main__":  # python -m tleaf_cli.cli.options docs/cli.md
-    path = Path(sys.argv[1])
-    path.write_text(render_docs(path.read_text()))

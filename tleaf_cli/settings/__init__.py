@@ -8,7 +8,7 @@ kb-extract), the generators (`settings.generators`) and the evaluations (`settin
 A field a user sets is declared with `setting`: its default, its help text, and the values it
 may take. Every other place reads it from there: the command line builds its options from these
 fields (`tleaf_cli.cli.options`), `config.json` stores `dataclasses.asdict(settings)`, and
-docs/cli.md's option tables are written from them (`python -m tleaf_cli.cli.options`). A field
+docs/cli.md's option tables are written from them (`python -m tleaf_cli.cli.docs_tables`). A field
 declared as a plain dataclass field is internal: saved with the run, not an option.
 
 A settings class may also name presets (`Presets`): named sets of values on top of the field

@@ -122,5 +122,5 @@ class FoldSettings:
                 raise SettingError("fold", f"is required: 0 to {self.folds - 1}")
             if self.fold >= self.folds:
                 raise SettingError(
-                    "fold", f"must be 0 to {self.folds - 1} (--folds {self.folds}), not {self.fold}"
+                    "fold", f"must be 0 to {self.folds - 1} (folds {self.folds}), not {self.fold}"
                 )

@@ -24,9 +24,9 @@ DISTANCES = ("squared", "euclidean")  # the triplet loss's distance (embed/tripl
 
 
 def widths_of(text: str) -> tuple[int, ...]:
-    """Layer widths as written on the command line ("2048,512,256,200")."""
+    """Layer widths as written on the command line ("2048,512,256,200" or "2048, 512, 256, 200")."""
     try:
-        widths = tuple(int(x) for x in text.split(","))
+        widths = tuple(int(x) for x in text.replace(",", " ").split())
     except ValueError:
         widths = ()
     if not widths or min(widths) < 1:
@@ -61,7 +61,7 @@ class MetaSettings(Presets):
         choices=ENCODERS,
     )
     widths: str = setting(
-        "2048,512,256,200",
+        "2048, 512, 256, 200",
         "--encoder authors: the GCN layers' widths, comma-separated; the last is the vector size.",
     )
     hidden: int = setting(100, "GCN width.", min=1)
@@ -149,8 +149,8 @@ class MetaSettings(Presets):
     margin: float = setting(1.0, "Triplet loss margin.")
     distance: str = setting(
         "squared",
-        "The triplet loss's distance: squared Euclidean, or Euclidean (torch's "
-        "TripletMarginLoss(p=2), the authors' code).",
+        "The triplet loss's distance: squared Euclidean, or Euclidean (the authors' code: "
+        "torch's triplet margin loss with p = 2).",
         choices=DISTANCES,
     )
     lr: float = setting(1e-3, "Adam learning rate.")
@@ -286,10 +286,10 @@ class MetaSettings(Presets):
         authors = self.encoder == "authors"
         if authors and self.readout not in AUTHORS_READOUTS:
             raise SettingError(
-                "readout", f"--encoder authors reads out paths or walk, not {self.readout!r}"
+                "readout", f"the authors' encoder reads out paths or walk, not {self.readout!r}"
             )
         if not authors and self.readout == "paths":
-            raise SettingError("readout", "paths is the authors' readout: --encoder authors")
+            raise SettingError("readout", "paths is the authors' readout: encoder authors")
         if authors and (self.monitors or self.probes or self.embedder != "dfa"):
             raise SettingError(
                 "encoder", "authors: the dfa embedder without monitors, evidence or probes"

@@ -14,7 +14,8 @@ from tleaf_cli.settings import DEVICES, Presets, check_values, setting
 from tleaf_cli.settings.action_recognition import lambda_candidates
 
 NEXT_ACTIVITY_LOSSES = ("none", "exact", "tleaf")  # `tl.logic_loss` kinds with a gradient
-EXACT_LAMBDA = 0.1  # λ of the exact loss when none is given
+EXACT_LAMBDA = 0.1
+SCORED_CASES = ("all", "satisfying")  # eval next-activity: which test cases  # λ of the exact loss when none is given
 
 
 @dataclass(frozen=True)
@@ -26,7 +27,7 @@ class NextActivitySettings(Presets):
     logic_loss: str = setting(
         "none",
         "none (reference), exact (−log P(the case's soft trace satisfies the rules)) or tleaf "
-        "(the paper's ‖q(A_φ) − q(w̃)‖², needs --embedder).",
+        "(the paper's loss: q's distance of the soft trace from the rules; needs --embedder).",
         choices=NEXT_ACTIVITY_LOSSES,
     )
     lam: float | None = setting(
@@ -91,9 +92,11 @@ class SuffixSettings:
         "Suffixes predicted from the prefixes of these lengths ('2-5' or '2,3,4,5').",
         auto="none: accuracy only, no suffix prediction",
     )
-    only_satisfying: bool = setting(
-        False,
-        "Score only the test cases that satisfy --rules (Di Francescomarino et al.'s protocol).",
+    scored: str = setting(
+        "all",
+        "The test cases scored: all, or those that satisfy --rules (Di Francescomarino et al.'s "
+        "protocol).",
+        choices=SCORED_CASES,
     )
 
     def check(self) -> None:

@@ -11,7 +11,7 @@
   true suffix (similarity.py), the share of predicted cases that satisfy the rules, and
   milliseconds per case.
 
-With `only_satisfying`, only the test cases that satisfy the rules are scored (Di
+With `scored="satisfying"`, only the test cases that satisfy the rules are scored (Di
 Francescomarino et al. evaluate on the cases whose outcome their formula describes).
 """
 
@@ -29,7 +29,7 @@ import torch
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.event_logs import Case, read_cases
 from tleaf_cli.embed.training import device_for
-from tleaf_cli.errors import InputError
+from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
@@ -78,13 +78,13 @@ def evaluate_next_activity(
 ) -> dict:
     """Score the run on the test split of `cases_path`; write and return metrics.json.
 
-    `rules_path` / `rule_names`: the rules of the suffix search (and of `only_satisfying`).
+    `rules_path` / `rule_names`: the rules of the suffix search (and of `scored`).
     `on_length(done, total)` hears each prefix length finished."""
     settings.check()
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
-    if settings.only_satisfying and rules_path is None:
-        raise InputError("--only-satisfying needs --rules: which cases satisfy what?")
+    if settings.scored == "satisfying" and rules_path is None:
+        raise SettingError("scored", "'satisfying' needs rules: which cases satisfy what?")
     model, encoder, trained = load_run(run_dir)
     device = device_for(trained.device if trained.device == "cpu" else "cpu")
     cases = read_cases(cases_path)
@@ -93,7 +93,7 @@ def evaluate_next_activity(
         raise InputError(f"{cases_path}: no cases in the test split")
     rules = None if rules_path is None else read_rules(rules_path, encoder.atoms, rule_names)
     scored = test
-    if settings.only_satisfying:
+    if settings.scored == "satisfying":
         scored = [c for c in test if satisfies(rules, encoder.indices(c))]
         if not scored:
             raise InputError(f"{cases_path}: no test case satisfies the rules of {rules_path}")
