@@ -14,8 +14,8 @@ from tleaf_cli.settings import DEVICES, Presets, check_values, setting
 from tleaf_cli.settings.action_recognition import lambda_candidates
 
 NEXT_ACTIVITY_LOSSES = ("none", "exact", "tleaf")  # `tl.logic_loss` kinds with a gradient
-EXACT_LAMBDA = 0.1
-SCORED_CASES = ("all", "satisfying")  # eval next-activity: which test cases  # λ of the exact loss when none is given
+EXACT_LAMBDA = 0.1  # λ of the exact loss when none is given
+SCORED_CASES = ("all", "satisfying")  # eval next-activity: which test cases
 
 
 @dataclass(frozen=True)
