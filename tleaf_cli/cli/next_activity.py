@@ -93,6 +93,17 @@ def eval_next_activity(
         list[str] | None,
         typer.Option(help="Only the rule of this name from --rules (repeat for several)."),
     ] = None,
+    scored_by: Annotated[
+        Path | None,
+        typer.Option(
+            help="With --scored satisfying: the rules that choose the cases (.ltl; "
+            "default --rules)."
+        ),
+    ] = None,
+    scored_rule: Annotated[
+        list[str] | None,
+        typer.Option(help="Only the rule of this name from --scored-by (repeat for several)."),
+    ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Folder for metrics.json.")] = Path(
         "eval"
     ),
@@ -106,18 +117,23 @@ def eval_next_activity(
     """
     from tleaf_cli.tasks.next_activity.evaluate import evaluate_next_activity
 
-    targets([run, cases, rules], folders=[out])
+    targets([run, cases, rules, scored_by], folders=[out])
     if rules is None and rule:
         refuse(["--rule"], "only with --rules")
+    if scored_by is None and scored_rule:
+        refuse(["--scored-rule"], "only with --scored-by")
     settings = SuffixSettings(**values)
     with ui.progress("suffix prediction", quiet) as update:
         metrics = evaluate_next_activity(
-            run, cases, out, settings, rules, tuple(rule or ()), on_length=update
-        )
+            run, cases, out, settings, rules, tuple(rule or ()), on_length=update,
+            scored_by=scored_by, scored_by_names=tuple(scored_rule or ()),
+        )  # fmt: skip
     acc = metrics["accuracy"]
+    under = acc.get("accuracy_rules")
     ui.summary(
-        f"{out}: next-activity accuracy {100 * acc['accuracy']:.2f}% over {acc['prefixes']} "
-        f"prefixes of {metrics['scored_cases']} test cases",
+        f"{out}: next-activity accuracy {100 * acc['accuracy']:.2f}%"
+        + ("" if under is None else f" ({100 * under:.2f}% under the rules)")
+        + f" over {acc['prefixes']} prefixes of {metrics['scored_cases']} test cases",
         quiet,
     )
     for k, row in metrics["suffix"].items():

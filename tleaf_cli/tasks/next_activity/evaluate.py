@@ -75,15 +75,19 @@ def evaluate_next_activity(
     rules_path: str | Path | None = None,
     rule_names: Sequence[str] = (),
     on_length: Callable[[int, int], None] | None = None,
+    scored_by: str | Path | None = None,
+    scored_by_names: Sequence[str] = (),
 ) -> dict:
     """Score the run on the test split of `cases_path`; write and return metrics.json.
 
-    `rules_path` / `rule_names`: the rules of the suffix search (and of `scored`).
+    `rules_path` / `rule_names`: the rules of the suffix search and of next-activity
+    prediction under the rules (`accuracy_rules`). `scored_by` / `scored_by_names`: the rules
+    that choose the scored cases with `scored="satisfying"` (default: the same rules).
     `on_length(done, total)` hears each prefix length finished."""
     settings.check()
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
-    if settings.scored == "satisfying" and rules_path is None:
+    if settings.scored == "satisfying" and rules_path is None and scored_by is None:
         raise SettingError("scored", "'satisfying' needs rules: which cases satisfy what?")
     model, encoder, trained = load_run(run_dir)
     device = device_for(trained.device if trained.device == "cpu" else "cpu")
@@ -93,18 +97,24 @@ def evaluate_next_activity(
         raise InputError(f"{cases_path}: no cases in the test split")
     rules = None if rules_path is None else read_rules(rules_path, encoder.atoms, rule_names)
     scored = test
+    judge = rules
+    if scored_by is not None:
+        judge = read_rules(scored_by, encoder.atoms, scored_by_names)
     if settings.scored == "satisfying":
-        scored = [c for c in test if satisfies(rules, encoder.indices(c))]
+        scored = [c for c in test if satisfies(judge, encoder.indices(c))]
         if not scored:
-            raise InputError(f"{cases_path}: no test case satisfies the rules of {rules_path}")
+            raise InputError(f"{cases_path}: no test case satisfies the rules of {judge.path}")
     metrics: dict = {
         "task": "next-activity",
         "run": str(run_dir),
         "test_cases": len(test),
         "scored_cases": len(scored),
         "rules": None if rules is None else {"path": rules.path, "names": list(rules.names)},
+        "scored_by": None if judge is None else {"path": judge.path, "names": list(judge.names)},
         "settings": asdict(settings),
-        "accuracy": accuracy(model, encoder, scored, 256, device),
+        "accuracy": accuracy(
+            model, encoder, scored, 256, device, None if rules is None else rules.rule_set
+        ),
         "suffix": {},
         "inputs": describe_inputs([p for p in (cases_path, rules_path) if p is not None]),
     }

@@ -31,6 +31,7 @@ from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_t
 from tleaf_cli.data.event_logs import Case, read_cases
 from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.settings.next_activity import EXACT_LAMBDA, NextActivitySettings
 from tleaf_cli.tasks.action_recognition.lambda_choice import train_choosing_lambda
 from tleaf_cli.tasks.lambda_source import RunSetup, resolve_lambda_source
@@ -169,22 +170,40 @@ def new_model(encoder: Encoder, settings: NextActivitySettings) -> NextActivityL
     )
 
 
-def predict_steps(
+def step_log_probs(
     model: NextActivityLSTM,
     encoder: Encoder,
     cases: Sequence[Case],
     batch_size: int,
     device: torch.device,
 ) -> list[np.ndarray]:
-    """Per case, the predicted next token (activity index, or `encoder.end`) after each of its
-    prefixes [n]."""
+    """Per case, the log-probabilities of the next token after each of its prefixes
+    [n, V + 1] (column V: the end of the case)."""
     model.eval()
     out: list[np.ndarray] = []
     with torch.no_grad():
         for i in range(0, len(cases), batch_size):
             batch = CaseBatch.of(cases[i : i + batch_size], encoder, device)
-            guess = model(batch.activities, batch.times, batch.lengths).argmax(-1).cpu().numpy()
-            out += [guess[b, :n] for b, n in enumerate(batch.lengths.tolist())]
+            logits = model(batch.activities, batch.times, batch.lengths)
+            log_probs = torch.log_softmax(logits, dim=-1).cpu().numpy()
+            out += [log_probs[b, :n] for b, n in enumerate(batch.lengths.tolist())]
+    return out
+
+
+def allowed_next(rules: RuleSet, activities: np.ndarray) -> np.ndarray:
+    """bool [n, V + 1]: after each prefix of `activities`, the tokens that keep the rules
+    satisfiable — an activity whose DFA state can still reach acceptance, the end where the
+    prefix is accepted. A prefix that already broke the rules allows every token."""
+    dfa = rules.dfa
+    live = dfa.live()
+    letters = rules.letters(np.arange(len(rules.vocabulary)))  # activity -> DFA letter
+    out = np.ones((len(activities), len(letters) + 1), dtype=bool)
+    state = dfa.initial
+    for t, letter in enumerate(rules.letters(activities)):
+        state = int(dfa.table[state, letter])
+        if live[state]:
+            out[t, :-1] = live[dfa.table[state, letters]]
+            out[t, -1] = dfa.accepting[state]
     return out
 
 
@@ -194,17 +213,27 @@ def accuracy(
     cases: Sequence[Case],
     batch_size: int,
     device: torch.device,
+    rules: RuleSet | None = None,
 ) -> dict:
     """Next-activity accuracy pooled over every prefix of length ≥ 1 of `cases` (the end of case
-    a target), and its parts: on activities and on the end."""
-    guesses = predict_steps(model, encoder, cases, batch_size, device)
+    a target), and its parts: on activities and on the end. With `rules`, also
+    `accuracy_rules`: each prediction the most probable token that keeps the rules
+    satisfiable (`allowed_next`)."""
+    log_probs = step_log_probs(model, encoder, cases, batch_size, device)
     targets = [encoder.targets(c) for c in cases]
-    hits = np.concatenate([g == t for g, t in zip(guesses, targets, strict=True)])
+    hits = np.concatenate([p.argmax(-1) == t for p, t in zip(log_probs, targets, strict=True)])
     ends = np.concatenate([t == encoder.end for t in targets])
-    return {
+    out = {
         "cases": len(cases),
         "prefixes": len(hits),
         "accuracy": float(hits.mean()),
         "accuracy_activities": float(hits[~ends].mean()) if (~ends).any() else None,
         "accuracy_end": float(hits[ends].mean()),
     }
+    if rules is not None:
+        masked = [
+            np.where(allowed_next(rules, encoder.indices(c)), p, -np.inf).argmax(-1) == t
+            for c, p, t in zip(cases, log_probs, targets, strict=True)
+        ]
+        out["accuracy_rules"] = float(np.concatenate(masked).mean())
+    return out
