@@ -26,14 +26,35 @@ class CaseBatch:
     lengths: torch.Tensor
 
     @classmethod
-    def of(cls, cases: Sequence[Case], encoder: Encoder, device: torch.device) -> CaseBatch:
-        return cls.of_sequences(
-            [encoder.indices(c) for c in cases],
-            [c.timestamps for c in cases],
-            encoder,
-            device,
-            cases=cases,
-            targets=[encoder.targets(c) for c in cases],
+    def of(
+        cls,
+        cases: Sequence[Case],
+        encoder: Encoder,
+        device: torch.device,
+        cache: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
+    ) -> CaseBatch:
+        """The cases as a batch; `cache` (case id -> activities, targets, times) keeps each
+        case's arrays from one epoch to the next."""
+        cache = {} if cache is None else cache
+        for c in cases:
+            if c.case_id not in cache:
+                indices = encoder.indices(c)
+                times = encoder.features(indices.tolist(), c.timestamps)
+                cache[c.case_id] = indices, encoder.targets(c), times
+        parts = [cache[c.case_id] for c in cases]
+        lengths = [len(p[0]) for p in parts]
+        b, t = len(parts), max(lengths)
+        acts = np.full((b, t), PAD, dtype=np.int64)
+        tgts = np.full((b, t), PAD, dtype=np.int64)
+        times = np.zeros((b, t, TIME_FEATURES), dtype=np.float32)
+        for i, (a, y, x) in enumerate(parts):
+            acts[i, : len(a)], tgts[i, : len(a)], times[i, : len(a)] = a, y, x
+        return cls(
+            cases,
+            torch.from_numpy(acts).to(device),
+            torch.from_numpy(tgts).to(device),
+            torch.from_numpy(times).to(device),
+            torch.tensor(lengths, dtype=torch.long),
         )
 
     @classmethod

@@ -113,9 +113,11 @@ def train_next_activity(
     torch.manual_seed(settings.seed)
     model = new_model(encoder, settings).to(device)
 
+    arrays: dict = {}  # each case's arrays, built once
+
     def epoch_batches(epoch: int, generator: torch.Generator) -> Iterator[CaseBatch]:
         for part in chunks(splits["train"], settings.batch_size, generator):
-            yield CaseBatch.of(part, encoder, device)
+            yield CaseBatch.of(part, encoder, device, arrays)
 
     def step(batch: CaseBatch) -> Step:
         logits = model(batch.activities, batch.times, batch.lengths)
@@ -128,7 +130,7 @@ def train_next_activity(
         model,
         epoch_batches,
         step,
-        lambda: accuracy(model, encoder, splits["val"], settings.batch_size, device)["accuracy"],
+        lambda: accuracy(model, encoder, splits["val"], 256, device, cache=arrays)["accuracy"],
         LoopSettings.of(settings),
         out_dir,
         score=SCORE,
@@ -176,14 +178,15 @@ def step_log_probs(
     cases: Sequence[Case],
     batch_size: int,
     device: torch.device,
+    cache: dict | None = None,
 ) -> list[np.ndarray]:
     """Per case, the log-probabilities of the next token after each of its prefixes
-    [n, V + 1] (column V: the end of the case)."""
+    [n, V + 1] (column V: the end of the case); `cache` as `CaseBatch.of`'s."""
     model.eval()
     out: list[np.ndarray] = []
     with torch.no_grad():
         for i in range(0, len(cases), batch_size):
-            batch = CaseBatch.of(cases[i : i + batch_size], encoder, device)
+            batch = CaseBatch.of(cases[i : i + batch_size], encoder, device, cache)
             logits = model(batch.activities, batch.times, batch.lengths)
             log_probs = torch.log_softmax(logits, dim=-1).cpu().numpy()
             out += [log_probs[b, :n] for b, n in enumerate(batch.lengths.tolist())]
@@ -214,12 +217,13 @@ def accuracy(
     batch_size: int,
     device: torch.device,
     rules: RuleSet | None = None,
+    cache: dict | None = None,
 ) -> dict:
     """Next-activity accuracy pooled over every prefix of length ≥ 1 of `cases` (the end of case
     a target), and its parts: on activities and on the end. With `rules`, also
     `accuracy_rules`: each prediction the most probable token that keeps the rules
     satisfiable (`allowed_next`)."""
-    log_probs = step_log_probs(model, encoder, cases, batch_size, device)
+    log_probs = step_log_probs(model, encoder, cases, batch_size, device, cache)
     targets = [encoder.targets(c) for c in cases]
     hits = np.concatenate([p.argmax(-1) == t for p, t in zip(log_probs, targets, strict=True)])
     ends = np.concatenate([t == encoder.end for t in targets])
