@@ -1,0 +1,219 @@
+"""Next-activity prediction on event logs: the encoding, the soft trace and its rules, training,
+prediction under the rules, the suffix evaluation, and the commands' refusals."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from datetime import UTC, datetime, timedelta
+from itertools import product
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from typer.testing import CliRunner
+
+from tleaf_cli.cli import app
+from tleaf_cli.data.event_logs import read_cases
+from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.rule_set import RuleSet
+from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
+from tleaf_cli.tasks.next_activity.batch import CaseBatch
+from tleaf_cli.tasks.next_activity.encoding import Encoder
+from tleaf_cli.tasks.next_activity.evaluate import evaluate_next_activity, load_run
+from tleaf_cli.tasks.next_activity.objective import OBSERVED, logic_term, soft_trace
+from tleaf_cli.tasks.next_activity.suffix_search import predict_suffixes
+from tleaf_cli.tasks.next_activity.train import allowed_next, train_next_activity
+
+runner = CliRunner()
+
+# a process with one rule: every case starts with a; b is always followed by c, then the end
+VARIANTS = [("a", "b", "c"), ("a", "d", "b", "c"), ("a", "d", "d", "b", "c"), ("a", "c")]
+
+
+def write_log(path: Path, cases: int = 120, broken: int = 0) -> Path:
+    """A CSV log of `cases` cases cycling through VARIANTS, an hour between events; the last
+    `broken` cases end in b (they break `G(b -> F c)`)."""
+    start = datetime(2024, 1, 1, 9, tzinfo=UTC)
+    lines = ["case,activity,timestamp"]
+    for i in range(cases):
+        variant = VARIANTS[i % len(VARIANTS)]
+        if i >= cases - broken:
+            variant = ("a", "b")
+        for t, activity in enumerate(variant):
+            stamp = start + timedelta(days=i, hours=t)
+            lines.append(f"c{i},{activity},{stamp.isoformat()}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def cases_artifact(tmp_path: Path, **kwargs) -> Path:
+    out = tmp_path / "cases.parquet"
+    log = write_log(tmp_path / "log.csv", **kwargs)
+    result = runner.invoke(app, ["read-log", str(log), "-o", str(out), "-q"])
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def rules_file(tmp_path: Path) -> Path:
+    path = tmp_path / "rules.ltl"
+    path.write_text("init.a: a\nresponse.b.c: G(b -> F c)\n")
+    return path
+
+
+def test_encoder_targets_end_each_case_and_places_unknown_times_by_mean_gaps(tmp_path):
+    cases = read_cases(cases_artifact(tmp_path))
+    encoder = Encoder.fit(cases)
+    assert encoder.atoms == ("a", "b", "c", "d") and encoder.end == 4
+    case = next(c for c in cases.cases if c.activities == ("a", "b", "c"))
+    assert encoder.targets(case).tolist() == [1, 2, 4]
+    full = encoder.features(encoder.indices(case).tolist(), case.timestamps)
+    assert full.shape == (3, 5)
+    # events past the given times sit their activity's mean gap (an hour here) after the last
+    guessed = encoder.features(encoder.indices(case).tolist(), case.timestamps[:1])
+    np.testing.assert_allclose(guessed, full, atol=1e-6)
+    again = Encoder.from_dict(json.loads(json.dumps(encoder.as_dict())))
+    assert again == encoder
+
+
+def test_soft_trace_observes_the_first_activity_and_renormalises_the_predictions(tmp_path):
+    cases = read_cases(cases_artifact(tmp_path))
+    encoder = Encoder.fit(cases)
+    batch = CaseBatch.of(cases.cases[:4], encoder, torch.device("cpu"))
+    logits = torch.randn(4, int(batch.lengths.max()), 5)
+    trace = soft_trace(batch, logits)
+    assert trace.shape == (4, logits.shape[1], 4)  # the end of case is not a letter
+    assert (trace[:, 0].argmax(-1) == batch.activities[:, 0]).all()
+    assert trace[:, 0].max(-1).values.eq(0).all() and trace[:, 0].min() == OBSERVED
+    torch.testing.assert_close(trace[:, 1:].exp().sum(-1), torch.ones(4, logits.shape[1] - 1))
+    torch.testing.assert_close(trace[:, 1:], torch.log_softmax(logits[:, :-1, :4], -1))
+
+
+def test_the_logic_loss_reads_only_the_cases_that_keep_the_rules(tmp_path):
+    cases = read_cases(cases_artifact(tmp_path, cases=8, broken=2))
+    encoder = Encoder.fit(cases)
+    rules = RuleSet(["G(b -> F c)"], list(encoder.atoms))
+    batch = CaseBatch.of(cases.cases, encoder, torch.device("cpu"))
+    logits = torch.zeros(len(cases.cases), int(batch.lengths.max()), 5, requires_grad=True)
+    values = logic_term("exact", batch, logits, rules)
+    plain = values.detach()
+    broken = [c.activities == ("a", "b") for c in cases.cases]
+    assert all(float(plain[i]) == 0 for i, b in enumerate(broken) if b)
+    kept = [i for i, b in enumerate(broken) if not b and "b" in cases.cases[i].activities]
+    assert all(float(plain[i]) > 0 for i in kept)  # uniform predictions may break the rule
+    values.sum().backward()
+    assert logits.grad is not None and torch.isfinite(logits.grad).all()
+
+
+def test_allowed_next_is_what_keeps_some_completion_accepted():
+    """Brute force: a token is allowed after a prefix exactly when some completion of at most 4
+    more activities (then the end) is accepted."""
+    vocabulary = ["a", "b", "c"]
+    rules = RuleSet(["G(b -> F c)", "!c U a"], vocabulary)
+    dfa = rules.dfa
+
+    def accepted(seq) -> bool:
+        return bool(dfa.accepting[dfa.run(rules.letters(np.array(seq)))])
+
+    for prefix in product(range(3), repeat=3):
+        allowed = allowed_next(rules, np.array(prefix))
+        for t in range(3):
+            head = list(prefix[: t + 1])
+            tails = [list(tail) for n in range(5) for tail in product(range(3), repeat=n)]
+            if not any(accepted(head + tail) for tail in tails):
+                assert allowed[t].all()  # a broken prefix allows everything
+                continue
+            for token in range(3):
+                can = any(accepted([*head, token, *tail]) for tail in tails if len(tail) < 4)
+                assert allowed[t, token] == can, (prefix, t, token)
+            assert allowed[t, 3] == accepted(head)
+
+
+def test_training_learns_the_process_and_a_run_reloads(tmp_path):
+    data = cases_artifact(tmp_path)
+    out = tmp_path / "run"
+    settings = NextActivitySettings(epochs=25, patience=None, hidden=32, layers=1, lr=1e-2)
+    metrics = train_next_activity(data, None, None, out, settings)
+    # the next activity is determined but after a (b, c or d) and after d (b or d): 5/8 of
+    # prefixes ≈ 0.69 of steps are certain; a model that learned the process gets far past chance
+    assert metrics["test"]["accuracy"] > 0.6
+    assert metrics["test"]["accuracy_end"] == 1.0  # c always ends a case
+    _, encoder, again = load_run(out)
+    assert replace(again, lam=None) == settings  # the run's λ is resolved (unused here)
+    assert encoder.atoms == ("a", "b", "c", "d")
+
+
+def test_exact_loss_runs_choose_lambda_with_zero_and_report_it(tmp_path):
+    data = cases_artifact(tmp_path)
+    settings = NextActivitySettings(logic_loss="exact", lambdas="1", epochs=2, hidden=16, layers=1)
+    metrics = train_next_activity(data, rules_file(tmp_path), None, tmp_path / "run", settings)
+    choice = metrics["lambda"]
+    assert choice["source"] == "validation"
+    assert [c["lambda"] for c in choice["candidates"]] == [0.0, 1.0]
+    assert (tmp_path / "run" / "lambda-choice" / "lambda-0" / "weights.pt").is_file()
+
+
+def test_eval_scores_suffixes_under_the_rules_and_only_satisfying_cases(tmp_path):
+    data = cases_artifact(tmp_path, cases=120, broken=12)
+    settings = NextActivitySettings(epochs=4, hidden=16, layers=1)
+    train_next_activity(data, None, None, tmp_path / "run", settings)
+    rules = rules_file(tmp_path)
+    every = evaluate_next_activity(
+        tmp_path / "run", data, tmp_path / "all", SuffixSettings(prefix_lengths="1-2"), rules
+    )
+    kept = evaluate_next_activity(
+        tmp_path / "run", data, tmp_path / "kept",
+        SuffixSettings(prefix_lengths="1-2", scored="satisfying"), rules,
+    )  # fmt: skip
+    assert kept["scored_cases"] < every["scored_cases"] == every["test_cases"]
+    for k in ("1", "2"):
+        row = kept["suffix"][k]
+        assert row["rules"]["satisfying"] == 1.0  # every scored prefix can be completed
+        assert 0 <= row["argmax"]["dl_similarity"] <= 1
+    assert "accuracy_rules" in every["accuracy"]
+    written = json.loads((tmp_path / "kept" / "metrics.json").read_text())
+    assert written["scored_by"]["names"] == ["init.a", "response.b.c"]
+
+
+def test_suffix_rows_say_which_prefix_they_continue():
+    seen = []
+
+    def model(rows):
+        seen.extend(zip(rows, rows.owners, strict=True))
+        out = np.full((len(rows), 3), np.log(1 / 3))
+        return out
+
+    prefixes = [(0,), (1, 1), (0, 1)]
+    predict_suffixes(model, prefixes, 2, beam_width=2, max_length=3)
+    assert seen and all(row[: len(prefixes[o])] == prefixes[o] for row, o in seen)
+
+
+def test_settings_refuse_what_does_not_fit():
+    with pytest.raises(SettingError):
+        NextActivitySettings(logic_loss="none", lambdas="1").check()
+    with pytest.raises(SettingError):
+        NextActivitySettings(logic_loss="exact", lam=1.0, lambdas="1").check()
+    with pytest.raises(SettingError):
+        prefix_lengths("3-2")
+    assert prefix_lengths("2-4, 7") == (2, 3, 4, 7)
+
+
+def test_commands_refuse_bad_input_with_one_line(tmp_path):
+    data = cases_artifact(tmp_path)
+    train = runner.invoke(app, ["train-task", "next-activity", str(data), "--logic-loss", "exact",
+                                "-o", str(tmp_path / "r"), "-q"])  # fmt: skip
+    assert train.exit_code == 2 and "rules" in train.output and "Traceback" not in train.output
+    assert not (tmp_path / "r" / "metrics.json").exists()
+    missing = runner.invoke(app, ["eval", "next-activity", str(tmp_path), str(data), "-q"])
+    assert missing.exit_code == 2 and "config.json" in missing.output
+    run = tmp_path / "run"
+    train_next_activity(data, None, None, run, NextActivitySettings(epochs=1, hidden=8, layers=1))
+    no_rules = runner.invoke(app, ["eval", "next-activity", str(run), str(data), "--scored",
+                                   "satisfying", "-q"])  # fmt: skip
+    assert no_rules.exit_code == 2 and "rules" in no_rules.output
+    unknown = runner.invoke(app, ["eval", "next-activity", str(run), str(data), "--rules",
+                                  str(rules_file(tmp_path)), "--rule", "nope", "-q"])  # fmt: skip
+    assert unknown.exit_code == 2 and "nope" in unknown.output
+    with pytest.raises(InputError):
+        load_run(tmp_path / "nothing")
