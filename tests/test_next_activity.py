@@ -217,3 +217,28 @@ def test_commands_refuse_bad_input_with_one_line(tmp_path):
     assert unknown.exit_code == 2 and "nope" in unknown.output
     with pytest.raises(InputError):
         load_run(tmp_path / "nothing")
+
+
+@pytest.fixture(scope="module")
+def abc_q(chain, tmp_path_factory) -> Path:
+    """A tiny q trained on the Low tier's formulas over a, b and c."""
+    from tleaf_cli.embed.train_meta import train_meta
+    from tleaf_cli.settings.meta import MetaSettings
+
+    out = tmp_path_factory.mktemp("q")
+    settings = MetaSettings.preset("paper", hidden=16, layers=2, out_dim=8, epochs=1)
+    train_meta(chain["dfas"], chain["traces"], chain["edge"], out, settings)
+    return out
+
+
+@pytest.mark.slow
+def test_the_tleaf_loss_trains_with_a_q_that_reads_the_rules(abc_q, tmp_path):
+    data = cases_artifact(tmp_path)
+    settings = NextActivitySettings(logic_loss="tleaf", lam=1.0, epochs=2, hidden=16, layers=1)
+    metrics = train_next_activity(data, rules_file(tmp_path), abc_q, tmp_path / "run", settings)
+    assert all(h["logic_loss"] > 0 for h in metrics["history"])
+    other = tmp_path / "d.ltl"
+    other.write_text("existence.d: F d\n")
+    with pytest.raises(SettingError) as refused:
+        train_next_activity(data, other, abc_q, tmp_path / "r2", settings)
+    assert refused.value.setting == "embedder" and " d " in str(refused.value) + " "

@@ -98,6 +98,14 @@ def train_next_activity(
         from tleaf_cli.embed.load import load_embedder
 
         embedder = load_embedder(embedder_dir)
+        missing = sorted(set(rules.atoms) - set(embedder.vectors.index))
+        if missing:  # q could not embed the conjunction: the loss would teach nothing
+            raise SettingError(
+                "embedder",
+                f"{embedder_dir} was not trained on the atoms {', '.join(missing[:5])}"
+                f"{' and more' if len(missing) > 5 else ''} of the rules: train q on formulas "
+                "over this log's activities",
+            )
         embedder.model.to(device)
     lam = resolve_lambda_source(
         settings.lam,
