@@ -71,29 +71,25 @@ def published_suffix(folder: Path | None) -> dict[tuple[str, str, str, int], flo
 
 
 def rm_table(out: Path, peers: dict[str, dict[str, float]]) -> tuple[list[str], list[str]]:
-    """Rama-Maneiro et al.'s protocol: the table's lines and the goals' lines."""
+    """Rama-Maneiro et al.'s protocol: the table's lines and the goals' lines.
+
+    The knowledge model is declared before the runs: the exact loss's run (λ chosen on val
+    among the candidates and 0) predicting under the mined rules. The other columns are shown,
+    not chosen among on test."""
     lines = [
         "| log | folds | no knowledge | exact loss (λ on val) | no knowledge, under mined "
-        "rules | exact, under mined rules | folds knowledge > none | Tax et al. | best "
-        "published |",
+        "rules | **exact, under mined rules** | folds where it beats no knowledge | Tax et al. | "
+        "best published |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     beat_tax, beat_best, raised = 0, 0, 0
-    logs = (
-        sorted(p.name for p in (out / "rm").iterdir() if p.is_dir())
-        if (out / "rm").is_dir()
-        else []
-    )
+    logs = folders(out / "rm")
     for log in logs:
         rows = defaultdict(list)
-        wins = 0
-        folds = sorted((out / "rm" / log).glob("fold*"))
-        done = 0
-        for fold in folds:
-            none, exact = (
-                read(fold / "eval-none/metrics.json"),
-                read(fold / "eval-exact/metrics.json"),
-            )
+        wins, done = 0, 0
+        for fold in sorted((out / "rm" / log).glob("fold*")):
+            none = read(fold / "eval-none/metrics.json")
+            exact = read(fold / "eval-exact/metrics.json")
             if none is None or exact is None:
                 continue
             done += 1
@@ -102,29 +98,27 @@ def rm_table(out: Path, peers: dict[str, dict[str, float]]) -> tuple[list[str], 
             rows["exact"].append(exact["accuracy"]["accuracy"])
             rows["none_rules"].append(none["accuracy"].get("accuracy_rules", a_none))
             rows["exact_rules"].append(exact["accuracy"].get("accuracy_rules", a_none))
-            best_knowledge = max(rows["exact"][-1], rows["none_rules"][-1], rows["exact_rules"][-1])
-            wins += best_knowledge > a_none
+            wins += rows["exact_rules"][-1] > a_none
         if not done:
             continue
-        key = log.lower()
-        theirs = peers.get(key, {})
+        theirs = peers.get(log.lower(), {})
         tax = theirs.get("Tax")
         best = max(theirs.items(), key=lambda kv: kv[1]) if theirs else None
-        ours = max(statistics.mean(rows[k]) for k in rows) * 100
+        ours = 100 * statistics.mean(rows["exact_rules"])
         beat_tax += tax is not None and ours >= tax
         beat_best += best is not None and ours >= best[1]
         raised += done >= 4 and wins >= 4
         lines.append(
             f"| {log} | {done} | {mean_sd(rows['none'])} | {mean_sd(rows['exact'])} | "
-            f"{mean_sd(rows['none_rules'])} | {mean_sd(rows['exact_rules'])} | {wins} of {done} | "
-            f"{'—' if tax is None else f'{tax:.2f}'} | "
+            f"{mean_sd(rows['none_rules'])} | **{mean_sd(rows['exact_rules'])}** | "
+            f"{wins} of {done} | {'—' if tax is None else f'{tax:.2f}'} | "
             f"{'—' if best is None else f'{best[1]:.2f} ({best[0]})'} |"
         )
     goals = [
-        f"- at or above Tax et al. (best tleaf column): {beat_tax} of {len(logs)} logs run "
+        f"- exact under mined rules at or above Tax et al.: {beat_tax} of {len(logs)} logs run "
         "(goal: all six);",
         f"- at or above the best published approach: {beat_best} of {len(logs)} (goal: three);",
-        f"- knowledge above tleaf's own no-knowledge model in at least 4 of 5 folds: {raised} of "
+        f"- above tleaf's own no-knowledge model in at least 4 of 5 folds: {raised} of "
         f"{len(logs)} logs (goal: four of six).",
     ]
     return lines, goals
