@@ -17,7 +17,9 @@ tables of `losses.packed`); the Python loop runs over steps only. Ties go to the
 
 What it guarantees: the output is accepted by each sequence's rule set, and no accepted
 sequence scores higher. What it does not: rules not given are not enforced, and a wrong rule
-set gives confidently wrong outputs (docs/decoding.md).
+set gives confidently wrong outputs (docs/decoding.md). `soft_decode` uses the rules as a
+weighted prior instead (score − weight · [breaks them]), between argmax (weight 0) and
+constrained decoding (a large weight), for sequences that people perform against the rules.
 """
 
 from __future__ import annotations
@@ -125,3 +127,39 @@ def _viterbi(
         out[:, t] = torch.where(running, letter_item[rows, t, letter], out[:, t])
         state = torch.where(running, arc // letters, state)
     return out
+
+
+def sequence_scores(log_probs: torch.Tensor, items: torch.Tensor) -> torch.Tensor:
+    """Σ_t log_probs[b, t, items[b, t]] per sequence [B], over the steps where items ≥ 0."""
+    picked = log_probs.detach().float().gather(2, items.clamp(min=0)[..., None]).squeeze(-1)
+    return picked.masked_fill(items < 0, 0.0).sum(dim=1)
+
+
+def soft_choice(log_probs: torch.Tensor, hard: torch.Tensor, weight: float) -> torch.Tensor:
+    """The rules as a weighted prior: per sequence, the sequence maximising
+    Σ_t log p(v_t) − weight · [it breaks the rules], given `hard` [B, T] (−1 past a length), the
+    best sequence that keeps them (`constrained_decode`'s).
+
+    The best sequence that breaks them scores at most the argmax's, and is the argmax when the
+    argmax breaks them; so the answer is the argmax when its score minus `weight` reaches the
+    hard decoding's, else the hard decoding: weight 0 gives argmax decoding, a weight above
+    every score gap gives constrained decoding, and a person who did a step out of order keeps
+    it where the model is sure of it by more than `weight` (log-probability)."""
+    argmax = log_probs.argmax(dim=-1).masked_fill(hard < 0, -1)
+    keep = sequence_scores(log_probs, argmax) - weight >= sequence_scores(log_probs, hard)
+    return torch.where(keep[:, None], argmax, hard)
+
+
+def soft_decode(
+    log_probs: torch.Tensor,
+    rules: RuleSet | Sequence[RuleSet | None],
+    weight: float,
+    lengths: torch.Tensor | None = None,
+    *,
+    per_sequence_vocabulary: bool = False,
+) -> torch.Tensor:
+    """`soft_choice` between argmax and `constrained_decode` at `weight` (≥ 0)."""
+    hard = constrained_decode(
+        log_probs, rules, lengths, per_sequence_vocabulary=per_sequence_vocabulary
+    )
+    return soft_choice(log_probs, hard, weight)

@@ -31,7 +31,13 @@ from tleaf_cli.cli.generate import gen_activities, gen_demos, gen_formulas, gen_
 from tleaf_cli.cli.knowledge import cooking_kb, demos_kb, kb_extract
 from tleaf_cli.cli.model_checking import eval_model_checking, eval_table, eval_tsne
 from tleaf_cli.cli.next_activity import eval_next_activity, train_task_next_activity
-from tleaf_cli.cli.procedures import check_recordings, read_recordings, task_graph
+from tleaf_cli.cli.procedures import (
+    check_recordings,
+    eval_step_recognition,
+    read_recordings,
+    recording_activities,
+    task_graph,
+)
 
 app = typer.Typer(
     name="tleaf",
@@ -79,6 +85,7 @@ for name, function in {
     "task-graph": task_graph,
     "read-recordings": read_recordings,
     "check-recordings": check_recordings,
+    "recording-activities": recording_activities,
     "kb-extract": kb_extract,
     "train-edge": train_edge,
     "train-meta": train_meta,
@@ -98,6 +105,7 @@ for name, function in {
     "choose-lambda": eval_choose_lambda,
     "violations": eval_violations,
     "cooking": eval_cooking,
+    "step-recognition": eval_step_recognition,
     "next-activity": eval_next_activity,
 }.items():
     eval_app.command(name, cls=Command)(function)

@@ -11,13 +11,19 @@ constrained_decode` under a rule set built from the knowledge base WITHOUT the l
    D and the video is decoded again. Each round adds a pair or ends, so it stops; when it ends,
    every rule relevant to the output is in R, which the output satisfies: 0 violations by
    construction, with R chosen from the model's outputs alone.
+
+`soft_pairs` uses the rules as a weighted prior instead (`decode.soft_choice`): per video and
+weight w, the argmax pairs unless their log-probability exceeds the constrained decoding's by
+less than w (weight 0: argmax; a large weight: constrained decoding).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import torch
 
-from tleaf_cli.decode import constrained_decode
+from tleaf_cli.decode import constrained_decode, soft_choice
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.losses import pair_log_probs
 
@@ -59,6 +65,19 @@ def decode_pairs(
                 still.append(b)
         pending = still
     return out, rounds
+
+
+def soft_pairs(
+    log_pairs: torch.Tensor,
+    lengths: torch.Tensor,
+    rules: KnowledgeRuleSets,
+    top_k: int,
+    weights: Sequence[float],
+) -> dict[float, torch.Tensor]:
+    """Pair indices [B, T] (−1 past a length) per weight of the rules' prior: `soft_choice`
+    between the argmax pairs and `decode_pairs`' (computed once for every weight)."""
+    hard, _ = decode_pairs(log_pairs, lengths, rules, top_k)
+    return {w: soft_choice(log_pairs, hard, w) for w in weights}
 
 
 def own_labels(
