@@ -163,7 +163,7 @@ def recording_activities(
     feature_dim: Annotated[int, typer.Option(min=1, help="Feature dimension D.")] = 32,
     noise: Annotated[
         float, typer.Option(min=0.0, help="Noise σ of one frame around its step's mean.")
-    ] = 4.0,
+    ] = 2.0,
     frame_seconds: Annotated[
         float,
         typer.Option(

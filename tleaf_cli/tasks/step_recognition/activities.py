@@ -63,7 +63,7 @@ class StepFeatures:
     """How each step's feature is drawn (module docstring)."""
 
     dim: int = 32  # D
-    noise: float = 4.0  # σ of one frame
+    noise: float = 2.0  # σ of one frame
     frame_seconds: float = 10.0  # seconds a frame stands for
     seed: int = 0
 

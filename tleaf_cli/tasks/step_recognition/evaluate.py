@@ -39,6 +39,7 @@ from tleaf_cli.tasks.procedure_checks import SCHEMA_VERSION as CHECKS_SCHEMA
 WEIGHTS = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, math.inf)
 DECODINGS = ("argmax", "constrained", "soft")
 GROUPS = ("all", "keep", "break")
+METHOD_ORDER = ("none", "exact", "tleaf")
 JSON_FILE, MARKDOWN_FILE = "step_recognition.json", "step_recognition.md"
 
 
@@ -130,7 +131,7 @@ def summarise(rows: Sequence[dict]) -> list[dict]:
     for r in rows:
         groups.setdefault((r["method"], r["train_recordings"]), []).append(r)
     out = []
-    for (method, size), runs in sorted(groups.items(), key=lambda kv: (kv[0][1], kv[0][0])):
+    for (method, size), runs in sorted(groups.items(), key=lambda kv: _order(*kv[0])):
         cells = {
             d: {g: _mean_se([r["test_step_accuracy"][d][g] for r in runs]) for g in GROUPS}
             for d in DECODINGS
@@ -145,6 +146,12 @@ def summarise(rows: Sequence[dict]) -> list[dict]:
             }
         )
     return out
+
+
+def _order(method: str, size: int) -> tuple:
+    """Sizes increasing; within a size the reference first, then the logic losses."""
+    known = METHOD_ORDER.index(method) if method in METHOD_ORDER else len(METHOD_ORDER)
+    return size, known, method
 
 
 def _mean_se(values: Sequence[float | None]) -> tuple[float, float]:

@@ -1,0 +1,109 @@
+# CaptainCook4D: real recordings checked against their recipes' task graphs, and step
+# recognition along the real step orders (docs/procedures.md). From the files shipped in
+# examples/captaincook4d (or DATA=<a copy of github.com/CaptainCook4D/annotations>):
+#   task-graph -> read-recordings -> check-recordings (the exact rule check)
+#   -> recording-activities (the recordings as step sequences with drawn features, the graphs'
+#      rules over the steps) -> train-task action-recognition x LOSSES x SIZES x SEEDS (first N
+#      train recordings; the same val and test recordings throughout; each test set decoded by
+#      argmax and under the rules) -> eval step-recognition (argmax / constrained / soft, soft's
+#      weight chosen on val, on the test recordings that keep and that break their rules) and
+#      eval learning-curve (what the rules are worth in recordings) -> the results page.
+#   make -f pipelines/captaincook.mk [TLEAF=tleaf] [SMALL=1] [OUT=out/captaincook]
+#        [SIZES="10 20 40 80 213"] [SEEDS="0 1 2 3 4"] [LOSSES="none exact"] [NOISE=2] -j2
+# SMALL=1: four recipes, 8 training recordings, 2 epochs, one seed (used by the tests); its page
+# is $(OUT)/captaincook4d.md, the full run's docs/results/captaincook4d.md.
+# The tleaf loss needs a q trained on these rules (train-meta on their rule sets), not built here.
+# make tracks files, not settings: give a new OUT when changing a setting.
+TLEAF ?= tleaf
+SMALL ?= 0
+DATA ?= examples/captaincook4d
+LOSSES ?= none exact
+LAMBDA_exact ?= 1
+NOISE ?= 2
+DECODE_TOP_K ?= 5
+BATCH := 16
+OMP_NUM_THREADS ?= 1
+export OMP_NUM_THREADS
+
+ifeq ($(SMALL),1)
+OUT ?= out/captaincook-small
+RECIPES ?= coffee ramen tomatochutney zoodles
+SIZES ?= 8
+SEEDS ?= 0
+TASK := --hidden 16 --epochs 2 --patience 2
+PAGE := $(OUT)/captaincook4d.md
+else
+OUT ?= out/captaincook
+RECIPES ?= $(basename $(notdir $(wildcard $(DATA)/task_graphs/*.json)))
+SIZES ?= 10 20 40 80 213
+SEEDS ?= 0 1 2 3 4
+TASK := --epochs 150 --patience 20
+PAGE := docs/results/captaincook4d.md
+endif
+
+SPLITS := $(DATA)/data_splits/recordings_data_split_combined.json
+RUNS := $(foreach l,$(LOSSES),$(foreach n,$(SIZES),$(foreach s,$(SEEDS),\
+	$(OUT)/runs/$(l)-n$(n)-seed$(s)/metrics.json)))
+ARGS_none = --logic-loss none
+ARGS_exact = --logic-loss exact --lambda $(LAMBDA_exact)
+
+.PHONY: all
+all: $(PAGE)
+
+$(OUT)/started:
+	@mkdir -p $(@D)
+	date +%s > $@
+
+# the recipes' graphs (SMALL: a few of them; recordings of other recipes are left out)
+$(OUT)/graphs/.copied: | $(OUT)/started
+	@mkdir -p $(@D)
+	cp $(foreach r,$(RECIPES),$(DATA)/task_graphs/$(r).json) $(@D)/
+	touch $@
+$(OUT)/edges.ltl: $(OUT)/graphs/.copied
+	$(TLEAF) task-graph $(OUT)/graphs -o $@ -q
+$(OUT)/recordings.parquet: | $(OUT)/started
+	$(TLEAF) read-recordings $(DATA)/annotation_json --splits $(SPLITS) -o $@ -q
+$(OUT)/checks/checks.parquet: $(OUT)/recordings.parquet $(OUT)/edges.ltl
+	$(TLEAF) check-recordings $^ -o $(@D) -q
+$(OUT)/activities.parquet $(OUT)/kb.ltl &: $(OUT)/recordings.parquet $(OUT)/graphs/.copied
+	$(TLEAF) recording-activities $< $(OUT)/graphs -o $(OUT)/activities.parquet \
+	    --kb-out $(OUT)/kb.ltl --noise $(NOISE) -q
+
+# one run per loss, number of training recordings and seed
+$(OUT)/runs/%/metrics.json: $(OUT)/activities.parquet $(OUT)/kb.ltl
+	$(eval loss := $(word 1,$(subst -, ,$*)))
+	$(eval size := $(patsubst n%,%,$(word 2,$(subst -, ,$*))))
+	$(eval seed := $(patsubst seed%,%,$(word 3,$(subst -, ,$*))))
+	$(TLEAF) train-task action-recognition $< --kb $(OUT)/kb.ltl $(ARGS_$(loss)) \
+	    --train-videos $(size) --seed $(seed) --batch-size $(BATCH) $(TASK) \
+	    --decode constrained --decode-top-k $(DECODE_TOP_K) -o $(@D) -q
+
+$(OUT)/eval/step_recognition.md: $(RUNS) $(OUT)/checks/checks.parquet
+	$(TLEAF) eval step-recognition $(RUNS:/metrics.json=) --checks $(OUT)/checks/checks.parquet \
+	    -o $(@D) -q
+$(OUT)/curve/curve.md: $(RUNS)
+	$(TLEAF) eval learning-curve $(RUNS:/metrics.json=) -o $(@D) -q
+
+$(PAGE): $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md $(OUT)/checks/checks.parquet
+	@mkdir -p $(@D)
+	{ echo "# CaptainCook4D: real recordings, their recipes' rules, and step recognition"; \
+	  echo; \
+	  echo "Steps recognised along the real recordings (orders, durations, splits and rule"; \
+	  echo "violations real; features drawn per step: docs/procedures.md)."; \
+	  echo; \
+	  cat $(OUT)/eval/step_recognition.md; \
+	  echo; \
+	  echo "Command: \`make -f pipelines/captaincook.mk$(if $(filter 1,$(SMALL)), SMALL=1)" \
+	       "SIZES=\"$(SIZES)\" SEEDS=\"$(SEEDS)\" LOSSES=\"$(LOSSES)\" NOISE=$(NOISE)\`;" \
+	       "wall time $$(( $$(date +%s) - $$(cat $(OUT)/started) )) s" \
+	       "on $$(getconf _NPROCESSORS_ONLN) cores (every stage from the first, in $(OUT))."; \
+	  echo; \
+	  echo "## The rules as a detector of the recordings with errors (exact check)"; \
+	  echo; \
+	  cat $(OUT)/checks/report.md; \
+	  echo; \
+	  echo "## Learning curve (step accuracy against training recordings)"; \
+	  echo; \
+	  cat $(OUT)/curve/curve.md; \
+	} > $@.tmp
+	mv $@.tmp $@
