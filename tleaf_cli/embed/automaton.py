@@ -35,10 +35,11 @@ import itertools
 import torch
 from torch import nn
 from torch_geometric.nn import global_add_pool
-from torch_geometric.utils import degree, to_undirected
+from torch_geometric.utils import degree
 
-from tleaf_cli.embed.graphs import gcn_adjacency, read_limits, trace_graph_batch
-from tleaf_cli.embed.layers import NormalisedGCNConv
+from tleaf_cli.embed.batches import Blocks, Unit
+from tleaf_cli.embed.graphs import joint_adjacency, read_limits, readout_pool, trace_graph_batch
+from tleaf_cli.embed.layers import NormalisedGCNConv, sparse_product
 from tleaf_cli.embed.probes import ProbeBank
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.monitors import MonitorBank
@@ -138,16 +139,10 @@ def run_readout(
 ) -> torch.Tensor:
     """[graphs, parts · hidden]: Σ_v w_k(v) x_v per graph and part k, the parts side by side
     (part 0's hidden units first), for node weights `weights` [n, parts] and node states `x`
-    [n, hidden]: one sparse product S · x, S [graphs · parts, n] holding w_k(v) at row
-    (graph of v, k), instead of a pool per part or a [n, parts, hidden] product (and no
-    padding: graphs of a batch differ in size by a hundredfold)."""
-    n, parts = weights.shape
-    rows = (graph_of.unsqueeze(1) * parts + torch.arange(parts, device=x.device)).reshape(-1)
-    cols = torch.arange(n, device=x.device).repeat_interleave(parts)
-    pool = torch.sparse_coo_tensor(
-        torch.stack([rows, cols]), weights.reshape(-1), (graphs * parts, n)
-    )
-    return torch.sparse.mm(pool, x).reshape(graphs, -1)
+    [n, hidden]: one sparse product S · x (`graphs.readout_pool`), instead of a pool per part or
+    a [n, parts, hidden] product (and no padding: graphs of a batch differ in size by a
+    hundredfold)."""
+    return sparse_product(readout_pool(weights, graph_of, graphs), x).reshape(graphs, -1)
 
 
 def walk_weights(edge_index: torch.Tensor, start: torch.Tensor, num_nodes: int, steps: int):
@@ -266,27 +261,65 @@ class AutomatonEncoder(nn.Module):
         """Where the readout's runs end: accepting states, and for `runs` the rejecting ones."""
         return [batch.flags[:, 1]] + ([batch.rejecting] if self.readout == "runs" else [])
 
+    def block_matrices(self, batch) -> dict[str, tuple[Blocks, Blocks]]:
+        """The matrices `forward` builds from a batch's graphs, for a whole collated store
+        (`batches.GraphStore`, whose batches then carry their blocks): the joint adjacency
+        (`graphs.joint_adjacency`) and, for run readouts, the readout pool
+        (`graphs.readout_pool`), each with its transpose."""
+        ptr, ways = batch.ptr, 1 if self.back is None else 2
+        adjacency = joint_adjacency(
+            batch.edge_index, int(batch.num_nodes), ways == 2, batch.edge_vec.dtype
+        )
+        node, spread = Unit(1), Unit(ways)
+        out = {
+            "adjacency": (
+                Blocks.of(adjacency.matrix, ptr, node, spread),
+                Blocks.of(adjacency.transposed, ptr, spread, node),
+            )
+        }
+        if self.readout in RUN_READOUTS:
+            weights = self._run_weights_of(batch)
+            pool = readout_pool(weights, batch.batch, int(ptr.numel() - 1))
+            parts = Unit(weights.shape[1], per_graph=True)
+            out["pool"] = (
+                Blocks.of(pool.matrix, ptr, parts, node),
+                Blocks.of(pool.transposed, ptr, node, parts),
+            )
+        return out
+
+    def _run_weights_of(self, batch) -> torch.Tensor:
+        """[n, parts]: the graphs' stored run weights, or computed now."""
+        cached = getattr(batch, "run_weights", None)
+        return cached if cached is not None else self.run_weights(batch).t()
+
+    def _layer(self, k: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """Layer k's weight [ways · hidden, in] (W→ above W←) and its summed bias."""
+        conv = self.convs[k]
+        if self.back is None:
+            return conv.lin.weight, conv.bias
+        back = self.back[k]
+        return torch.cat([conv.lin.weight, back.lin.weight]), conv.bias + back.bias
+
     def forward(self, batch) -> torch.Tensor:
         kinds = nn.functional.one_hot(batch.node_kind, KINDS).float()
         x = torch.cat([kinds, batch.flags, batch.edge_vec], dim=1)
         arcs, n = batch.edge_index, x.shape[0]
-        if self.back is None:
-            both = gcn_adjacency(to_undirected(arcs, num_nodes=n), n, x.dtype)
-            for conv in self.convs:
-                x = torch.relu(conv(x, both))
-        else:
-            along, against = (
-                gcn_adjacency(arcs, n, x.dtype),
-                gcn_adjacency(arcs.flip(0), n, x.dtype),
-            )
-            for conv, back in zip(self.convs, self.back, strict=True):
-                x = torch.relu(conv(x, along) + back(x, against))
+        # every direction in one sparse product per layer (graphs.joint_adjacency): the batch's
+        # blocks where a GraphStore gathered them, else built here
+        adjacency = getattr(batch, "adjacency", None)
+        if adjacency is None:
+            adjacency = joint_adjacency(arcs, n, self.back is not None, x.dtype)
+        for k in range(len(self.convs)):
+            weight, bias = self._layer(k)
+            states = (x @ weight.t()).view(-1, weight.shape[0] // (1 if self.back is None else 2))
+            x = torch.relu(sparse_product(adjacency, states) + bias)
         start = batch.ptr[:-1] + batch.initial
         graphs = int(batch.ptr.numel() - 1)
         if self.readout in RUN_READOUTS:
-            cached = getattr(batch, "run_weights", None)
-            r = cached if cached is not None else self.run_weights(batch).t()  # [n, parts]
-            parts = [run_readout(r, x, batch.batch, graphs)]
+            pool = getattr(batch, "pool", None)
+            if pool is None:
+                pool = readout_pool(self._run_weights_of(batch), batch.batch, graphs)
+            parts = [sparse_product(pool, x).reshape(graphs, -1)]
             if self.probes is not None:
                 parts.append(self.probes(batch, self._ends(batch), batch.edge_vec))
             if self.monitor_bank is not None:

@@ -10,13 +10,84 @@ small, not per node).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import warnings
+from collections.abc import Callable, Sequence
+from typing import NamedTuple
 
 import torch
 from torch_geometric.data import Batch, Data
 
+from tleaf_cli.embed.graphs import Adjacency
+
 # fields every batch has that are not graph data: how graphs and nodes are laid out
 LAYOUT = ("batch", "ptr", "edge_index", "num_nodes")
+
+
+class Unit(NamedTuple):
+    """How a block matrix's rows (or columns) are laid out: `per` 1 per node of each graph
+    (node u's at k u .. k u + k - 1), or `per_graph` k per graph."""
+
+    k: int
+    per_graph: bool = False
+
+    def starts(self, ptr: torch.Tensor) -> torch.Tensor:
+        """[graphs + 1]: where each graph's rows begin, for node pointers `ptr`."""
+        if self.per_graph:
+            return self.k * torch.arange(ptr.numel(), device=ptr.device)
+        return self.k * ptr
+
+    def of(self, ids: torch.Tensor, nodes: torch.Tensor, ptr: torch.Tensor):
+        """The rows of graphs `ids` (whose nodes are `nodes`, newly at `ptr`), graph by
+        graph, and where each selected graph's rows begin."""
+        if self.per_graph:
+            units, starts = ids, torch.arange(ids.numel() + 1, device=ids.device)
+        else:
+            units, starts = nodes, ptr
+        if self.k == 1:
+            return units, starts
+        spread = self.k * units[:, None] + torch.arange(self.k, device=ids.device)
+        return spread.flatten(), self.k * starts
+
+
+class Blocks(NamedTuple):
+    """A block-diagonal sparse CSR matrix over a collated store, one block per graph: graph g's
+    block spans rows rows[g]..rows[g + 1] and columns cols[g]..cols[g + 1] (its nodes, or its
+    nodes times directions, or its readout parts), and its entries are the CSR entries
+    entries[g]..entries[g + 1], with column indices kept relative to its block."""
+
+    entries: torch.Tensor  # [graphs + 1]
+    row_entries: torch.Tensor  # [rows]: entries of each row
+    col: torch.Tensor  # [entries]: column within its block
+    values: torch.Tensor
+    row_unit: Unit
+    col_unit: Unit
+
+    @classmethod
+    def of(cls, matrix: torch.Tensor, ptr: torch.Tensor, row_unit: Unit, col_unit: Unit):
+        """The blocks of a block-diagonal sparse CSR `matrix` over a store with node pointers
+        `ptr`, whose graphs' rows and columns are laid out as `row_unit` and `col_unit` say."""
+        crow, col = matrix.crow_indices(), matrix.col_indices()
+        rows, cols = row_unit.starts(ptr), col_unit.starts(ptr)
+        entries = crow[rows]
+        local = col - torch.repeat_interleave(cols[:-1], entries.diff())
+        return cls(entries, crow.diff(), local, matrix.values(), row_unit, col_unit)
+
+    def select(self, ids: torch.Tensor, row_ids: torch.Tensor, col_ptr: torch.Tensor):
+        """The block-diagonal matrix of graphs `ids` (in that order), whose rows are the store's
+        rows `row_ids` (the graphs' rows, graph by graph) and whose graph k starts at column
+        col_ptr[k] (col_ptr [len(ids) + 1]): each block's entries gathered, its columns moved to
+        the block's new place. What building the matrix from those graphs collated gives."""
+        entries, entry_ptr = _ranges(self.entries, ids)
+        crow = torch.cat([entry_ptr.new_zeros(1), self.row_entries[row_ids].cumsum(0)])
+        col = self.col[entries] + col_ptr[:-1].repeat_interleave(entry_ptr.diff())
+        size = (int(row_ids.numel()), int(col_ptr[-1]))
+        with warnings.catch_warnings():  # torch marks CSR support beta
+            warnings.simplefilter("ignore", UserWarning)
+            return torch.sparse_csr_tensor(crow, col, self.values[entries], size)
+
+
+# what a store's graphs' matrices come from: the collated store -> {field: (Â, Âᵀ) as Blocks}
+BlockMatrices = Callable[[Batch], dict[str, tuple[Blocks, Blocks]]]
 
 
 class GraphStore:
@@ -28,7 +99,12 @@ class GraphStore:
     `device`, where the store is kept (and its batches built).
     """
 
-    def __init__(self, graphs: Sequence[Data], device: torch.device | str = "cpu") -> None:
+    def __init__(
+        self,
+        graphs: Sequence[Data],
+        device: torch.device | str = "cpu",
+        matrices: BlockMatrices | None = None,
+    ) -> None:
         self.store = Batch.from_data_list(list(graphs))
         slices = self.store._slice_dict
         self.ptr = self.store.ptr
@@ -46,6 +122,7 @@ class GraphStore:
                 raise ValueError(f"field {key!r} is neither one row per node nor one per graph")
         self.store = self.store.to(device)
         self.ptr, self.edge_ptr = self.ptr.to(device), self.edge_ptr.to(device)
+        self.matrices = {} if matrices is None else matrices(self.store)
 
     def __len__(self) -> int:
         return int(self.ptr.numel() - 1)
@@ -60,7 +137,16 @@ class GraphStore:
         shift = torch.repeat_interleave(ptr[:-1] - self.ptr[ids], edge_ptr.diff())
         fields = {key: self.store[key][nodes] for key in self.node_fields}
         fields |= {key: self.store[key][ids] for key in self.graph_fields}
-        return _batch(fields, self.store.edge_index[:, edges] + shift, ptr)
+        batch = _batch(fields, self.store.edge_index[:, edges] + shift, ptr)
+        for key, (matrix, transposed) in self.matrices.items():
+            # a matrix's rows and columns per graph: its nodes, or parts (rows of a graph's
+            # block) per node or per graph
+            row_ids, row_ptr = matrix.row_unit.of(ids, nodes, ptr)
+            col_ids, col_ptr = matrix.col_unit.of(ids, nodes, ptr)
+            batch[key] = Adjacency(
+                matrix.select(ids, row_ids, col_ptr), transposed.select(ids, col_ids, row_ptr)
+            )
+        return batch
 
 
 def join(first: Batch, second: Batch) -> Batch:

@@ -46,7 +46,7 @@ from ltlf2dfa.ltlf import (
 )
 from torch_geometric.data import Batch, Data
 from torch_geometric.nn.conv.gcn_conv import gcn_norm
-from torch_geometric.utils import to_torch_csr_tensor
+from torch_geometric.utils import to_torch_csr_tensor, to_undirected
 
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
@@ -316,6 +316,48 @@ def gcn_adjacency(edge_index: torch.Tensor, num_nodes: int, dtype=torch.float32)
         return Adjacency(
             to_torch_csr_tensor(arcs.flip(0), weight, size=size),
             to_torch_csr_tensor(arcs, weight, size=size),
+        )
+
+
+def joint_adjacency(
+    edge_index: torch.Tensor, num_nodes: int, directed: bool, dtype=torch.float32
+) -> Adjacency:
+    """Every direction's Â in one matrix [n, ways · n], so that a GCN layer reads all of them
+    with one sparse product: undirected (ways 1), `gcn_adjacency` of the arcs taken both ways;
+    `directed` (ways 2), Â of the arcs at column 2u and Â of the reversed arcs at column 2u + 1.
+    A layer's node states for both directions, x·[W→ ; W←]ᵀ [n, 2 h] read as [2 n, h] (row 2u:
+    u's state through W→, row 2u + 1 through W←), then give Â→ x W→ᵀ + Â← x W←ᵀ in one
+    product: what two `GCNConv` layers and their sum give, to float rounding."""
+    if not directed:
+        return gcn_adjacency(to_undirected(edge_index, num_nodes=num_nodes), num_nodes, dtype)
+    rows, cols, weights = [], [], []
+    for way, arcs in enumerate((edge_index, edge_index.flip(0))):
+        (src, dst), weight = gcn_norm(arcs, None, num_nodes, add_self_loops=True, dtype=dtype)
+        rows.append(dst)
+        cols.append(2 * src + way)
+        weights.append(weight)
+    row, col, weight = torch.cat(rows), torch.cat(cols), torch.cat(weights)
+    with warnings.catch_warnings():  # torch marks CSR support beta; PyG's own path uses it
+        warnings.simplefilter("ignore", UserWarning)
+        return Adjacency(
+            to_torch_csr_tensor(torch.stack([row, col]), weight, size=(num_nodes, 2 * num_nodes)),
+            to_torch_csr_tensor(torch.stack([col, row]), weight, size=(2 * num_nodes, num_nodes)),
+        )
+
+
+def readout_pool(weights: torch.Tensor, graph_of: torch.Tensor, graphs: int) -> Adjacency:
+    """The pooling matrix S [graphs · parts, n] (and its transpose) of node weights `weights`
+    [n, parts]: w_k(v) at row (graph of v) · parts + k, column v, so that S · x [n, h] read as
+    [graphs, parts · h] is Σ_v w_k(v) x_v per graph and part, the parts side by side."""
+    n, parts = weights.shape
+    rows = (graph_of.unsqueeze(1) * parts + torch.arange(parts, device=weights.device)).reshape(-1)
+    cols = torch.arange(n, device=weights.device).repeat_interleave(parts)
+    size = (graphs * parts, n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)
+        return Adjacency(
+            to_torch_csr_tensor(torch.stack([rows, cols]), weights.reshape(-1), size=size),
+            to_torch_csr_tensor(torch.stack([cols, rows]), weights.reshape(-1), size=size[::-1]),
         )
 
 

@@ -31,6 +31,12 @@ class _SparseProduct(torch.autograd.Function):
         return None, None, ctx.transposed @ grad
 
 
+def sparse_product(adjacency: Adjacency, x: torch.Tensor) -> torch.Tensor:
+    """`adjacency.matrix` · x, differentiable in x, its backward reading the stored transpose
+    (any sparse CSR pair: a normalised adjacency, a readout's pooling matrix)."""
+    return _SparseProduct.apply(adjacency.matrix, adjacency.transposed, x)
+
+
 class NormalisedGCNConv(GCNConv):
     """A GCN layer reading a normalised adjacency (`graphs.gcn_adjacency`).
 
@@ -47,5 +53,5 @@ class NormalisedGCNConv(GCNConv):
         super().__init__(in_channels, out_channels, normalize=False)
 
     def forward(self, x: torch.Tensor, adjacency: Adjacency) -> torch.Tensor:  # type: ignore[override]
-        out = _SparseProduct.apply(adjacency.matrix, adjacency.transposed, self.lin(x))
+        out = sparse_product(adjacency, self.lin(x))
         return out if self.bias is None else out + self.bias

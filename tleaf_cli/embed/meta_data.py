@@ -215,6 +215,35 @@ def featured_trace_graph(
     return _with_edge_vectors(trace_graph(len(trace)), letters)
 
 
+def with_chain_templates(
+    encoder: torch.nn.Module, graphs: Sequence[Data], lengths: Collection[int]
+) -> tuple[list[Data], dict[int, int]]:
+    """`graphs` (DFA graphs with their fields) followed by one trace chain per length in
+    `lengths`, with the same fields (zero edge vectors and monitor features, the chain's run
+    weights where `encoder`'s readout reads runs), for one `GraphStore` of both: a batch of
+    formulas and traces is then one select, and the traces' letters go onto the chains' edge
+    nodes, which the node field `letter` (step of the trace, -1 elsewhere) marks. Returns the
+    graphs and each length's graph index."""
+    first = graphs[0]
+    out = []
+    for graph in graphs:
+        graph = copy.copy(graph)
+        graph.letter = torch.full((graph.num_nodes,), -1, dtype=torch.long)
+        out.append(graph)
+    index = {}
+    for length in sorted(lengths):
+        chain = trace_graph(length)
+        chain.edge_vec = first.edge_vec.new_zeros(chain.num_nodes, first.edge_vec.shape[1])
+        chain.letter = torch.where(chain.guard >= 0, chain.guard, -1)
+        if "monitor" in first:
+            chain.monitor = first.monitor.new_zeros(first.monitor.shape)
+        if "run_weights" in first:
+            chain.run_weights = encoder.chain_run_weights([length])
+        index[length] = len(out)
+        out.append(chain)
+    return out, index
+
+
 def chain_batch(
     encoder: torch.nn.Module,
     letters: torch.Tensor,

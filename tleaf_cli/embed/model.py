@@ -72,6 +72,22 @@ class TripletEmbedder(nn.Module):
         k = int(formulas.ptr.numel() - 1)
         return self._formula_vectors(z[:k], formulas), self._trace_vectors(z[k:], traces)
 
+    def embed_joined(self, batch, formulas: int) -> tuple[torch.Tensor, torch.Tensor]:
+        """`embed_both` for one batch that holds the formulas' graphs, then the traces' chains
+        (`formulas` graphs, then the rest; a `GraphStore`'s select of both, whose batches
+        carry their matrices): the same vectors, with no batch joined. One encoder reads
+        both (q_m)."""
+        z = self.trace(batch)
+        z_formulas, z_traces = self._out(z[:formulas]), self._out(z[formulas:])
+        if self.evidence is None:
+            return z_formulas, z_traces
+        monitor = self.trace.monitor_features(batch)
+        lengths = chain_lengths(batch)[formulas:]
+        return (
+            torch.cat([z_formulas, self.evidence.formulas(monitor[:formulas])], dim=1),
+            torch.cat([z_traces, self.evidence.traces(monitor[formulas:], lengths)], dim=1),
+        )
+
     def _formula_vectors(self, z: torch.Tensor, batch) -> torch.Tensor:
         z = self._out(z)
         if self.evidence is None:

@@ -25,6 +25,7 @@ import torch
 from tleaf_cli.data.artifacts import describe_inputs, relative_to, write_text_atomic
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
+from tleaf_cli.embed.automaton import AutomatonEncoder
 from tleaf_cli.embed.batches import GraphStore
 from tleaf_cli.embed.graphs import syntax_graph
 from tleaf_cli.embed.load import load_edge_model
@@ -33,6 +34,7 @@ from tleaf_cli.embed.meta_data import (
     chain_batch,
     featured_dfa_graphs,
     trace_inputs,
+    with_chain_templates,
 )
 from tleaf_cli.embed.model import build_model, store_run_weights
 from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit
@@ -128,8 +130,19 @@ def train_meta(
     if settings.readout in RUN_READOUTS and settings.embedder == "dfa":
         store_run_weights(model.trace, list(formula_graphs.values()))  # once per graph
     model = model.to(device)
-    # the formula graphs collated once, on the device; a batch selects its formulas by index
-    store = GraphStore(list(formula_graphs.values()), device)
+    # the formula graphs collated once, on the device; a batch selects its formulas by index.
+    # With q_m's own encoder (one for both), the store also holds a trace chain of every
+    # length and the matrices the encoder reads (adjacency, readout pool), built once: a
+    # batch of formulas and traces is then one select, its matrices gathered, not rebuilt
+    joined = settings.embedder == "dfa" and isinstance(model.trace, AutomatonEncoder)
+    chain_of: dict[int, int] = {}
+    if joined:
+        graphs, chain_of = with_chain_templates(
+            model.trace, list(formula_graphs.values()), {len(x) for x in letters}
+        )
+        store = GraphStore(graphs, device, model.trace.block_matrices)
+    else:
+        store = GraphStore(list(formula_graphs.values()), device)
 
     def epoch_triplets(epoch: int, generator: torch.Generator):
         # Triplets travel in groups of GROUP from one formula, the groups shuffled: a batch still
@@ -151,19 +164,30 @@ def train_meta(
         distinct = list(dict.fromkeys(formulas))  # each formula embedded once per batch
         row = {key: i for i, key in enumerate(distinct)}
         traces = sats + negs  # one batch of chains for both sides
-        monitor = None if monitors is None else torch.stack([m for _, m in traces])
-        chains = chain_batch(
-            model.trace,
-            torch.cat([x for x, _ in traces]).to(device),
-            [len(x) for x, _ in traces],
-            monitor,
-        )
-        z_formulas, z_traces = model.embed_both(store.select(distinct), chains)
+        monitor = None if monitors is None else torch.stack([m for _, m in traces]).to(device)
+        letters = torch.cat([x for x, _ in traces]).to(device)
+        if joined:
+            z_formulas, z_traces = embed_selected(distinct, traces, letters, monitor)
+        else:
+            chains = chain_batch(model.trace, letters, [len(x) for x, _ in traces], monitor)
+            z_formulas, z_traces = model.embed_both(store.select(distinct), chains)
         return (
             z_formulas[torch.tensor([row[f] for f in formulas], device=device)],
             z_traces[: len(sats)],
             z_traces[len(sats) :],
         )
+
+    def embed_selected(distinct, traces, letters, monitor):
+        """The formulas `distinct` and the traces' chains as one select from the store, the
+        letters on the chains' edge nodes (in trace and step order, as `chain_batch` puts
+        them), the traces' monitor features in their chains' rows."""
+        ids = distinct + [chain_of[len(x)] for x, _ in traces]
+        batch = store.select(ids)
+        on_letters = (batch.letter >= 0).nonzero().flatten()
+        batch.edge_vec = batch.edge_vec.index_copy(0, on_letters, letters)
+        if monitor is not None:
+            batch.monitor = torch.cat([batch.monitor[: len(distinct)], monitor])
+        return model.embed_joined(batch, len(distinct))
 
     def scores(pairs) -> dict[str, float]:
         """Triplet accuracy over `pairs`, and the mean squared distance of the formula to its
