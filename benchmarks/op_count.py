@@ -110,7 +110,10 @@ def count(tree: Path, skip: int, batches: int, *args: str) -> dict[str, float]:
     """`count_in_process` in a fresh process with `tree`'s package and one torch thread."""
     env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
     command = [sys.executable, __file__, "--inside", str(skip), str(batches), "--", *args]
-    done = subprocess.run(command, check=True, env=env, cwd=tree, capture_output=True, text=True)
+    done = subprocess.run(command, env=env, cwd=tree, capture_output=True, text=True)
+    if done.returncode:  # e.g. an older tree that cannot read this tree's q: no figure
+        print(done.stderr.strip().splitlines()[-1], file=sys.stderr)
+        return {"ops": float("nan"), "leaf": float("nan")}
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
