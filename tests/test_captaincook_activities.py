@@ -105,3 +105,16 @@ def test_longer_steps_get_less_noise(converted) -> None:
         short += [np.linalg.norm(f - mean) for d, f in items if d < cut]
         long += [np.linalg.norm(f - mean) for d, f in items if d > cut]
     assert np.mean(long) < np.mean(short)
+
+
+def test_refusals_exit_2_with_nothing_written(converted, tmp_path) -> None:
+    """Not a recordings artifact; a folder that is not a run; a split with no recording."""
+    runner = CliRunner()
+    out = tmp_path / "a.parquet"
+    result = runner.invoke(app, ["recording-activities", str(converted["activities"]),
+                                 str(DATA / "task_graphs"), "-o", str(out),
+                                 "--kb-out", str(tmp_path / "kb.ltl")])  # fmt: skip
+    assert result.exit_code == 2 and "recordings" in result.output and not out.exists()
+    args = ["eval", "step-recognition", tmp_path, "--checks", converted["activities"]]
+    result = runner.invoke(app, [*map(str, args), "-o", str(tmp_path / "e")])
+    assert result.exit_code == 2 and not (tmp_path / "e").exists()

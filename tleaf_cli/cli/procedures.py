@@ -174,10 +174,10 @@ def recording_activities(
     ] = 10.0,
     seed: Annotated[int, typer.Option(help="Seed of the class means and the noise.")] = 0,
     at_most_once: Annotated[
-        bool, typer.Option(help="Also each step's at-most-once rule (as task-graph's option).")
+        bool, typer.Option("--at-most-once", help="Also each step's at-most-once rule.")
     ] = False,
     last_step_ends: Annotated[
-        bool, typer.Option(help="Also each recipe's last-step rule (as task-graph's option).")
+        bool, typer.Option("--last-step-ends", help="Also each recipe's last-step rule.")
     ] = False,
     quiet: Quiet = False,
 ) -> None:
