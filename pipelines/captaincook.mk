@@ -95,15 +95,16 @@ $(PAGE): $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md $(OUT)/checks/che
 	  echo; \
 	  echo "Command: \`make -f pipelines/captaincook.mk$(if $(filter 1,$(SMALL)), SMALL=1)" \
 	       "SIZES=\"$(SIZES)\" SEEDS=\"$(SEEDS)\" LOSSES=\"$(LOSSES)\" NOISE=$(NOISE)\`;" \
-	       "wall time $$(( $$(date +%s) - $$(cat $(OUT)/started) )) s" \
-	       "on $$(getconf _NPROCESSORS_ONLN) cores (every stage from the first, in $(OUT))."; \
+	       "wall time $$(( $$(stat -c %Y $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md \
+	       | sort -n | tail -1) - $$(cat $(OUT)/started) )) s on $$(getconf _NPROCESSORS_ONLN)" \
+	       "cores (from the first stage to the last evaluation, in $(OUT))."; \
 	  echo; \
 	  echo "## The rules as a detector of the recordings with errors (exact check)"; \
 	  echo; \
-	  cat $(OUT)/checks/report.md; \
+	  sed -e 's/^## /### /' $(OUT)/checks/report.md; \
 	  echo; \
 	  echo "## Learning curve (step accuracy against training recordings)"; \
 	  echo; \
-	  cat $(OUT)/curve/curve.md; \
+	  sed -e '1{/^# /d;}' -e 's/^## /### /' $(OUT)/curve/curve.md; \
 	} > $@.tmp
 	mv $@.tmp $@
