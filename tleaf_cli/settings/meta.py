@@ -39,6 +39,29 @@ SETTINGS_VERSION = 2  # config.json's "settings_version"; `settings_from_config`
 AUTO_MONITORS = 10  # monitors=None: the most atoms of a training formula, at most this many
 
 
+# the authors' q (clear-nus/T-LEAF src/Synthetic: meta_embedder_train.py's
+# Node_only_random_agg_min_clip, TripletMarginLoss(margin=1, p=2), Adam(lr=0.01,
+# weight_decay=5e-4), a step every 256): presets paper-code and paper-text
+AUTHORS_Q: dict[str, Any] = {
+    "encoder": "authors",
+    "directed": True,
+    "readout": "paths",
+    "steps": 4,
+    "walk_from": "node1",
+    "monitors": 0,
+    "evidence": False,
+    "sphere": True,
+    "radius_weight": 0.0,
+    "distance": "euclidean",
+    "lr": 0.01,
+    "weight_decay": 5e-4,
+    "batch_size": 256,
+    "schedule": "constant",
+    "epochs": 200,
+    "patience": None,
+}
+
+
 @dataclass(frozen=True)
 class MetaSettings(Presets):
     """Every setting of q_m's training (saved as config.json's "settings").
@@ -188,45 +211,9 @@ class MetaSettings(Presets):
             "epochs": 30,
             "patience": 5,
         },
-        # clear-nus/T-LEAF src/Synthetic: meta_embedder_train.py (Node_only_random_agg_min_clip,
-        # TripletMarginLoss(margin=1, p=2), Adam(lr=0.01, weight_decay=5e-4), a step every 256)
-        "paper-code": {
-            "encoder": "authors",
-            "directed": True,
-            "readout": "paths",
-            "steps": 4,
-            "walk_from": "node1",
-            "monitors": 0,
-            "evidence": False,
-            "sphere": True,
-            "radius_weight": 0.0,
-            "distance": "euclidean",
-            "lr": 0.01,
-            "weight_decay": 5e-4,
-            "batch_size": 256,
-            "schedule": "constant",
-            "epochs": 200,
-            "patience": None,
-        },
+        "paper-code": AUTHORS_Q,
         # the paper's text: "random walks from the initial state"
-        "paper-text": {
-            "encoder": "authors",
-            "directed": True,
-            "readout": "paths",
-            "steps": 4,
-            "walk_from": "initial",
-            "monitors": 0,
-            "evidence": False,
-            "sphere": True,
-            "radius_weight": 0.0,
-            "distance": "euclidean",
-            "lr": 0.01,
-            "weight_decay": 5e-4,
-            "batch_size": 256,
-            "schedule": "constant",
-            "epochs": 200,
-            "patience": None,
-        },
+        "paper-text": {**AUTHORS_Q, "walk_from": "initial"},
     }
     PRESET_HELP: ClassVar[dict[str, str]] = {
         "best": "the Table I pipeline's q: directed messages, the runs readout in 5 parts, "

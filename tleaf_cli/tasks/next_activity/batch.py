@@ -41,21 +41,7 @@ class CaseBatch:
                 indices = encoder.indices(c)
                 times = encoder.features(indices.tolist(), c.timestamps)
                 cache[c.case_id] = indices, encoder.targets(c), times
-        parts = [cache[c.case_id] for c in cases]
-        lengths = [len(p[0]) for p in parts]
-        b, t = len(parts), max(lengths)
-        acts = np.full((b, t), PAD, dtype=np.int64)
-        tgts = np.full((b, t), PAD, dtype=np.int64)
-        times = np.zeros((b, t, TIME_FEATURES), dtype=np.float32)
-        for i, (a, y, x) in enumerate(parts):
-            acts[i, : len(a)], tgts[i, : len(a)], times[i, : len(a)] = a, y, x
-        return cls(
-            cases,
-            torch.from_numpy(acts).to(device),
-            torch.from_numpy(tgts).to(device),
-            torch.from_numpy(times).to(device),
-            torch.tensor(lengths, dtype=torch.long),
-        )
+        return cls.of_parts([cache[c.case_id] for c in cases], cases, device)
 
     @classmethod
     def of_sequences(
@@ -70,16 +56,32 @@ class CaseBatch:
     ) -> CaseBatch:
         """A batch of activity sequences whose times are the given timestamps (events past
         them placed by `Encoder.features`); targets PAD where not given."""
-        lengths = [len(a) for a in activities]
-        b, t = len(activities), max(lengths)
+        parts = [
+            (
+                np.asarray(seq, dtype=np.int64),
+                np.full(len(seq), PAD, dtype=np.int64) if targets is None else targets[i],
+                encoder.features(list(seq), stamps),
+            )
+            for i, (seq, stamps) in enumerate(zip(activities, timestamps, strict=True))
+        ]
+        return cls.of_parts(parts, cases, device)
+
+    @classmethod
+    def of_parts(
+        cls,
+        parts: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+        cases: Sequence[Case],
+        device: torch.device,
+    ) -> CaseBatch:
+        """Sequences given as (activities [n], targets [n], times [n, F]), padded into one
+        batch."""
+        lengths = [len(p[0]) for p in parts]
+        b, t = len(parts), max(lengths)
         acts = np.full((b, t), PAD, dtype=np.int64)
         tgts = np.full((b, t), PAD, dtype=np.int64)
         times = np.zeros((b, t, TIME_FEATURES), dtype=np.float32)
-        for i, (seq, stamps) in enumerate(zip(activities, timestamps, strict=True)):
-            acts[i, : len(seq)] = seq
-            times[i, : len(seq)] = encoder.features(list(seq), stamps)
-            if targets is not None:
-                tgts[i, : len(seq)] = targets[i]
+        for i, (a, y, x) in enumerate(parts):
+            acts[i, : len(a)], tgts[i, : len(a)], times[i, : len(a)] = a, y, x
         return cls(
             cases,
             torch.from_numpy(acts).to(device),
