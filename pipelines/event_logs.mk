@@ -7,7 +7,9 @@
 # Per log (and fold): read-log -> split-cases -> mine-declare (train split) -> train-task
 # next-activity --logic-loss exact --lambdas $(LAMBDAS) (λ chosen on val among those and 0; the
 # λ-0 candidate IS the no-knowledge reference: the same seed, no logic loss) -> eval
-# next-activity (under the mined rules; df: also under each formula) -> the report.
+# next-activity (under the mined rules; df: also under each formula) -> the report. The tleaf
+# loss reads a q trained on the mined rules alone (compile-dfa --one-hot -> gen-traces ->
+# train-edge -> train-meta, a minute), one per log (df) or fold (rm).
 #   make -f pipelines/event_logs.mk DATA=PATH [OUT=out/event_logs] [SMALL=1] [-j2]
 # DATA: a folder laid out as docs/event_logs.md's "Data" section says (preprocessed/*.csv,
 # tax-order/*.csv and formulas.tsv, published/*.csv: the logs and the peers' figures, downloaded
@@ -18,6 +20,10 @@ TLEAF ?= tleaf
 PYTHON ?= python
 SMALL ?= 0
 LAMBDAS ?= 0.1,1
+# the tleaf loss's λ candidates (q's distances are in the hundreds: its folder recommends ~0.002)
+TLEAF_LAMBDAS ?= 0.001,0.01
+# the knowledge's losses; each run chooses λ on val among its candidates and 0
+LOSSES ?= exact tleaf
 SEED ?= 0
 export OMP_NUM_THREADS ?= 1
 
@@ -28,6 +34,7 @@ DF_LOGS ?= helpdesk-400
 FOLDS ?= 0 1
 NFOLDS := 2
 TASK := --epochs 3
+Q := --epochs 1
 rm_csv = examples/event_logs/$(1).csv
 df_csv = examples/event_logs/$(1).csv
 FORMULAS := examples/event_logs/formulas.tsv
@@ -44,6 +51,7 @@ DF_LOGS ?= helpdesk bpi_12_w bpi_13_incidents env_permit bpi_11
 FOLDS ?= 0 1 2 3 4
 NFOLDS := 5
 TASK :=
+Q := --epochs 10 --max-minutes 3
 rm_csv = $(DATA)/preprocessed/$(1).csv
 df_csv = $(DATA)/tax-order/$(1).csv
 FORMULAS := $(DATA)/tax-order/formulas.tsv
@@ -62,15 +70,19 @@ PREFIXES_helpdesk-400 := 2-5
 FORMULA_LOG_helpdesk-400 := helpdesk
 formula_log = $(or $(FORMULA_LOG_$(1)),$(1))
 
-RM_EVALS := $(foreach l,$(RM_LOGS),$(foreach k,$(FOLDS),\
-    $(OUT)/rm/$(l)/fold$(k)/eval-none/metrics.json $(OUT)/rm/$(l)/fold$(k)/eval-exact/metrics.json))
-DF_EVALS := $(foreach l,$(DF_LOGS),$(foreach m,none exact,$(foreach f,strong weak,\
+RM_EVALS := $(foreach l,$(RM_LOGS),$(foreach k,$(FOLDS),$(foreach m,none $(LOSSES),\
+    $(OUT)/rm/$(l)/fold$(k)/eval-$(m)/metrics.json)))
+DF_EVALS := $(foreach l,$(DF_LOGS),$(foreach m,none $(LOSSES),$(foreach f,strong weak,\
     $(OUT)/df/$(l)/eval-$(m)-$(f)/metrics.json $(OUT)/df/$(l)/eval-$(m)-$(f)-mined/metrics.json)))
 
 .PHONY: all rm df clean
 all: $(REPORT)
 rm: $(RM_EVALS)
 df: $(DF_EVALS)
+
+# none: the λ-0 candidate of the exact run's choice; exact, tleaf: the run chosen on val
+run_dir = $(if $(filter none,$(1)),$(2)/lambda-choice/lambda-0,$(2))
+loss_dir = $(2)/$(if $(filter none,$(1)),exact,$(1))
 
 # ---- Rama-Maneiro et al.: 5-fold cross-validation
 define RM_LOG
@@ -90,15 +102,35 @@ $(OUT)/rm/$(1)/fold$(2)/exact/metrics.json: $(OUT)/rm/$(1)/fold$(2)/cases.parque
     $(OUT)/rm/$(1)/fold$(2)/mined.ltl
 	$(TLEAF) train-task next-activity $$< --kb $$(word 2,$$^) --logic-loss exact \
 	    --lambdas $(LAMBDAS) --seed $(SEED) $(TASK) -o $$(@D) -q
-$(OUT)/rm/$(1)/fold$(2)/eval-%/metrics.json: $(OUT)/rm/$(1)/fold$(2)/exact/metrics.json
-	$(TLEAF) eval next-activity $$(call run_dir,$$(*),$(OUT)/rm/$(1)/fold$(2)/exact) \
-	    $(OUT)/rm/$(1)/fold$(2)/cases.parquet --rules $(OUT)/rm/$(1)/fold$(2)/mined.ltl \
-	    -o $$(@D) -q
 endef
 $(foreach l,$(RM_LOGS),$(foreach k,$(FOLDS),$(eval $(call RM_FOLD,$(l),$(k)))))
 
-# none: the λ-0 candidate of the exact run's choice; exact: the run chosen on val
-run_dir = $(if $(filter none,$(1)),$(2)/lambda-choice/lambda-0,$(2))
+define RM_EVAL
+$(OUT)/rm/$(1)/fold$(2)/eval-$(3)/metrics.json: $(call loss_dir,$(3),$(OUT)/rm/$(1)/fold$(2))/metrics.json
+	$(TLEAF) eval next-activity $(call run_dir,$(3),$(call loss_dir,$(3),$(OUT)/rm/$(1)/fold$(2))) \
+	    $(OUT)/rm/$(1)/fold$(2)/cases.parquet --rules $(OUT)/rm/$(1)/fold$(2)/mined.ltl \
+	    -o $$(@D) -q
+endef
+$(foreach l,$(RM_LOGS),$(foreach k,$(FOLDS),$(foreach m,none $(LOSSES),\
+    $(eval $(call RM_EVAL,$(l),$(k),$(m))))))
+
+# q on the mined rules of folder $(1), and the tleaf loss's run there on $(1)/cases.parquet
+define Q_AND_TLEAF
+$(1)/q/rules.parquet: $(1)/mined.ltl
+	@mkdir -p $$(@D)
+	$(TLEAF) compile-dfa $$< --one-hot -q -o $$@
+$(1)/q/traces.parquet: $(1)/q/rules.parquet
+	$(TLEAF) gen-traces $$< --one-hot --per-formula 10 --split 0.8,0.1,0.1 -q -o $$@ || [ $$$$? -eq 1 ]
+$(1)/q/edge/metrics.json: $(1)/q/rules.parquet
+	$(TLEAF) train-edge $$< -o $$(@D) --epochs 3 -q
+$(1)/q/meta/metrics.json: $(1)/q/rules.parquet $(1)/q/traces.parquet $(1)/q/edge/metrics.json
+	$(TLEAF) train-meta $(1)/q/rules.parquet $(1)/q/traces.parquet --edge $(1)/q/edge -o $$(@D) $(Q) -q
+$(1)/tleaf/metrics.json: $(1)/cases.parquet $(1)/mined.ltl $(1)/q/meta/metrics.json
+	$(TLEAF) train-task next-activity $$< --kb $(1)/mined.ltl --logic-loss tleaf \
+	    --embedder $(1)/q/meta --lambdas $(TLEAF_LAMBDAS) --seed $(SEED) $(TASK) -o $$(@D) -q
+endef
+$(foreach l,$(RM_LOGS),$(foreach k,$(FOLDS),$(eval $(call Q_AND_TLEAF,$(OUT)/rm/$(l)/fold$(k)))))
+$(foreach l,$(DF_LOGS),$(eval $(call Q_AND_TLEAF,$(OUT)/df/$(l))))
 
 # ---- Di Francescomarino et al.: first 2/3 train, last 1/3 test
 define DF_LOG
@@ -120,20 +152,20 @@ $(foreach l,$(DF_LOGS),$(eval $(call DF_LOG,$(l))))
 # eval-<model>-<formula>: suffixes under the formula; eval-<model>-<formula>-mined: under the
 # mined rules; both on the test cases that satisfy the formula
 define DF_EVAL
-$(OUT)/df/$(1)/eval-$(2)-$(3)/metrics.json: $(OUT)/df/$(1)/exact/metrics.json \
+$(OUT)/df/$(1)/eval-$(2)-$(3)/metrics.json: $(call loss_dir,$(2),$(OUT)/df/$(1))/metrics.json \
     $(OUT)/df/$(1)/formulas.ltl
-	$(TLEAF) eval next-activity $(call run_dir,$(2),$(OUT)/df/$(1)/exact) \
+	$(TLEAF) eval next-activity $(call run_dir,$(2),$(call loss_dir,$(2),$(OUT)/df/$(1))) \
 	    $(OUT)/df/$(1)/cases.parquet --rules $(OUT)/df/$(1)/formulas.ltl \
 	    --rule $(call formula_log,$(1)).$(3) --scored satisfying \
 	    --prefix-lengths $(PREFIXES_$(1)) -o $$(@D) -q
-$(OUT)/df/$(1)/eval-$(2)-$(3)-mined/metrics.json: $(OUT)/df/$(1)/exact/metrics.json \
+$(OUT)/df/$(1)/eval-$(2)-$(3)-mined/metrics.json: $(call loss_dir,$(2),$(OUT)/df/$(1))/metrics.json \
     $(OUT)/df/$(1)/formulas.ltl $(OUT)/df/$(1)/mined.ltl
-	$(TLEAF) eval next-activity $(call run_dir,$(2),$(OUT)/df/$(1)/exact) \
+	$(TLEAF) eval next-activity $(call run_dir,$(2),$(call loss_dir,$(2),$(OUT)/df/$(1))) \
 	    $(OUT)/df/$(1)/cases.parquet --rules $(OUT)/df/$(1)/mined.ltl \
 	    --scored-by $(OUT)/df/$(1)/formulas.ltl --scored-rule $(call formula_log,$(1)).$(3) \
 	    --scored satisfying --prefix-lengths $(PREFIXES_$(1)) -o $$(@D) -q
 endef
-$(foreach l,$(DF_LOGS),$(foreach m,none exact,$(foreach f,strong weak,\
+$(foreach l,$(DF_LOGS),$(foreach m,none $(LOSSES),$(foreach f,strong weak,\
     $(eval $(call DF_EVAL,$(l),$(m),$(f))))))
 
 $(REPORT): $(RM_EVALS) $(DF_EVALS) pipelines/event_logs_report.py
