@@ -13,6 +13,8 @@ from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
 from tleaf_cli.data.paper_protocol import (
+    ARC_SHAPES,
+    Arc,
     accepting_paths,
     guard_cubes,
     paper_negative_words,
@@ -23,6 +25,7 @@ from tleaf_cli.data.paper_protocol import (
     trimmed_states,
 )
 from tleaf_cli.data.random_formulas import syntax_tree_size
+from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.compile import compile_formula
 from tleaf_cli.logic.formulas import parse
 
@@ -39,8 +42,10 @@ runner = CliRunner()
 
 def simple_paths(dfa) -> set[tuple[tuple[int, int], ...]]:
     """Every path from the initial state that repeats no state and whose last state, and only
-    it, is accepting (the initial state excepted), by enumerating state sequences."""
+    it, is accepting (none if the initial state is), by enumerating state sequences."""
     out = set()
+    if dfa.accepting[dfa.initial]:
+        return out
     others = [s for s in range(dfa.num_states) if s != dfa.initial]
     for k in range(1, dfa.num_states):
         for seq in itertools.permutations(others, k):
@@ -58,10 +63,110 @@ def test_paths_are_the_simple_accepting_first_paths(text):
     dfa = compile_formula(text)
     every = simple_paths(dfa)
     found = accepting_paths(dfa, limit=10_000)
-    assert {tuple(p) for p in found} == every
+    assert {tuple((a.src, a.dst) for a in p) for p in found} == every
     assert len(found) == len(every)  # each once
     capped = accepting_paths(dfa)
     assert capped == found[: min(10, len(found))]  # the first ten the search meets
+
+
+def accepting_first_words(dfa) -> set[tuple[int, ...]]:
+    """Every word whose run repeats no state and reaches an accepting state at its last letter
+    only, by enumerating every word up to the number of states (a longer run repeats one)."""
+    out = set()
+    for length in range(1, dfa.num_states):
+        for word in itertools.product(range(dfa.alphabet.size), repeat=length):
+            states = [dfa.initial]
+            for letter in word:
+                states.append(int(dfa.table[states[-1], letter]))
+            simple = len(set(states)) == len(states)
+            if simple and dfa.accepting[states[-1]] and not dfa.accepting[states[:-1]].any():
+                out.add(word)
+    return out
+
+
+def states_of(dfa, word) -> tuple[int, ...]:
+    states = [dfa.initial]
+    for letter in word:
+        states.append(int(dfa.table[states[-1], letter]))
+    return tuple(states)
+
+
+def letters_of(cube, atoms: int) -> set[int]:
+    """Every letter (powerset index) inside a cube."""
+    return {
+        x for x in range(1 << atoms) if all((x >> (abs(lit) - 1) & 1) == (lit > 0) for lit in cube)
+    }
+
+
+@pytest.mark.parametrize("shape", ARC_SHAPES)
+@pytest.mark.parametrize("text", FORMULAS)
+def test_path_count_per_arc_shape_is_the_exhaustive_count(text, shape):
+    """letter: one path per accepting-first word; guard: one per state sequence of such
+    words; cube: one per such sequence and choice of one ISOP cube on each of its arcs.
+    Each path's cubes hold exactly the letters the brute force finds on its arcs."""
+    dfa = compile_formula(text)
+    n = len(dfa.atoms)
+    words = accepting_first_words(dfa)
+    sequences = {states_of(dfa, w) for w in words}
+    found = accepting_paths(dfa, limit=10**6, shape=shape)
+    assert len({tuple(p) for p in found}) == len(found)  # each once
+    assert {(dfa.initial, *(a.dst for a in p)) for p in found} == sequences
+    for path in found:
+        for arc in path:
+            on_arc = set(np.flatnonzero(dfa.table[arc.src] == arc.dst).tolist())
+            inside = [letters_of(c, n) for c in arc.cubes]
+            assert all(cube <= on_arc for cube in inside)
+            if shape == "guard":
+                assert set().union(*inside) == on_arc
+            else:
+                assert len(arc.cubes) == 1
+    if shape == "letter":
+        spelled = {tuple(min(letters_of(a.cubes[0], n)) for a in p) for p in found}
+        assert all(len(letters_of(a.cubes[0], n)) == 1 for p in found for a in p)
+        assert spelled == words and len(found) == len(words)
+    elif shape == "guard":
+        assert len(found) == len(sequences)
+    else:
+        per_sequence = [
+            np.prod([len(guard_cubes(dfa, s, d)) for s, d in itertools.pairwise(seq)])
+            for seq in sequences
+        ]
+        assert len(found) == sum(per_sequence)
+    capped = accepting_paths(dfa, shape=shape)
+    assert capped == found[: min(10, len(found))]
+
+
+def test_shapes_differ_where_a_guard_has_several_cubes_and_letters():
+    """F(a | b) over a, b: one guard a | b, two cubes, three letters into the accepting state."""
+    dfa = compile_formula("F(a | b)")
+    counts = {s: len(accepting_paths(dfa, limit=100, shape=s)) for s in ARC_SHAPES}
+    assert counts == {"guard": 1, "cube": 2, "letter": 3}
+
+
+def test_an_accepting_initial_state_gives_no_path():
+    """G(a) | F(b) accepts the empty trace; the authors' search stops at the empty path, so
+    there is none here, though accepting-first words exist past the initial state."""
+    dfa = compile_formula("G(a) | F(b)")
+    assert dfa.accepting[dfa.initial]
+    assert accepting_first_words(dfa) == set()  # the brute force agrees: the start accepts
+    for shape in ARC_SHAPES:
+        assert accepting_paths(dfa, shape=shape) == []
+    assert paper_reason(dfa, np.random.default_rng(0)) == "fewer than 5 accepting paths"
+
+
+def test_an_unknown_shape_is_refused():
+    with pytest.raises(SettingError, match="paper_arcs"):
+        accepting_paths(compile_formula("F(a)"), shape="edge")
+
+
+@pytest.mark.parametrize("text", FORMULAS)
+def test_letter_shape_positives_are_their_paths_letters(text):
+    dfa = compile_formula(text)
+    paths = accepting_paths(dfa, shape="letter")
+    words = paper_positive_words(dfa, np.random.default_rng(0), paths, repeats=2)
+    for k, word in enumerate(words):
+        letters = [min(letters_of(a.cubes[0], len(dfa.atoms))) for a in paths[k % len(paths)]]
+        assert word.tolist() == letters
 
 
 @pytest.mark.parametrize("text", FORMULAS)
@@ -74,9 +179,9 @@ def test_positives_follow_their_paths_and_are_accepted(text):
         path = paths[k % len(paths)]
         assert len(word) == len(path)
         state = dfa.initial
-        for letter, (src, dst) in zip(word.tolist(), path, strict=True):
-            assert state == src and dfa.table[src, letter] == dst
-            state = dst
+        for letter, arc in zip(word.tolist(), path, strict=True):
+            assert state == arc.src and dfa.table[arc.src, letter] == arc.dst
+            state = arc.dst
         assert dfa.accepting[dfa.run(word)]
 
 
@@ -84,7 +189,7 @@ def test_a_letter_completes_one_cube_uniformly():
     """Guard a | b (cubes a, b): letters drawn are in the guard with the ISOP's weights."""
     dfa = compile_formula("F(a | b)")
     (path,) = accepting_paths(dfa)
-    cubes = guard_cubes(dfa, *path[0])
+    cubes = guard_cubes(dfa, path[0].src, path[0].dst)
     assert sorted(cubes) == [(1,), (2,)]
     words = paper_positive_words(dfa, np.random.default_rng(1), [path], repeats=4000)
     seen = Counter(int(w[0]) for w in words)
@@ -121,7 +226,7 @@ def test_rejection_budget_counts_letters_as_the_authors_do():
     matter at length 1: a rejected iff not a); over many draws the budget of 40 letters nearly
     always suffices; with a budget of 0 one accepted draw fails it."""
     dfa = compile_formula("F(a)")
-    paths = [[(dfa.initial, int(dfa.table[dfa.initial, 1]))]]
+    paths = [[Arc(dfa.initial, int(dfa.table[dfa.initial, 1]), ((1,),))]]
     fails = sum(
         not rejected_within_budget(dfa, np.random.default_rng(k), paths, budget=0)
         for k in range(400)
@@ -179,3 +284,26 @@ def test_cli_paper_protocol_chain(tmp_path):
         app, ["gen-traces", str(dfas), "--protocol", "paper", "--per-formula", "4"]
     )
     assert refused.exit_code == 2
+
+
+def test_cli_paper_arcs(tmp_path):
+    """--paper-arcs reaches both commands and the formula file's header; it needs --protocol
+    paper."""
+    ltl, dfas, traces = tmp_path / "f.ltl", tmp_path / "d.parquet", tmp_path / "t.parquet"
+    args = ["gen-formulas", "--protocol", "paper", "--paper-arcs", "letter", "-n", "3"]
+    result = runner.invoke(app, [*args, "-o", str(ltl), "--no-cache", "-q"])
+    assert result.exit_code == 0, result.output
+    assert '"paper_arcs": "letter"' in ltl.read_text()
+    assert runner.invoke(app, ["compile-dfa", str(ltl), "-o", str(dfas), "-q"]).exit_code == 0
+    paper = ["gen-traces", str(dfas), "--protocol", "paper", "-o", str(traces)]
+    assert runner.invoke(app, [*paper, "--paper-arcs", "letter"]).exit_code == 0
+    rows = Counter(r["formula_id"] for r in pq.read_table(traces).to_pylist())
+    texts = dict(line.split(": ", 1) for line in ltl.read_text().splitlines()[2:])
+    for fid, text in texts.items():  # 3 draws of each letter path, each with its negative
+        assert rows[fid] == 6 * len(accepting_paths(compile_formula(text), shape="letter"))
+    for command in (
+        ["gen-formulas", "--paper-arcs", "letter", "-o", str(tmp_path / "x.ltl")],
+        ["gen-traces", str(dfas), "--paper-arcs", "cube", "-o", str(tmp_path / "x.parquet")],
+    ):
+        refused = runner.invoke(app, command)
+        assert refused.exit_code == 2 and "--paper-arcs" in refused.output

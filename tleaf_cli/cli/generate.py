@@ -57,7 +57,7 @@ def gen_formulas(
     Rejects unsatisfiable and valid formulas, formulas with fewer than --pairs distinct
     (satisfying, violating) pairs of equal length in [--min-len, --max-len], repeats of a
     language already kept, and candidates MONA cannot finish within --timeout. With
-    --protocol paper, the authors' Table I formulas and filters instead (docs/paper_protocol.md).
+    --protocol paper, the authors' Table I formulas and filters instead (docs/embedder.md).
     """
     from tleaf_cli.data.formula_gen import generate_formulas, write_formula_file
 
@@ -66,6 +66,8 @@ def gen_formulas(
     if values["protocol"] == "paper":
         ignored = given_flags(ctx, "min_len", "max_len", "pairs", "one_hot")
         refuse(ignored, "not with --protocol paper (its own filters decide)")
+    else:
+        refuse(given_flags(ctx, "paper_arcs"), "only with --protocol paper")
     if tier is not None:
         refuse(given_flags(ctx, "atoms", "size"), "set by --tier; give --tier or these, not both")
         values["atoms"], values["size"] = TIERS[tier]
@@ -117,6 +119,8 @@ def gen_traces(
             ctx, "per_formula", "min_len", "max_len", "hard_fraction", "one_hot", "once_each"
         )
         refuse(ignored, "not with --protocol paper (its paths decide the traces)")
+    else:
+        refuse(given_flags(ctx, "paper_arcs"), "only with --protocol paper")
     if values["once_each"]:
         ignored = given_flags(ctx, "min_len", "max_len", "hard_fraction")
         refuse(ignored, "ignored with --once-each (a video's length is set by its atoms)")

@@ -137,7 +137,7 @@ def generate_formulas(
                 continue
             dfa = dfa_from_row(row)
             if paper:
-                reason = paper_reason(dfa, judge_rng)
+                reason = paper_reason(dfa, judge_rng, settings.paper_arcs)
                 if reason is not None:
                     report.rejected[reason] += 1
                 else:
@@ -172,6 +172,7 @@ def write_formula_file(report: FormulaReport, settings: FormulaSettings, out: st
         "pairs": settings.pairs,
         "one_hot": settings.one_hot,
         "protocol": settings.protocol,
+        "paper_arcs": settings.paper_arcs,
         "drawn": report.drawn,
         "kept": len(report.kept),
         "rejected": dict(report.rejected),

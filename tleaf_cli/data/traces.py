@@ -82,7 +82,7 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
     if settings.once_each:
         return once_each_traces(dfa, settings, rng)
     if settings.protocol == "paper":
-        return paper_traces(dfa, rng)
+        return paper_traces(dfa, rng, settings.paper_arcs)
     letters = one_hot_letters(dfa) if settings.one_hot else None
     sampler = WordSampler(dfa, settings.max_len, letters)
     acc, rej = sampler.counts(True), sampler.counts(False)
@@ -138,10 +138,11 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
     return FormulaTraces(words, labels, sources, shortfall)
 
 
-def paper_traces(dfa: DFA, rng: np.random.Generator) -> FormulaTraces:
+def paper_traces(dfa: DFA, rng: np.random.Generator, arcs: str = "guard") -> FormulaTraces:
     """The authors' traces (data/paper_protocol.py): three draws of the letters of up to 10
-    simple accepting paths, each paired with a uniform rejected word of its length."""
-    paths = accepting_paths(dfa)
+    simple accepting paths (their arcs `arcs`), each paired with a uniform rejected word of its
+    length."""
+    paths = accepting_paths(dfa, shape=arcs)
     if not paths:
         return FormulaTraces([], [], [], "no accepting path that visits no state twice")
     positives = paper_positive_words(dfa, rng, paths)

@@ -25,6 +25,15 @@ MAX_ATOMS = 26  # gen-formulas names its atoms a, b, c, ...
 # How synthetic formulas and their traces are drawn: tleaf's tiers, or the authors' Table I
 # protocol (data/paper_protocol.py).
 PROTOCOLS = ("tleaf", "paper")
+# What one arc of the automaton the paper protocol searches is: a whole guard, one cube of its
+# irredundant sum of products, or one letter (data/paper_protocol.py says why guard).
+PAPER_ARCS = ("guard", "cube", "letter")
+PAPER_ARCS_HELP = (
+    "With --protocol paper, what one arc of the searched automaton is, so what one accepting "
+    "path is: guard (one per state and successor, as the authors' code reads its automata), "
+    "cube (one per cube of the guard) or letter (one per letter). Give the same to "
+    "gen-formulas and gen-traces."
+)
 
 SEED_HELP = "Random seed; the same seed writes the same file."
 
@@ -104,11 +113,12 @@ class FormulaSettings:
     protocol: str = setting(
         "tleaf",
         "tleaf: every atom in, every operator, kept if new in language with --pairs pairs at "
-        "--min-len..--max-len; paper: the authors' Table I data (spot randltl's tree of "
+        "lengths --min-len to --max-len; paper: the authors' Table I data (spot randltl's tree of "
         "--size over true false ! X F G & | U, atoms optional, new in text, at most 20 "
         "states, at least 5 accepting paths, a rejected word within 40 letters).",
         choices=PROTOCOLS,
     )
+    paper_arcs: str = setting("guard", PAPER_ARCS_HELP, choices=PAPER_ARCS)
     prefix: str = setting(
         "f", "Formula id prefix: ASCII letters, digits, _ . - (with --tier: the tier and a dash)."
     )
@@ -164,6 +174,7 @@ class TraceSettings:
         "ignores --per-formula, --min-len, --max-len, --hard-fraction.",
         choices=PROTOCOLS,
     )
+    paper_arcs: str = setting("guard", PAPER_ARCS_HELP, choices=PAPER_ARCS)
     split: tuple[float, float, float] | None = setting(
         None,
         "Add a split column by formula: train,val,test fractions.",
