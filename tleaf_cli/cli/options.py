@@ -34,7 +34,7 @@ from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 from tleaf_cli.settings.knowledge import ExtractSettings
 from tleaf_cli.settings.meta import MetaSettings
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings
-from tleaf_cli.settings.procedures import TaskGraphSettings
+from tleaf_cli.settings.procedures import StepFeatureSettings, TaskGraphSettings
 
 # The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
 FLAGS = {
@@ -248,9 +248,13 @@ READ_LOG = SettingsCommand(LogSettings, "read-log")
 SPLIT_CASES = SettingsCommand(FoldSettings, "split-cases")
 DECLARE = SettingsCommand(DeclareSettings, "mine-declare")
 TASK_GRAPH = SettingsCommand(TaskGraphSettings, "task-graph")
+STEP_FEATURES = SettingsCommand(
+    StepFeatureSettings, "recording-activities", also=(TaskGraphSettings,)
+)
 # kb-extract: what it extracts, and how it compiles the rule sets (one-hot DFAs)
 KB = SettingsCommand(ExtractSettings, "kb-extract", exclude=("alphabet",), also=(CompileSettings,))
 # the data stages (compile-dfa and the generators), then the trainers and evaluations
 LOG_COMMANDS = [READ_LOG, SPLIT_CASES, DECLARE]  # the event-log stages
-DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, *LOG_COMMANDS, TASK_GRAPH]
+PROCEDURE_COMMANDS = [TASK_GRAPH, STEP_FEATURES]  # the real-procedure stages
+DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, *LOG_COMMANDS, *PROCEDURE_COMMANDS]
 SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, NEXT, EVAL, SUFFIX, FIGURE, DEMOS]

@@ -10,8 +10,8 @@ import typer
 
 from tleaf_cli import ui
 from tleaf_cli.cli.common import Quiet, exits, file_path, targets
-from tleaf_cli.cli.options import TASK_GRAPH, with_settings
-from tleaf_cli.settings.procedures import TaskGraphSettings
+from tleaf_cli.cli.options import STEP_FEATURES, TASK_GRAPH, with_settings
+from tleaf_cli.settings.procedures import StepFeatureSettings, TaskGraphSettings
 
 
 @exits
@@ -142,6 +142,7 @@ def check_recordings(
 
 
 @exits
+@with_settings(STEP_FEATURES)
 def recording_activities(
     recordings: Annotated[
         Path, typer.Argument(help="A recordings artifact (read-recordings' recordings.parquet).")
@@ -152,34 +153,22 @@ def recording_activities(
     ],
     out: Annotated[
         Path,
-        typer.Option("--out", "-o", parser=file_path, help="The activities.parquet to write."),
-    ] = Path("activities.parquet"),
+        typer.Option(
+            "--out",
+            "-o",
+            parser=file_path,
+            show_default=False,
+            help="Where to write the activities artifact.",
+        ),
+    ] = Path("activities.parquet"),  # not shown: too wide for the help's column
     kb_out: Annotated[
         Path,
         typer.Option(
             "--kb-out", parser=file_path, help="The knowledge base (.ltl) over the steps' atoms."
         ),
     ] = Path("kb.ltl"),
-    feature_dim: Annotated[int, typer.Option(min=1, help="Feature dimension D.")] = 32,
-    noise: Annotated[
-        float, typer.Option(min=0.0, help="Noise σ of one frame around its step's mean.")
-    ] = 2.0,
-    frame_seconds: Annotated[
-        float,
-        typer.Option(
-            min=0.001,
-            help="Seconds one frame stands for: a step of d s averages "
-            "max(1, round(d / this)) frames.",
-        ),
-    ] = 10.0,
-    seed: Annotated[int, typer.Option(help="Seed of the class means and the noise.")] = 0,
-    at_most_once: Annotated[
-        bool, typer.Option("--at-most-once", help="Also each step's at-most-once rule.")
-    ] = False,
-    last_step_ends: Annotated[
-        bool, typer.Option("--last-step-ends", help="Also each recipe's last-step rule.")
-    ] = False,
     quiet: Quiet = False,
+    **values,
 ) -> None:
     """Recordings as an activities artifact for train-task action-recognition, real step
     orders, durations and splits with drawn features, and the task graphs as its knowledge base.
@@ -188,12 +177,15 @@ def recording_activities(
     Each step's feature is the mean of its frames, one per frame-seconds of its duration, each
     frame its step's mean (drawn once per step of every graph) plus Gaussian noise.
     """
-    from tleaf_cli.tasks.step_recognition.activities import StepFeatures
     from tleaf_cli.tasks.step_recognition.activities import recording_activities as convert
 
     targets([recordings, graphs], [out, kb_out])
-    features = StepFeatures(feature_dim, noise, frame_seconds, seed)
-    report = convert(recordings, graphs, out, kb_out, features, at_most_once, last_step_ends)
+    feature_values, rule_values = STEP_FEATURES.split(values)
+    features, rules = StepFeatureSettings(**feature_values), TaskGraphSettings(**rule_values)
+    rules.check()
+    report = convert(
+        recordings, graphs, out, kb_out, features, rules.at_most_once, rules.last_step_ends
+    )
     per_split = ", ".join(f"{k} {n}" for k, n in sorted(report.videos.items()))
     extra = sum(len(u) for u in report.not_in_graph.values())
     skipped = ", ".join(f"{n} {k}" for k, n in report.skipped.items()) or "nothing"

@@ -48,6 +48,7 @@ from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge.base import KnowledgeBase, Rule, write_knowledge_base
 from tleaf_cli.knowledge.task_graphs import TaskGraph, graph_files, graph_rules, read_task_graph
 from tleaf_cli.logic.formulas import atoms, parse
+from tleaf_cli.settings.procedures import StepFeatureSettings
 from tleaf_cli.tasks.action_recognition.activities import (
     KIND,
     SCHEMA_VERSION,
@@ -56,23 +57,6 @@ from tleaf_cli.tasks.action_recognition.activities import (
 )
 
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-
-
-@dataclass(frozen=True)
-class StepFeatures:
-    """How each step's feature is drawn (module docstring)."""
-
-    dim: int = 32  # D
-    noise: float = 2.0  # σ of one frame
-    frame_seconds: float = 10.0  # seconds a frame stands for
-    seed: int = 0
-
-    def check(self) -> None:
-        if self.dim < 1 or not self.noise >= 0 or not self.frame_seconds > 0:
-            raise InputError(
-                f"features: dim {self.dim} (at least 1), noise {self.noise} (at least 0), "
-                f"frame_seconds {self.frame_seconds} (above 0)"
-            )
 
 
 @dataclass
@@ -115,12 +99,14 @@ def step_rules(
     return out
 
 
-def class_means(graphs: Sequence[TaskGraph], features: StepFeatures) -> dict[str, np.ndarray]:
+def class_means(
+    graphs: Sequence[TaskGraph], features: StepFeatureSettings
+) -> dict[str, np.ndarray]:
     """μ per step atom, drawn for every step of every graph in sorted order (so a recording's
     means do not depend on which recordings are converted)."""
     rng = np.random.default_rng([features.seed, 1])
     steps = sorted({a for g in graphs for a in step_names(g).values()})
-    return dict(zip(steps, rng.standard_normal((len(steps), features.dim)), strict=True))
+    return dict(zip(steps, rng.standard_normal((len(steps), features.feature_dim)), strict=True))
 
 
 def interleaved(rows: Sequence[dict]) -> list[dict]:
@@ -138,7 +124,7 @@ def recording_activities(
     graphs: str | os.PathLike,
     out: str | os.PathLike,
     kb_out: str | os.PathLike,
-    features: StepFeatures = StepFeatures(),
+    features: StepFeatureSettings | None = None,
     at_most_once: bool = False,
     last_step_ends: bool = False,
 ) -> ConversionReport:
@@ -146,6 +132,7 @@ def recording_activities(
 
     Recordings whose recipe has no graph, or in no split, are left out and counted; a step that
     is not a node of its recipe's graph gets an atom of its own (`_step_atoms`)."""
+    features = features or StepFeatureSettings()
     features.check()
     for target in (out, kb_out):
         check_writable(target)
@@ -176,7 +163,7 @@ def recording_activities(
         step_atoms = [names[row["recipe"]].get(a, a) for a in text_atoms]
         seconds = np.subtract(row["end_s"], row["start_s"])
         frames = np.maximum(1, np.round(seconds / features.frame_seconds))
-        noise = rng.standard_normal((len(step_atoms), features.dim))
+        noise = rng.standard_normal((len(step_atoms), features.feature_dim))
         drawn.append(
             np.stack([means[a] for a in step_atoms])
             + noise * (features.noise / np.sqrt(frames))[:, None]
@@ -251,8 +238,8 @@ def _step_atoms(row: dict, names: dict[str, str], report: ConversionReport) -> l
     return out
 
 
-def _unknown_mean(step: str, features: StepFeatures) -> np.ndarray:
+def _unknown_mean(step: str, features: StepFeatureSettings) -> np.ndarray:
     """μ of a step that is not in its graph: drawn from its name (the same in every conversion)."""
     return np.random.default_rng([features.seed, 3, zlib.crc32(step.encode())]).standard_normal(
-        features.dim
+        features.feature_dim
     )
