@@ -120,7 +120,7 @@ $(1)/q/rules.parquet: $(1)/mined.ltl
 	@mkdir -p $$(@D)
 	$(TLEAF) compile-dfa $$< --one-hot -q -o $$@
 $(1)/q/traces.parquet: $(1)/q/rules.parquet
-	$(TLEAF) gen-traces $$< --one-hot --per-formula 10 --split 0.8,0.1,0.1 -q -o $$@ || [ $$$$? -eq 1 ]
+	$(TLEAF) gen-traces $$< --one-hot --per-formula 40 --split 0.8,0.1,0.1 -q -o $$@ || [ $$$$? -eq 1 ]
 $(1)/q/edge/metrics.json: $(1)/q/rules.parquet
 	$(TLEAF) train-edge $$< -o $$(@D) --epochs 3 -q
 $(1)/q/meta/metrics.json: $(1)/q/rules.parquet $(1)/q/traces.parquet $(1)/q/edge/metrics.json
