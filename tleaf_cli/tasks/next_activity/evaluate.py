@@ -28,7 +28,6 @@ import torch
 
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.event_logs import Case, read_cases
-from tleaf_cli.embed.training import device_for
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
@@ -89,8 +88,8 @@ def evaluate_next_activity(
     check_writable(out_dir / "metrics.json")
     if settings.scored == "satisfying" and rules_path is None and scored_by is None:
         raise SettingError("scored", "'satisfying' needs rules: which cases satisfy what?")
-    model, encoder, trained = load_run(run_dir)
-    device = device_for(trained.device if trained.device == "cpu" else "cpu")
+    model, encoder, _ = load_run(run_dir)
+    device = torch.device("cpu")  # the run's model is loaded on the CPU (load_run)
     cases = read_cases(cases_path)
     test = [c for c in cases.cases if c.split == "test"]
     if not test:
