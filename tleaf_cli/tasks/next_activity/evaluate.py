@@ -29,6 +29,7 @@ import torch
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.event_logs import Case, read_cases
 from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.losses import violates
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
@@ -100,7 +101,8 @@ def evaluate_next_activity(
     if scored_by is not None:
         judge = read_rules(scored_by, encoder.atoms, scored_by_names)
     if settings.scored == "satisfying":
-        scored = [c for c in test if satisfies(judge, encoder.indices(c))]
+        keep = ~violates([judge.rule_set] * len(test), [encoder.indices(c) for c in test])
+        scored = [c for c, k in zip(test, keep, strict=True) if k]
         if not scored:
             raise InputError(f"{cases_path}: no test case satisfies the rules of {judge.path}")
     metrics: dict = {
@@ -125,12 +127,6 @@ def evaluate_next_activity(
                 on_length(done, len(lengths))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
-
-
-def satisfies(rules: Rules, activities: Sequence[int]) -> bool:
-    """The activity sequence satisfies the rules (their DFA accepts it)."""
-    dfa = rules.rule_set.dfa
-    return bool(dfa.accepting[dfa.run(rules.rule_set.letters(np.asarray(activities)))])
 
 
 def suffix_scores(
@@ -170,9 +166,9 @@ def suffix_scores(
             "model_calls": stats.model_calls,
         }
         if rules is not None:
-            pairs = zip(prefixes, found, strict=True)
-            kept = [satisfies(rules, p + f.activities) for p, f in pairs]
-            out[way]["satisfying"] = float(np.mean(kept))
+            completed = [np.array(p + f.activities) for p, f in zip(prefixes, found, strict=True)]
+            broken = violates([rules.rule_set] * len(completed), completed)
+            out[way]["satisfying"] = float(1 - broken.mean())
         if rule_set is not None:
             out[way]["not_found"] = stats.fallbacks
     return out

@@ -25,9 +25,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
 import torch
 
-from tleaf_cli.losses import logic_loss
+from tleaf_cli.losses import logic_loss, violates
 from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 
@@ -57,7 +58,9 @@ def logic_term(
     out = logits.new_zeros(logits.shape[0])
     if kind == "none" or rules is None:
         return out
-    kept = [b for b, n in enumerate(batch.lengths.tolist()) if keeps(rules, batch, b, n)]
+    activities = batch.activities.cpu().numpy()
+    cases = [activities[b, :n] for b, n in enumerate(batch.lengths.tolist())]
+    kept = np.flatnonzero(~violates([rules] * len(cases), cases)).tolist()
     if not kept:
         return out
     rows = torch.tensor(kept, device=logits.device)
@@ -65,9 +68,3 @@ def logic_term(
     trace = soft_trace(batch, logits)[rows]
     values = logic_loss(kind, trace, rules, lengths, embedder, reduction="none")
     return out.index_put((rows,), values)
-
-
-def keeps(rules: RuleSet, batch: CaseBatch, row: int, length: int) -> bool:
-    """Case `row` of the batch (its first `length` activities) satisfies the rules."""
-    activities = batch.activities[row, :length].cpu().numpy()
-    return bool(rules.dfa.accepting[rules.dfa.run(rules.letters(activities))])
