@@ -201,12 +201,15 @@ def step_log_probs(
     return out
 
 
-def allowed_next(rules: RuleSet, activities: np.ndarray) -> np.ndarray:
+def allowed_next(
+    rules: RuleSet, activities: np.ndarray, live: np.ndarray | None = None
+) -> np.ndarray:
     """bool [n, V + 1]: after each prefix of `activities`, the tokens that keep the rules
     satisfiable — an activity whose DFA state can still reach acceptance, the end where the
-    prefix is accepted. A prefix that already broke the rules allows every token."""
+    prefix is accepted. A prefix that already broke the rules allows every token. `live`: the
+    DFA's `live()`, for a caller that checks many cases."""
     dfa = rules.dfa
-    live = dfa.live()
+    live = dfa.live() if live is None else live
     letters = rules.letters(np.arange(len(rules.vocabulary)))  # activity -> DFA letter
     out = np.ones((len(activities), len(letters) + 1), dtype=bool)
     state = dfa.initial
@@ -243,8 +246,9 @@ def accuracy(
         "accuracy_end": float(hits[ends].mean()),
     }
     if rules is not None:
+        live = rules.dfa.live()
         masked = [
-            np.where(allowed_next(rules, encoder.indices(c)), p, -np.inf).argmax(-1) == t
+            np.where(allowed_next(rules, encoder.indices(c), live), p, -np.inf).argmax(-1) == t
             for c, p, t in zip(cases, log_probs, targets, strict=True)
         ]
         out["accuracy_rules"] = float(np.concatenate(masked).mean())
