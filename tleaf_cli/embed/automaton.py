@@ -37,9 +37,9 @@ from torch import nn
 from torch_geometric.nn import global_add_pool
 from torch_geometric.utils import degree
 
-from tleaf_cli.embed.batches import Blocks, Unit
+from tleaf_cli.embed.batches import Blocks, JointBatch, Unit
 from tleaf_cli.embed.graphs import joint_adjacency, read_limits, readout_pool, trace_graph_batch
-from tleaf_cli.embed.layers import NormalisedGCNConv, sparse_product
+from tleaf_cli.embed.layers import NormalisedGCNConv, gcn_layer, sparse_product
 from tleaf_cli.embed.probes import ProbeBank
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.logic.monitors import MonitorBank
@@ -300,20 +300,23 @@ class AutomatonEncoder(nn.Module):
         back = self.back[k]
         return torch.cat([conv.lin.weight, back.lin.weight]), conv.bias + back.bias
 
+    def node_inputs(self, batch) -> torch.Tensor:
+        """[n, KINDS + FLAGS + edge_dim]: the nodes' input vectors, one-hot kind, flags and
+        edge-node vector (0 on states)."""
+        kinds = nn.functional.one_hot(batch.node_kind, KINDS).to(batch.edge_vec.dtype)
+        return torch.cat([kinds, batch.flags.to(kinds.dtype), batch.edge_vec], dim=1)
+
     def forward(self, batch) -> torch.Tensor:
-        kinds = nn.functional.one_hot(batch.node_kind, KINDS).float()
-        x = torch.cat([kinds, batch.flags, batch.edge_vec], dim=1)
+        if isinstance(batch, JointBatch):  # a JointStore's batch: inputs and matrices made
+            return self._forward_joint(batch)
+        x = self.node_inputs(batch)
         arcs, n = batch.edge_index, x.shape[0]
         # every direction in one sparse product per layer (graphs.joint_adjacency): the batch's
         # blocks where a GraphStore gathered them, else built here
         adjacency = getattr(batch, "adjacency", None)
         if adjacency is None:
             adjacency = joint_adjacency(arcs, n, self.back is not None, x.dtype)
-        for k in range(len(self.convs)):
-            weight, bias = self._layer(k)
-            states = (x @ weight.t()).view(-1, weight.shape[0] // (1 if self.back is None else 2))
-            x = torch.relu(sparse_product(adjacency, states) + bias)
-        start = batch.ptr[:-1] + batch.initial
+        x = self._layers(x, adjacency)
         graphs = int(batch.ptr.numel() - 1)
         if self.readout in RUN_READOUTS:
             pool = getattr(batch, "pool", None)
@@ -325,6 +328,7 @@ class AutomatonEncoder(nn.Module):
             if self.monitor_bank is not None:
                 parts.append(self.monitor_features(batch))
             return self.head(torch.cat(parts, dim=1))
+        start = batch.ptr[:-1] + batch.initial
         p = walk_distributions(arcs, start, x.shape[0], self.steps)
         if self.readout == "walk":
             parts = [global_add_pool(p.mean(dim=0).unsqueeze(1) * x, batch.batch, size=graphs)]
@@ -334,10 +338,31 @@ class AutomatonEncoder(nn.Module):
             parts.append(self.monitor_features(batch))
         return self.head(torch.cat(parts, dim=1))
 
+    def _layers(self, x: torch.Tensor, adjacency) -> torch.Tensor:
+        """The GCN layers over node states `x` and the batch's joint adjacency."""
+        for k, conv in enumerate(self.convs):
+            convs = (conv,) if self.back is None else (conv, self.back[k])
+            x = gcn_layer(
+                x, adjacency, tuple(c.lin.weight for c in convs), tuple(c.bias for c in convs)
+            )
+        return x
+
+    def _forward_joint(self, batch: JointBatch) -> torch.Tensor:
+        """`forward` of a `JointStore` batch (run readouts, no probes)."""
+        if self.readout not in RUN_READOUTS or self.probes is not None:
+            raise SettingError("readout", "a JointStore batch needs a run readout and no probes")
+        x = self._layers(batch.x, batch.adjacency)
+        parts = [sparse_product(batch.pool, x).reshape(batch.graphs, -1)]
+        if self.monitor_bank is not None:  # carried as the head reads them, or cut here
+            monitor = batch.monitor
+            same = monitor is not None and monitor.shape[1] == self.monitor_width
+            parts.append(monitor if same else self.monitor_features(batch))
+        return self.head(torch.cat(parts, dim=1))
+
     def monitor_features(self, batch) -> torch.Tensor:
         """[graphs, monitor_width]: the monitors' shares of the accepted (and, for `runs`,
         the rejected) words the graphs carry as `monitor` (meta_data builds them)."""
         features = getattr(batch, "monitor", None)
         if features is None:
             raise InputError("this q reads monitor features; build its graphs with its bank")
-        return features[:, : self.monitor_width].to(batch.edge_vec.dtype)
+        return features[:, : self.monitor_width].to(self.head.weight.dtype)

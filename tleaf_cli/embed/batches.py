@@ -14,6 +14,7 @@ import warnings
 from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
+import numpy as np
 import torch
 from torch_geometric.data import Batch, Data
 
@@ -177,3 +178,175 @@ def _batch(fields: dict, edge_index: torch.Tensor, ptr: torch.Tensor) -> Batch:
     batch.batch = torch.repeat_interleave(graphs, ptr.diff())
     batch.num_nodes = int(ptr[-1])
     return batch
+
+
+class JointBatch(NamedTuple):
+    """What q_m's encoder reads of one training batch of formula graphs and trace chains
+    (`JointStore.select`): the nodes' input vectors, the joint adjacency and the readout pool
+    as CSR pairs, each graph's monitor features (None without monitors), and each trace's
+    letters. `AutomatonEncoder.forward` reads it as it reads a graph batch."""
+
+    x: torch.Tensor  # [n, input width]: one-hot kind, flags, edge-node vector
+    adjacency: Adjacency
+    pool: Adjacency
+    monitor: torch.Tensor | None  # [graphs, features]
+    lengths: torch.Tensor  # [traces]: letters of each trace chain
+    graphs: int
+    evidence: torch.Tensor | None = None  # [graphs, dim]: the evidence block's unit vectors
+
+
+class JointStore:
+    """q_m's training graphs (formulas, then one trace chain per length) laid out once, with
+    every trace's letters and monitor features, so that a batch of formulas and traces
+    (`select`) is index arithmetic on the host (numpy: which nodes, which matrix entries,
+    where each block's columns move) and a handful of operations on the device: one gather of
+    the nodes' input vectors, one of the letters placed on the chains' edge nodes, one of the
+    monitor features, and the CSR matrices made from the host's arrays (int32 indices, which
+    the CSR product reads without converting). The same inputs and matrices as a
+    `GraphStore` select of the formulas and chains with the letters placed (tests).
+
+    Args: `graphs`, the formula graphs then the chain templates (`meta_data.
+    with_chain_templates`, whose node field `letter` marks the chains' edge nodes); `chain_of`,
+    each trace length's template; `inputs`, the nodes' input vectors of a collated batch
+    (`AutomatonEncoder.node_inputs`); `matrices`, the adjacency and pool blocks of a collated
+    batch (`AutomatonEncoder.block_matrices`); `letters`, every trace's letter vectors [T, d];
+    `monitor`, every trace's monitor features [traces, F] (None: no monitors; the formulas'
+    are cut to the same F columns, which a batch's graphs then carry); `evidence`,
+    the evidence block's unit vectors (`evidence.MonitorEvidence.formula_units`,
+    `trace_units`) of every formula and every trace, constants carried like the features.
+    """
+
+    def __init__(
+        self,
+        graphs: Sequence[Data],
+        chain_of: dict[int, int],
+        inputs: Callable[[Batch], torch.Tensor],
+        matrices: BlockMatrices,
+        letters: Sequence[torch.Tensor],
+        monitor: torch.Tensor | None,
+        device: torch.device | str = "cpu",
+        evidence: tuple[torch.Tensor, torch.Tensor] | None = None,
+    ) -> None:
+        store = Batch.from_data_list(list(graphs))
+        self.device = torch.device(device)
+        self.ptr = store.ptr.numpy()
+        self.letter = store.letter.numpy()
+        x = inputs(store)
+        self.x = x.to(self.device)
+        self.lengths = np.array([len(t) for t in letters], dtype=np.int64)
+        self.letter_ptr = np.concatenate([[0], np.cumsum(self.lengths)])
+        self.chain_of = np.zeros(int(self.lengths.max(initial=0)) + 1, dtype=np.int64)
+        for length, graph in chain_of.items():
+            self.chain_of[length] = graph
+        # the letters as the rows their edge nodes read: kind "edge", no flags, the vector
+        rows = torch.cat(list(letters)).to(x.dtype)
+        on_edge = x[store.letter >= 0][:1, : x.shape[1] - rows.shape[1]]
+        self.letters = torch.cat([on_edge.expand(len(rows), -1), rows], dim=1).to(self.device)
+        self.formulas = len(graphs) - len(chain_of)
+        self.monitor = None
+        if monitor is not None:  # the formulas' features, then the traces'
+            formulas = store.monitor[: self.formulas, : monitor.shape[1]].to(monitor.dtype)
+            self.monitor = torch.cat([formulas, monitor]).to(self.device)
+        self.evidence = None if evidence is None else torch.cat(evidence).to(self.device)
+        self.matrices = {
+            key: tuple(_HostBlocks.of(blocks) for blocks in pair)
+            for key, pair in matrices(store).items()
+        }
+
+    def select(self, formulas: Sequence[int], traces: Sequence[int]) -> JointBatch:
+        """The batch of formula graphs `formulas` (store indices, in that order), then the
+        chains of traces `traces` (trace indices) with their letters and monitor features."""
+        formula_ids = np.asarray(formulas, dtype=np.int64)
+        trace_ids = np.asarray(traces, dtype=np.int64)
+        lengths = self.lengths[trace_ids]
+        ids = np.concatenate([formula_ids, self.chain_of[lengths]])
+        nodes, ptr = _host_ranges(self.ptr, ids)
+        on_letters = np.flatnonzero(self.letter[nodes] >= 0)  # trace by trace, step by step
+        letter_rows, _ = _host_ranges(self.letter_ptr, trace_ids)
+        x = self.x.index_select(0, self._tensor(nodes))
+        x.index_copy_(0, self._tensor(on_letters), self.letters[self._tensor(letter_rows)])
+        rows = self._tensor(np.concatenate([formula_ids, self.formulas + trace_ids]))
+        monitor = None if self.monitor is None else self.monitor.index_select(0, rows)
+        evidence = None if self.evidence is None else self.evidence.index_select(0, rows)
+        pairs = {
+            key: Adjacency(
+                self._csr(matrix.select(ids, nodes, ptr)),
+                self._csr(transposed.select(ids, nodes, ptr)),
+            )
+            for key, (matrix, transposed) in self.matrices.items()
+        }
+        return JointBatch(
+            x, pairs["adjacency"], pairs["pool"], monitor, self._tensor(lengths), len(ids), evidence
+        )
+
+    def _tensor(self, array: np.ndarray) -> torch.Tensor:
+        out = torch.from_numpy(array)
+        return out if self.device.type == "cpu" else out.to(self.device, non_blocking=True)
+
+    def _csr(self, parts: tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int]]):
+        crow, col, values, size = parts
+        with warnings.catch_warnings():  # torch marks CSR support beta
+            warnings.simplefilter("ignore", UserWarning)
+            # the arrays are a CSR matrix by construction (tests): no checks, no conversions
+            return torch.ops.aten._sparse_compressed_tensor_unsafe(
+                self._tensor(crow),
+                self._tensor(col),
+                self._tensor(values),
+                list(size),
+                layout=torch.sparse_csr,
+            )
+
+
+class _HostBlocks(NamedTuple):
+    """`Blocks` as host (numpy) arrays, for `JointStore`: the same layout, selected with numpy."""
+
+    entries: np.ndarray
+    row_entries: np.ndarray
+    col: np.ndarray
+    values: np.ndarray
+    row_unit: Unit
+    col_unit: Unit
+
+    @classmethod
+    def of(cls, blocks: Blocks) -> _HostBlocks:
+        return cls(
+            blocks.entries.cpu().numpy(),
+            blocks.row_entries.cpu().numpy(),
+            blocks.col.cpu().numpy(),
+            blocks.values.detach().cpu().numpy(),
+            blocks.row_unit,
+            blocks.col_unit,
+        )
+
+    def select(self, ids: np.ndarray, nodes: np.ndarray, ptr: np.ndarray):
+        """`Blocks.select` of graphs `ids` (whose nodes are `nodes`, newly at `ptr`) on the
+        host: the CSR arrays (int32 indices) and the size."""
+        row_ids, _ = _host_units(self.row_unit, ids, nodes, ptr)
+        _, col_ptr = _host_units(self.col_unit, ids, nodes, ptr)
+        entries, entry_ptr = _host_ranges(self.entries, ids)
+        crow = np.zeros(len(row_ids) + 1, dtype=np.int32)
+        np.cumsum(self.row_entries[row_ids], out=crow[1:])
+        col = self.col[entries] + np.repeat(col_ptr[:-1], np.diff(entry_ptr))
+        size = (len(row_ids), int(col_ptr[-1]))
+        return crow, col.astype(np.int32), self.values[entries], size
+
+
+def _host_units(unit: Unit, ids: np.ndarray, nodes: np.ndarray, ptr: np.ndarray):
+    """`Unit.of` on the host."""
+    if unit.per_graph:
+        units, starts = ids, np.arange(len(ids) + 1)
+    else:
+        units, starts = nodes, ptr
+    if unit.k == 1:
+        return units, starts
+    spread = unit.k * units[:, None] + np.arange(unit.k)
+    return spread.reshape(-1), unit.k * starts
+
+
+def _host_ranges(ptr: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """`_ranges` on the host."""
+    starts, sizes = ptr[ids], ptr[ids + 1] - ptr[ids]
+    new_ptr = np.zeros(len(ids) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=new_ptr[1:])
+    positions = np.repeat(starts - new_ptr[:-1], sizes) + np.arange(new_ptr[-1])
+    return positions, new_ptr

@@ -85,6 +85,14 @@ class MonitorEvidence(nn.Module):
         return 2 * float(self.log_scale.detach().exp() ** 2)
 
     def formulas(self, monitor: torch.Tensor) -> torch.Tensor:
+        return self.log_scale.exp() * self.formula_units(monitor)
+
+    def traces(self, monitor: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
+        return self.log_scale.exp() * self.trace_units(monitor, lengths)
+
+    def formula_units(self, monitor: torch.Tensor) -> torch.Tensor:
+        """`formulas(monitor)` over γ: unit vectors that depend on the features alone (a
+        trainer may compute them once per graph and scale them by γ in every batch)."""
         if monitor.shape[1] < 2 * self.features:
             raise InputError("the monitor evidence needs the rejected words' shares (runs readout)")
         a = monitor[:, : self.features].clamp(EPS, 1 - EPS)
@@ -94,16 +102,16 @@ class MonitorEvidence(nn.Module):
         b = absent.reshape(len(a), self.bank.ranges, -1).sum(dim=2)
         pad = torch.zeros_like(b[:, :1])
         u = torch.cat([w, b, pad, torch.full_like(pad, DELTA)], dim=1)
-        return self.log_scale.exp() * nn.functional.normalize(u, dim=1)
+        return nn.functional.normalize(u, dim=1)
 
-    def traces(self, monitor: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
+    def trace_units(self, monitor: torch.Tensor, lengths: torch.Tensor) -> torch.Tensor:
+        """`traces(monitor, lengths)` over γ (as `formula_units`)."""
         psi = monitor[:, : self.features]
         ranges = self.range_of_length[lengths.clamp(max=self.bank.max_length)]
         v = torch.cat([psi, nn.functional.one_hot(ranges, self.bank.ranges).to(psi)], dim=1)
         v = v / self.trace_norm
         pad = (1 - v.pow(2).sum(dim=1, keepdim=True)).clamp(min=1e-8).sqrt()
-        z = torch.cat([v, pad, torch.zeros_like(pad)], dim=1)
-        return self.log_scale.exp() * z
+        return torch.cat([v, pad, torch.zeros_like(pad)], dim=1)
 
 
 def chain_lengths(batch) -> torch.Tensor:

@@ -18,17 +18,25 @@ from torch_geometric.nn import GCNConv
 from tleaf_cli.embed.graphs import Adjacency
 
 
+def csr_product(matrix: torch.Tensor, x: torch.Tensor) -> torch.Tensor:
+    """matrix · x for a sparse CSR `matrix` and a dense `x`, written into a fresh tensor by
+    `addmm` with β = 0 (the tensor's contents are ignored): `@` first fills a zero tensor
+    and then adds the product into it, seven operators more for the same values."""
+    out = x.new_empty(matrix.shape[0], x.shape[1])
+    return torch.addmm(out, matrix, x, beta=0, out=out)
+
+
 class _SparseProduct(torch.autograd.Function):
     """Â · X, differentiable in X only, its backward Âᵀ · G with Âᵀ given."""
 
     @staticmethod
     def forward(ctx, matrix: torch.Tensor, transposed: torch.Tensor, x: torch.Tensor):
         ctx.transposed = transposed
-        return matrix @ x
+        return csr_product(matrix, x)
 
     @staticmethod
     def backward(ctx, grad: torch.Tensor):
-        return None, None, ctx.transposed @ grad
+        return None, None, csr_product(ctx.transposed, grad)
 
 
 def sparse_product(adjacency: Adjacency, x: torch.Tensor) -> torch.Tensor:
@@ -55,3 +63,46 @@ class NormalisedGCNConv(GCNConv):
     def forward(self, x: torch.Tensor, adjacency: Adjacency) -> torch.Tensor:  # type: ignore[override]
         out = sparse_product(adjacency, self.lin(x))
         return out if self.bias is None else out + self.bias
+
+
+class _GCNLayer(torch.autograd.Function):
+    """ReLU(Â · (X Wᵀ viewed as [ways · n, h]) + b) for a joint adjacency Â [n, ways · n]
+    (`graphs.joint_adjacency`), W the directions' weights stacked, b their biases summed: one
+    dense product, one sparse product with the bias, an in-place ReLU; the backward written
+    out (the ReLU's mask, Âᵀ · G, the two weight products), so a layer is a few operators
+    each way instead of an autograd node per step."""
+
+    @staticmethod
+    def forward(ctx, x, matrix, transposed, *weights_and_biases):
+        ways = len(weights_and_biases) // 2
+        weights, biases = weights_and_biases[:ways], weights_and_biases[ways:]
+        weight = weights[0] if ways == 1 else torch.cat(weights)
+        bias = biases[0] if ways == 1 else sum(biases[1:], biases[0])
+        states = torch.mm(x, weight.t()).view(-1, bias.shape[0])
+        out = torch.addmm(bias, matrix, states).relu_()
+        ctx.save_for_backward(x, weight, out)
+        ctx.transposed, ctx.ways = transposed, ways
+        return out
+
+    @staticmethod
+    def backward(ctx, grad):
+        x, weight, out = ctx.saved_tensors
+        grad = torch.ops.aten.threshold_backward(grad, out, 0)  # where the ReLU passed
+        grad_bias = grad.sum(0)
+        grad_states = csr_product(ctx.transposed, grad).view(out.shape[0], -1)
+        grad_x = torch.mm(grad_states, weight) if ctx.needs_input_grad[0] else None
+        grad_weight = torch.mm(grad_states.t(), x)
+        grad_weights = grad_weight.view(ctx.ways, -1, x.shape[1]).unbind(0)
+        return grad_x, None, None, *grad_weights, *([grad_bias] * ctx.ways)
+
+
+def gcn_layer(
+    x: torch.Tensor,
+    adjacency: Adjacency,
+    weights: tuple[torch.Tensor, ...],
+    biases: tuple[torch.Tensor, ...],
+) -> torch.Tensor:
+    """ReLU(Σ_d Â_d X W_dᵀ + b_d) over a joint adjacency of len(weights) directions
+    (`graphs.joint_adjacency`: direction d's Â at columns ways · u + d), in one autograd node
+    (`_GCNLayer`): what one `NormalisedGCNConv` per direction, their sum and a ReLU give."""
+    return _GCNLayer.apply(x, adjacency.matrix, adjacency.transposed, *weights, *biases)

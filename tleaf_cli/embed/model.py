@@ -15,7 +15,7 @@ from torch import nn
 from torch_geometric.data import Batch
 
 from tleaf_cli.embed.automaton import AutomatonEncoder
-from tleaf_cli.embed.batches import join
+from tleaf_cli.embed.batches import JointBatch, join
 from tleaf_cli.embed.evidence import MonitorEvidence, chain_lengths
 from tleaf_cli.embed.paper_encoder import AuthorsEncoder
 from tleaf_cli.embed.radius import RadiusClassifier
@@ -54,7 +54,9 @@ class TripletEmbedder(nn.Module):
         self.radius = radius
 
     def _out(self, z: torch.Tensor) -> torch.Tensor:
-        return nn.functional.normalize(z, dim=-1) if self.sphere else z
+        """z, or with `sphere` z over its length: `nn.functional.normalize(z, dim=-1)`'s
+        values, broadcast instead of expanded (three operators, not six)."""
+        return z / z.norm(dim=-1, keepdim=True).clamp_min(1e-12) if self.sphere else z
 
     def embed_formulas(self, batch) -> torch.Tensor:
         return self._formula_vectors(self.formula(batch), batch)
@@ -77,12 +79,19 @@ class TripletEmbedder(nn.Module):
         (`formulas` graphs, then the rest; a `GraphStore`'s select of both, whose batches
         carry their matrices): the same vectors, with no batch joined. One encoder reads
         both (q_m)."""
-        z = self.trace(batch)
-        z_formulas, z_traces = self._out(z[:formulas]), self._out(z[formulas:])
+        z = self._out(self.trace(batch))  # row by row: formulas and traces in one call
+        z_formulas, z_traces = z[:formulas], z[formulas:]
         if self.evidence is None:
             return z_formulas, z_traces
+        if isinstance(batch, JointBatch) and batch.evidence is not None:
+            # the block's unit vectors carried: scaled by γ, beside every graph's vector at once
+            z = torch.cat([z, self.evidence.log_scale.exp() * batch.evidence], dim=1)
+            return z[:formulas], z[formulas:]
         monitor = self.trace.monitor_features(batch)
-        lengths = chain_lengths(batch)[formulas:]
+        if isinstance(batch, JointBatch):  # the traces' letters, carried
+            lengths = batch.lengths
+        else:
+            lengths = chain_lengths(batch)[formulas:]
         return (
             torch.cat([z_formulas, self.evidence.formulas(monitor[:formulas])], dim=1),
             torch.cat([z_traces, self.evidence.traces(monitor[formulas:], lengths)], dim=1),

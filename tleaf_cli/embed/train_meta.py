@@ -20,13 +20,14 @@ from collections.abc import Callable
 from dataclasses import asdict
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from tleaf_cli.data.artifacts import describe_inputs, relative_to, write_text_atomic
 from tleaf_cli.data.dfa_table import dfa_from_row, read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.automaton import AutomatonEncoder
-from tleaf_cli.embed.batches import GraphStore
+from tleaf_cli.embed.batches import GraphStore, JointStore
 from tleaf_cli.embed.graphs import syntax_graph
 from tleaf_cli.embed.load import load_edge_model
 from tleaf_cli.embed.meta_data import (
@@ -37,7 +38,7 @@ from tleaf_cli.embed.meta_data import (
     with_chain_templates,
 )
 from tleaf_cli.embed.model import build_model, store_run_weights
-from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit
+from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.embed.triplets import (
     SCORE,
     EpochReport,
@@ -110,9 +111,8 @@ def train_meta(
         vectors,
         monitors,
     )
-    for k, t in enumerate(kept):
-        features = (letters[k], None if monitor is None else monitor[k])
-        by_split[t["split"]][t["formula_id"]][t["label"]].append((features, t["source"]))
+    for k, t in enumerate(kept):  # a trace is its index k in `letters` and `monitor`
+        by_split[t["split"]][t["formula_id"]][t["label"]].append((k, t["source"]))
 
     def fixed_pairs(split: str, source: str | None = None):
         out = []
@@ -134,13 +134,28 @@ def train_meta(
     # With q_m's own encoder (one for both), the store also holds a trace chain of every
     # length and the matrices the encoder reads (adjacency, readout pool), built once: a
     # batch of formulas and traces is then one select, its matrices gathered, not rebuilt
-    joined = settings.embedder == "dfa" and isinstance(model.trace, AutomatonEncoder)
     chain_of: dict[int, int] = {}
+    # (q_m's encoder with run readouts and no probes: a JointStore, which also holds every
+    # trace's letters and monitor features, so that a batch is index arithmetic on the host
+    # and a few gathers on the device)
+    joined = settings.embedder == "dfa" and isinstance(model.trace, AutomatonEncoder)
     if joined:
         graphs, chain_of = with_chain_templates(
             model.trace, list(formula_graphs.values()), {len(x) for x in letters}
         )
-        store = GraphStore(graphs, device, model.trace.block_matrices)
+        if settings.readout in RUN_READOUTS and not settings.probes:
+            store = JointStore(
+                graphs,
+                chain_of,
+                model.trace.node_inputs,
+                model.trace.block_matrices,
+                letters,
+                None if monitor is None else monitor[:, : model.trace.monitor_width],
+                device,
+                _evidence_units(model, list(formula_graphs.values()), letters, monitor, device),
+            )
+        else:
+            store = GraphStore(graphs, device, model.trace.block_matrices)
     else:
         store = GraphStore(list(formula_graphs.values()), device)
 
@@ -164,29 +179,33 @@ def train_meta(
         distinct = list(dict.fromkeys(formulas))  # each formula embedded once per batch
         row = {key: i for i, key in enumerate(distinct)}
         traces = sats + negs  # one batch of chains for both sides
-        monitor = None if monitors is None else torch.stack([m for _, m in traces]).to(device)
-        letters = torch.cat([x for x, _ in traces]).to(device)
-        if joined:
-            z_formulas, z_traces = embed_selected(distinct, traces, letters, monitor)
+        if isinstance(store, JointStore):
+            z_formulas, z_traces = model.embed_joined(store.select(distinct, traces), len(distinct))
         else:
-            chains = chain_batch(model.trace, letters, [len(x) for x, _ in traces], monitor)
-            z_formulas, z_traces = model.embed_both(store.select(distinct), chains)
+            z_formulas, z_traces = embed_batches(distinct, traces)
+        anchors = torch.from_numpy(np.array([row[f] for f in formulas], dtype=np.int64))
         return (
-            z_formulas[torch.tensor([row[f] for f in formulas], device=device)],
+            z_formulas.index_select(0, anchors.to(device)),
             z_traces[: len(sats)],
             z_traces[len(sats) :],
         )
 
-    def embed_selected(distinct, traces, letters, monitor):
-        """The formulas `distinct` and the traces' chains as one select from the store, the
-        letters on the chains' edge nodes (in trace and step order, as `chain_batch` puts
-        them), the traces' monitor features in their chains' rows."""
-        ids = distinct + [chain_of[len(x)] for x, _ in traces]
-        batch = store.select(ids)
+    def embed_batches(distinct, traces):
+        """The formulas `distinct` and the traces (indices) as graph batches: one select from
+        the store of the formulas and the traces' chain templates, the letters on the chains'
+        edge nodes (in trace and step order, as `chain_batch` puts them) and the traces'
+        monitor features in their chains' rows (q_m's own encoder); else the formulas
+        selected and the chains built."""
+        rows = None if monitor is None else monitor[list(traces)].to(device)
+        steps = torch.cat([letters[k] for k in traces]).to(device)
+        if not joined:
+            chains = chain_batch(model.trace, steps, [len(letters[k]) for k in traces], rows)
+            return model.embed_both(store.select(distinct), chains)
+        batch = store.select(distinct + [chain_of[len(letters[k])] for k in traces])
         on_letters = (batch.letter >= 0).nonzero().flatten()
-        batch.edge_vec = batch.edge_vec.index_copy(0, on_letters, letters)
-        if monitor is not None:
-            batch.monitor = torch.cat([batch.monitor[: len(distinct)], monitor])
+        batch.edge_vec = batch.edge_vec.index_copy(0, on_letters, steps)
+        if rows is not None:
+            batch.monitor = torch.cat([batch.monitor[: len(distinct)], rows])
         return model.embed_joined(batch, len(distinct))
 
     def scores(pairs) -> dict[str, float]:
@@ -206,6 +225,30 @@ def train_meta(
             "violating_distance": violating,
         }
 
+    def joint_step(chunk) -> Step:
+        """`triplet_step`'s step for a JointStore's batches and squared distances: each
+        triplet's two distances computed once and read by every term (the triplet loss, the
+        pull, the radius loss, the accuracy), the same sums in the same order."""
+        formulas, sats, negs = zip(*chunk, strict=True)
+        distinct = list(dict.fromkeys(formulas))
+        row = {key: i for i, key in enumerate(distinct)}
+        z_formulas, z_traces = model.embed_joined(
+            store.select(distinct, sats + negs), len(distinct)
+        )
+        anchors = np.array([row[f] for f in formulas] * 2, dtype=np.int64)
+        anchor = z_formulas.index_select(0, torch.from_numpy(anchors).to(device))
+        distances = (anchor - z_traces).pow(2).sum(dim=1)  # positive pairs, then negative
+        d_pos, d_neg = distances[: len(chunk)], distances[len(chunk) :]
+        loss = torch.relu(d_pos - d_neg + settings.margin).mean()
+        if settings.pull or settings.radius_weight:
+            extra = d_pos.mean() * settings.pull if settings.pull else None
+            if settings.radius_weight:
+                radius = settings.radius_weight * model.radius.loss_of_distances(distances)
+                extra = radius if extra is None else extra + radius
+            loss = loss + extra
+        accuracy = float((d_pos < d_neg).float().mean())
+        return Step(loss, {"loss": loss.item(), "train_accuracy": accuracy}, len(chunk))
+
     def extra_loss(triplet) -> torch.Tensor:
         loss = anchor_pull(triplet[0], triplet[1]) * settings.pull
         if settings.radius_weight:
@@ -216,7 +259,9 @@ def train_meta(
     metrics = fit(
         model,
         epoch_triplets,
-        triplet_step(
+        joint_step
+        if isinstance(store, JointStore) and settings.distance == "squared"
+        else triplet_step(
             embed,
             settings.margin,
             extra_loss if settings.pull or settings.radius_weight else None,
@@ -228,6 +273,7 @@ def train_meta(
         score=SCORE,
         resume=resume,
         on_epoch=reporting(on_epoch),
+        flat=isinstance(store, JointStore),  # every parameter of q_m is read in every step
     )
 
     # ---- test split with the best weights (the model leaves the loop with them)
@@ -267,3 +313,18 @@ def train_meta(
     write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
+
+
+def _evidence_units(model, formula_graphs, letters, monitor, device):
+    """The evidence block's unit vectors of every formula and every trace (constants: they read
+    the monitor features alone), or None where q has no block."""
+    if model.evidence is None:
+        return None
+    width = model.trace.monitor_width
+    formulas = torch.cat([g.monitor for g in formula_graphs])[:, :width].float()
+    lengths = torch.tensor([len(x) for x in letters])
+    with torch.no_grad():
+        return (
+            model.evidence.formula_units(formulas.to(device)),
+            model.evidence.trace_units(monitor[:, :width].to(device), lengths.to(device)),
+        )
