@@ -23,8 +23,9 @@ from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.evaluate import evaluate_next_activity, load_run
 from tleaf_cli.tasks.next_activity.objective import OBSERVED, logic_term, soft_trace
+from tleaf_cli.tasks.next_activity.rules import Rules, allowed_next
 from tleaf_cli.tasks.next_activity.suffix_search import predict_suffixes
-from tleaf_cli.tasks.next_activity.train import allowed_next, train_next_activity
+from tleaf_cli.tasks.next_activity.train import train_next_activity
 
 runner = CliRunner()
 
@@ -93,7 +94,7 @@ def test_soft_trace_observes_the_first_activity_and_renormalises_the_predictions
 def test_the_logic_loss_reads_only_the_cases_that_keep_the_rules(tmp_path):
     cases = read_cases(cases_artifact(tmp_path, cases=8, broken=2))
     encoder = Encoder.fit(cases)
-    rules = RuleSet(["G(b -> F c)"], list(encoder.atoms))
+    rules = Rules("kb", ("r",), (RuleSet(["G(b -> F c)"], list(encoder.atoms)),))
     batch = CaseBatch.of(cases.cases, encoder, torch.device("cpu"))
     logits = torch.zeros(len(cases.cases), int(batch.lengths.max()), 5, requires_grad=True)
     values = logic_term("exact", batch, logits, rules)
@@ -106,15 +107,42 @@ def test_the_logic_loss_reads_only_the_cases_that_keep_the_rules(tmp_path):
     assert logits.grad is not None and torch.isfinite(logits.grad).all()
 
 
+def test_allowed_next_over_parts_never_refuses_a_token_some_completion_needs():
+    """Parts of a conjunction: a refused token has no accepted completion (sound), and the end
+    is allowed exactly where every part accepts; a prefix some part rejects for good allows
+    everything, as with one DFA."""
+    vocabulary = ["a", "b", "c"]
+    formulas = ["G(b -> F c)", "!c U a", "G(a -> X !a)"]
+    whole = RuleSet(formulas, vocabulary)
+    parts = Rules("kb", ("r", "s", "t"), tuple(RuleSet(f, vocabulary) for f in formulas))
+
+    def accepted(seq) -> bool:
+        return bool(whole.dfa.accepting[whole.dfa.run(whole.letters(np.array(seq)))])
+
+    tails = [list(tail) for n in range(5) for tail in product(range(3), repeat=n)]
+    for prefix in product(range(3), repeat=3):
+        allowed = allowed_next(parts, np.array(prefix))
+        for t in range(3):
+            head = list(prefix[: t + 1])
+            live = all(p.dfa.live()[p.dfa.run(p.letters(np.array(head)))] for p in parts.parts)
+            assert allowed[t, -1] == (accepted(head) if live else True)
+            if not live:
+                assert allowed[t].all()
+            for token in range(3):
+                if not allowed[t, token]:
+                    assert not any(accepted([*head, token, *tail]) for tail in tails)
+
+
 def test_allowed_next_is_what_keeps_some_completion_accepted():
     """Brute force: a token is allowed after a prefix exactly when some completion of at most 4
     more activities (then the end) is accepted."""
     vocabulary = ["a", "b", "c"]
-    rules = RuleSet(["G(b -> F c)", "!c U a"], vocabulary)
-    dfa = rules.dfa
+    rule_set = RuleSet(["G(b -> F c)", "!c U a"], vocabulary)
+    rules = Rules("kb", ("r", "s"), (rule_set,))
+    dfa = rule_set.dfa
 
     def accepted(seq) -> bool:
-        return bool(dfa.accepting[dfa.run(rules.letters(np.array(seq)))])
+        return bool(dfa.accepting[dfa.run(rule_set.letters(np.array(seq)))])
 
     for prefix in product(range(3), repeat=3):
         allowed = allowed_next(rules, np.array(prefix))

@@ -104,6 +104,23 @@ def test_wide_beam_is_the_most_probable_accepted_continuation(seed):
             assert suffix.satisfied
 
 
+@pytest.mark.parametrize("seed", range(20))
+def test_parts_of_the_rules_search_as_their_conjunction_with_a_wide_beam(seed):
+    """One DFA per formula (rule_parts' parts) instead of their product: pruning by the parts'
+    distances is sound, so an exhaustive beam finds the same continuations."""
+    rng = np.random.default_rng(500 + seed)
+    vocabulary = ["a", "b", "c", "d"][: int(rng.integers(3, 5))]
+    picked = [FORMULAS[i] for i in rng.choice(len(FORMULAS), size=3, replace=False)]
+    whole = RuleSet(picked, vocabulary)
+    parts = [RuleSet(f, vocabulary) for f in picked]
+    prefixes = [tuple(int(x) for x in rng.integers(0, len(vocabulary), 2)) for _ in range(4)]
+    model = Markov(len(vocabulary), seed)
+    kwargs = dict(beam_width=10_000, max_length=3)
+    one = predict_suffixes(model, prefixes, len(vocabulary), rules=whole, **kwargs)
+    split = predict_suffixes(model, prefixes, len(vocabulary), rules=parts, **kwargs)
+    assert split == one
+
+
 @pytest.mark.parametrize("seed", range(30))
 @pytest.mark.parametrize("beam_width", [1, 2])
 def test_narrow_beam_found_exactly_when_an_accepted_continuation_exists(seed, beam_width):

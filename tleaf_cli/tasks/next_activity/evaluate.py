@@ -29,7 +29,6 @@ import torch
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
 from tleaf_cli.data.event_logs import Case, read_cases
 from tleaf_cli.errors import InputError, SettingError
-from tleaf_cli.losses import violates
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
@@ -101,7 +100,7 @@ def evaluate_next_activity(
     if scored_by is not None:
         judge = read_rules(scored_by, encoder.atoms, scored_by_names)
     if settings.scored == "satisfying":
-        keep = ~violates([judge.rule_set] * len(test), [encoder.indices(c) for c in test])
+        keep = ~judge.broken([encoder.indices(c) for c in test])
         scored = [c for c, k in zip(test, keep, strict=True) if k]
         if not scored:
             raise InputError(f"{cases_path}: no test case satisfies the rules of {judge.path}")
@@ -113,9 +112,7 @@ def evaluate_next_activity(
         "rules": None if rules is None else {"path": rules.path, "names": list(rules.names)},
         "scored_by": None if judge is None else {"path": judge.path, "names": list(judge.names)},
         "settings": asdict(settings),
-        "accuracy": accuracy(
-            model, encoder, scored, 256, device, None if rules is None else rules.rule_set
-        ),
+        "accuracy": accuracy(model, encoder, scored, 256, device, rules),
         "suffix": {},
         "inputs": describe_inputs([p for p in (cases_path, rules_path) if p is not None]),
     }
@@ -149,13 +146,13 @@ def suffix_scores(
     step = next_log_probs(model, encoder, stamps)
     ways = {"argmax": (1, None), "beam": (settings.beam_width, None)}
     if rules is not None:
-        ways["rules"] = (settings.beam_width, rules.rule_set)
+        ways["rules"] = (settings.beam_width, rules.parts)
     out: dict = {"cases": len(chosen)}
-    for way, (width, rule_set) in ways.items():
+    for way, (width, parts) in ways.items():
         stats = SearchStats()
         start = time.perf_counter()
         found = predict_suffixes(
-            step, prefixes, len(encoder.atoms), rules=rule_set, beam_width=width,
+            step, prefixes, len(encoder.atoms), rules=parts, beam_width=width,
             max_length=settings.max_suffix, stats=stats,
         )  # fmt: skip
         seconds = time.perf_counter() - start
@@ -167,9 +164,9 @@ def suffix_scores(
         }
         if rules is not None:
             completed = [np.array(p + f.activities) for p, f in zip(prefixes, found, strict=True)]
-            broken = violates([rules.rule_set] * len(completed), completed)
+            broken = rules.broken(completed)
             out[way]["satisfying"] = float(1 - broken.mean())
-        if rule_set is not None:
+        if parts is not None:
             out[way]["not_found"] = stats.fallbacks
     return out
 

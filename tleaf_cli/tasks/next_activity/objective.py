@@ -12,7 +12,10 @@ on (it does: the trace has the case's length). The end-of-case probabilities are
 ‖q(A_φ) − q(w̃)‖². **Independence assumption**: each P_t is conditioned on the TRUE prefix, and
 the positions are treated as independent draws; the model's own joint distribution over whole
 continuations (each step conditioned on the model's earlier guesses) is not what is scored.
-φ is the conjunction of every rule of the knowledge base (one `RuleSet` over the activities).
+φ is the conjunction of every rule of the knowledge base (one `RuleSet` over the activities); a
+knowledge base too large for one DFA comes in parts φ = φ_1 ∧ … ∧ φ_K (`rules.Rules`), and
+ℓ_logic is then the sum of the parts' losses: for `exact`, −Σ_k log P(w ⊨ φ_k), which treats
+the parts as independent events (they are not: they read the same positions).
 
 Only the training cases that **keep** φ are read: a case that breaks it (mined rules hold on
 90 %, not all, of the cases) is the log's own exception, and the loss would pull its
@@ -28,9 +31,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 import torch
 
-from tleaf_cli.losses import logic_loss, violates
-from tleaf_cli.rule_set import RuleSet
+from tleaf_cli.losses import logic_loss
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
+from tleaf_cli.tasks.next_activity.rules import Rules
 
 if TYPE_CHECKING:  # q's modules load torch_geometric: only the tleaf loss needs them
     from tleaf_cli.embed.embedder import Embedder
@@ -51,7 +54,7 @@ def logic_term(
     kind: str,
     batch: CaseBatch,
     logits: torch.Tensor,
-    rules: RuleSet | None,
+    rules: Rules | None,
     embedder: Embedder | None = None,
 ) -> torch.Tensor:
     """ℓ_logic per case [B] (zeros for `none` or without rules)."""
@@ -60,11 +63,13 @@ def logic_term(
         return out
     activities = batch.activities.cpu().numpy()
     cases = [activities[b, :n] for b, n in enumerate(batch.lengths.tolist())]
-    kept = np.flatnonzero(~violates([rules] * len(cases), cases)).tolist()
+    kept = np.flatnonzero(~rules.broken(cases)).tolist()
     if not kept:
         return out
     rows = torch.tensor(kept, device=logits.device)
     lengths = batch.lengths.to(logits.device)[rows]
     trace = soft_trace(batch, logits)[rows]
-    values = logic_loss(kind, trace, rules, lengths, embedder, reduction="none")
+    values = sum(
+        logic_loss(kind, trace, part, lengths, embedder, reduction="none") for part in rules.parts
+    )
     return out.index_put((rows,), values)

@@ -1,31 +1,63 @@
 """The rules a next-activity run or its evaluation uses: formulas of a `.ltl` file (mined
-Declare constraints, a peer's a-priori formula), some or all of them, as one `RuleSet` over the
-model's activities."""
+Declare constraints, a peer's a-priori formula), some or all of them, conjoined over the model's
+activities — as one DFA, or, for a knowledge base too large for one (thousands of rules mined
+over hundreds of activities), as a few DFAs, its parts (`tleaf_cli.rule_set.rule_parts`): a
+case keeps the rules when every part accepts it."""
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from tleaf_cli.data.formula_files import read_formulas
 from tleaf_cli.errors import InputError
-from tleaf_cli.rule_set import RuleSet
+from tleaf_cli.losses import violates
+from tleaf_cli.rule_set import PART_STATES, RuleSet, rule_parts
 
 
 @dataclass(frozen=True)
 class Rules:
-    """The chosen rules' names and their conjunction over the model's vocabulary."""
+    """The chosen rules' names and their conjunction over the model's vocabulary, in `parts`
+    (one part unless the conjunction is larger than `read_rules`' `max_states`)."""
 
     path: str
     names: tuple[str, ...]
-    rule_set: RuleSet
+    parts: tuple[RuleSet, ...]
+
+    @property
+    def atoms(self) -> set[str]:
+        return {a for part in self.parts for a in part.atoms}
+
+    @property
+    def states(self) -> list[int]:
+        """Each part's DFA states."""
+        return [part.dfa.num_states for part in self.parts]
+
+    @functools.cached_property
+    def lives(self) -> tuple[np.ndarray, ...]:
+        """Each part's `DFA.live()`, computed once."""
+        return tuple(part.dfa.live() for part in self.parts)
+
+    def broken(self, cases: Sequence[np.ndarray]) -> np.ndarray:
+        """bool [n]: the cases (activity-index arrays) some part rejects."""
+        out = np.zeros(len(cases), dtype=bool)
+        for part in self.parts:
+            out |= violates([part] * len(cases), cases)
+        return out
 
 
 def read_rules(
-    path: str | os.PathLike, vocabulary: Sequence[str], names: Sequence[str] = ()
+    path: str | os.PathLike,
+    vocabulary: Sequence[str],
+    names: Sequence[str] = (),
+    max_states: int = PART_STATES,
 ) -> Rules:
-    """The rules of `path` named in `names` (all without), conjoined over `vocabulary`.
+    """The rules of `path` named in `names` (all without), conjoined over `vocabulary` in parts
+    of at most `max_states` states.
 
     Raises InputError naming the file and line of a formula that does not read, a name the
     file does not have, or a formula over an activity the model does not know."""
@@ -46,7 +78,32 @@ def read_rules(
             )
         chosen = [by_name[n] for n in names]
     try:
-        rule_set = RuleSet([s.text for s in chosen], list(vocabulary), name=os.fspath(path))
+        parts = rule_parts(
+            [s.text for s in chosen], list(vocabulary), max_states, name=os.fspath(path)
+        )
     except InputError as e:
         raise InputError(f"{path}: {e}") from None
-    return Rules(os.fspath(path), tuple(s.formula_id for s in chosen), rule_set)
+    return Rules(os.fspath(path), tuple(s.formula_id for s in chosen), parts)
+
+
+def allowed_next(rules: Rules, activities: np.ndarray) -> np.ndarray:
+    """bool [n, V + 1]: after each prefix of `activities`, the tokens that keep the rules
+    satisfiable — an activity after which every part's DFA state can still reach acceptance,
+    the end where every part accepts the prefix. A prefix that already broke the rules (some
+    part dead) allows every token. With one part, exactly the tokens that keep some completion
+    accepted; with several, a token can pass whose parts' completions contradict each other."""
+    n, v = len(activities), len(rules.parts[0].vocabulary)
+    keep = np.ones(n, dtype=bool)  # every part live after the prefix
+    tokens = np.ones((n, v + 1), dtype=bool)
+    for part, live in zip(rules.parts, rules.lives, strict=True):
+        dfa = part.dfa
+        states = np.empty(n, dtype=np.int64)
+        state = dfa.initial
+        for t, letter in enumerate(part.letters(activities)):
+            state = int(dfa.table[state, letter])
+            states[t] = state
+        keep &= live[states]
+        tokens[:, :-1] &= live[dfa.table[states][:, part.letters(np.arange(v))]]
+        tokens[:, -1] &= dfa.accepting[states]
+    tokens[~keep] = True
+    return tokens

@@ -105,7 +105,7 @@ def predict_suffixes(
     prefixes: Sequence[Sequence[int]],
     num_activities: int,
     *,
-    rules: RuleSet | None = None,
+    rules: RuleSet | Sequence[RuleSet] | None = None,
     beam_width: int = 5,
     max_length: int = 50,
     stats: SearchStats | None = None,
@@ -117,7 +117,9 @@ def predict_suffixes(
             branch of every prefix.
         prefixes: non-empty sequences of activity indices (0..num_activities-1).
         num_activities: V, the number of activities; the model's outputs have V + 1 columns.
-        rules: a rule set over the activities' vocabulary (item i = activity i); None: none.
+        rules: a rule set over the activities' vocabulary (item i = activity i), or the parts
+            of a conjunction too large for one DFA (`rule_set.rule_parts`: every part must
+            accept); None: none.
         beam_width: branches kept per prefix and step (1: greedy argmax).
         max_length: the most activities a continuation may add (0: only the end).
         stats: counters to add this call's model calls, branches and pruning to.
@@ -133,15 +135,25 @@ def predict_suffixes(
     checked = _prefixes(prefixes, num_activities)
     automaton = None
     if rules is not None:
-        if not isinstance(rules, RuleSet):
-            raise ArgumentTypeError("rules", f"must be a RuleSet or None, not {given(rules)}")
-        if len(rules.vocabulary) != num_activities:
-            raise ArgumentError(
+        parts = [rules] if isinstance(rules, RuleSet) else rules
+        if (
+            isinstance(parts, str | bytes)
+            or not isinstance(parts, Sequence)
+            or not parts
+            or not all(isinstance(p, RuleSet) for p in parts)
+        ):
+            raise ArgumentTypeError(
                 "rules",
-                f"rule set {rules.name} is over {len(rules.vocabulary)} items, not the "
-                f"{num_activities} activities",
+                f"must be a RuleSet, a non-empty sequence of them or None, not {given(rules)}",
             )
-        automaton = _Automaton(rules, num_activities)
+        for part in parts:
+            if len(part.vocabulary) != num_activities:
+                raise ArgumentError(
+                    "rules",
+                    f"rule set {part.name} is over {len(part.vocabulary)} items, not the "
+                    f"{num_activities} activities",
+                )
+        automaton = _Automaton(parts, num_activities)
     stats = stats if stats is not None else SearchStats()
     search = _Search(next_log_probs, num_activities, beam_width, max_length, stats)
     best = search.run(checked, automaton, list(range(len(checked))))
@@ -159,35 +171,74 @@ def predict_suffixes(
 
 
 class _Automaton:
-    """The rules' DFA over activity indices, with each state's distance to acceptance."""
+    """The rules' DFAs (one per part) over activity indices, with each state's distance to
+    acceptance. A branch's state is one state per part [..., K]; the distance of a combination
+    is the largest of its parts' (a lower bound on the conjunction's, exact for one part), so
+    pruning by it never cuts a branch that can still finish accepted."""
 
-    def __init__(self, rules: RuleSet, num_activities: int) -> None:
-        dfa = rules.dfa
-        # state after each activity: the rule set's letter of vocabulary item a
-        self.following = dfa.table[:, rules.letters(np.arange(num_activities))].astype(np.int64)
-        self.accepting = dfa.accepting
-        self.initial = dfa.initial
-        # fewest activities from each state to an accepting state (`never`: unreachable); only
-        # through activities that exist (letter 0 has none when every activity is an atom),
-        # so a finite distance implies `dfa.live()`
+    def __init__(self, parts: Sequence[RuleSet], num_activities: int) -> None:
+        self.following: list[np.ndarray] = []  # per part: state after each activity [S_k, V]
+        self.accepting: list[np.ndarray] = []
+        self.distance: list[np.ndarray] = []
+        self.initial = np.array([part.dfa.initial for part in parts], dtype=np.int64)
         never = np.iinfo(np.int64).max // 2
-        distance = np.where(self.accepting, 0, never).astype(np.int64)
-        while True:
-            step = np.minimum(distance, distance[self.following].min(axis=1) + 1)
-            step = np.minimum(step, never)
-            if np.array_equal(step, distance):
-                break
-            distance = step
-        self.distance = distance
+        for part in parts:
+            dfa = part.dfa
+            following = dfa.table[:, part.letters(np.arange(num_activities))].astype(np.int64)
+            # fewest activities from each state to an accepting state (`never`: unreachable);
+            # only through activities that exist (letter 0 has none when every activity is an
+            # atom), so a finite distance implies `dfa.live()`
+            distance = np.where(dfa.accepting, 0, never).astype(np.int64)
+            while True:
+                step = np.minimum(distance, distance[following].min(axis=1) + 1)
+                step = np.minimum(step, never)
+                if np.array_equal(step, distance):
+                    break
+                distance = step
+            self.following.append(following)
+            self.accepting.append(dfa.accepting)
+            self.distance.append(distance)
 
-    def run(self, activities: Sequence[int]) -> int:
-        state = self.initial
-        for a in activities:
-            state = int(self.following[state, a])
+    def run(self, activities: Sequence[int]) -> np.ndarray:
+        """int64 [K]: each part's state after `activities`."""
+        state = self.initial.copy()
+        for k, following in enumerate(self.following):
+            for a in activities:
+                state[k] = following[state[k], a]
         return state
 
     def accepts(self, activities: Sequence[int]) -> bool:
-        return bool(self.accepting[self.run(activities)])
+        return bool(self.accepted(self.run(activities)))
+
+    def accepted(self, states: np.ndarray) -> np.ndarray:
+        """bool [...]: every part accepts, for states [..., K]."""
+        out = np.ones(states.shape[:-1], dtype=bool)
+        for k, accepting in enumerate(self.accepting):
+            out &= accepting[states[..., k]]
+        return out
+
+    def within(self, states: np.ndarray, budget: int) -> np.ndarray:
+        """bool [...]: every part can reach acceptance in at most `budget` activities."""
+        out = np.ones(states.shape[:-1], dtype=bool)
+        for k, distance in enumerate(self.distance):
+            out &= distance[states[..., k]] <= budget
+        return out
+
+    def next_within(self, states: np.ndarray, budget: int) -> np.ndarray:
+        """bool [..., V]: per activity, every part's next state reaches acceptance in at most
+        `budget` more activities."""
+        out = None
+        for k, (following, distance) in enumerate(zip(self.following, self.distance, strict=True)):
+            ok = distance[following[states[..., k]]] <= budget
+            out = ok if out is None else out & ok
+        return out
+
+    def advance(self, states: np.ndarray, tokens: np.ndarray) -> np.ndarray:
+        """int64 [n, K]: each part's state after activity tokens[i] from states [n, K]."""
+        out = np.empty_like(states)
+        for k, following in enumerate(self.following):
+            out[:, k] = following[states[:, k], tokens]
+        return out
 
 
 class _Search:
@@ -216,17 +267,19 @@ class _Search:
         `owners`: each prefix's index for the model (`Rows.owners`)."""
         v, width, max_length = self.v, self.width, self.max_length
         best: list[tuple[tuple[int, ...], float] | None] = [None] * len(prefixes)
-        start = np.zeros(len(prefixes), dtype=np.int64)
+        parts = 1 if automaton is None else len(automaton.following)
+        start = np.zeros((len(prefixes), parts), dtype=np.int64)
         if automaton is not None:
             start = np.array([automaton.run(p) for p in prefixes], dtype=np.int64)
-            reachable = automaton.distance[start] <= max_length  # not dead, and in time
+            start = start.reshape(len(prefixes), parts)
+            reachable = automaton.within(start, max_length)  # not dead, and in time
         else:
             reachable = np.ones(len(prefixes), dtype=bool)
         ids = np.flatnonzero(reachable)  # the prefixes still searching
         n = len(ids)
         tokens = np.zeros((n, width, max_length), dtype=np.int32)  # branch k's continuation
         lengths = np.zeros((n, width), dtype=np.int64)
-        states = np.zeros((n, width), dtype=np.int64)
+        states = np.zeros((n, width, parts), dtype=np.int64)  # each part's DFA state
         states[:, 0] = start[ids]
         scores = np.zeros((n, width))
         present = np.zeros((n, width), dtype=bool)  # a slot holds a branch
@@ -249,11 +302,10 @@ class _Search:
                 if automaton is None:
                     valid[..., :v] = opened[..., None]
                 else:  # the activity's state still reaches acceptance in the budget left
-                    in_time = automaton.distance[automaton.following[states]]
-                    in_time = in_time <= max_length - step - 1
+                    in_time = automaton.next_within(states, max_length - step - 1)
                     valid[..., :v] = opened[..., None] & in_time
                     self.stats.pruned += int((opened[..., None] & ~in_time).sum())
-            ends = opened if automaton is None else opened & automaton.accepting[states]
+            ends = opened if automaton is None else opened & automaton.accepted(states)
             valid[..., v] = ends | (present & finished)
             candidates[..., v] = np.where(finished, scores, candidates[..., v])
             flat = candidates.reshape(len(ids), -1)
@@ -266,13 +318,13 @@ class _Search:
             scores = np.take_along_axis(flat, order, axis=1)
             tokens = np.take_along_axis(tokens, parent[..., None], axis=1)
             lengths = np.take_along_axis(lengths, parent, axis=1)
-            states = np.take_along_axis(states, parent, axis=1)
+            states = np.take_along_axis(states, parent[..., None], axis=1)
             grown = present & ~end
             if grown.any():
                 tokens[grown, step] = token[grown]
                 lengths[grown] = step + 1
                 if automaton is not None:
-                    states[grown] = automaton.following[states[grown], token[grown]]
+                    states[grown] = automaton.advance(states[grown], token[grown])
             finished = end
             # a prefix is done when its beam is empty (nothing can finish accepted) or its best
             # branch is finished (nothing open can overtake it: log-probabilities are <= 0)

@@ -31,7 +31,6 @@ from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_t
 from tleaf_cli.data.event_logs import Case, read_cases
 from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.errors import InputError, SettingError
-from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.settings.next_activity import EXACT_LAMBDA, NextActivitySettings
 from tleaf_cli.tasks.action_recognition.lambda_choice import train_choosing_lambda
 from tleaf_cli.tasks.lambda_source import RunSetup, resolve_lambda_source
@@ -39,7 +38,7 @@ from tleaf_cli.tasks.next_activity.batch import PAD, CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import TIME_FEATURES, Encoder
 from tleaf_cli.tasks.next_activity.model import NextActivityLSTM
 from tleaf_cli.tasks.next_activity.objective import logic_term
-from tleaf_cli.tasks.next_activity.rules import read_rules
+from tleaf_cli.tasks.next_activity.rules import Rules, allowed_next, read_rules
 
 SCORE = "val_accuracy"
 
@@ -92,13 +91,13 @@ def train_next_activity(
     setup_start = time.perf_counter()
     rules = None
     if kb_path is not None and settings.logic_loss != "none":
-        rules = read_rules(kb_path, encoder.atoms).rule_set
+        rules = read_rules(kb_path, encoder.atoms)
     embedder = None
     if settings.logic_loss == "tleaf":
         from tleaf_cli.embed.load import load_embedder
 
         embedder = load_embedder(embedder_dir)
-        missing = sorted(set(rules.atoms) - set(embedder.vectors.index))
+        missing = sorted(rules.atoms - set(embedder.vectors.index))
         if missing:  # q could not embed the conjunction: the loss would teach nothing
             raise SettingError(
                 "embedder",
@@ -158,7 +157,7 @@ def train_next_activity(
         "setup_seconds": setup_seconds,
         "test": test,
         "lambda": lam.as_dict(),
-        "rule_states": None if rules is None else rules.dfa.num_states,
+        "rule_states": None if rules is None else rules.states,
     }
     config = {
         "kind": "next-activity",
@@ -201,33 +200,13 @@ def step_log_probs(
     return out
 
 
-def allowed_next(
-    rules: RuleSet, activities: np.ndarray, live: np.ndarray | None = None
-) -> np.ndarray:
-    """bool [n, V + 1]: after each prefix of `activities`, the tokens that keep the rules
-    satisfiable — an activity whose DFA state can still reach acceptance, the end where the
-    prefix is accepted. A prefix that already broke the rules allows every token. `live`: the
-    DFA's `live()`, for a caller that checks many cases."""
-    dfa = rules.dfa
-    live = dfa.live() if live is None else live
-    letters = rules.letters(np.arange(len(rules.vocabulary)))  # activity -> DFA letter
-    out = np.ones((len(activities), len(letters) + 1), dtype=bool)
-    state = dfa.initial
-    for t, letter in enumerate(rules.letters(activities)):
-        state = int(dfa.table[state, letter])
-        if live[state]:
-            out[t, :-1] = live[dfa.table[state, letters]]
-            out[t, -1] = dfa.accepting[state]
-    return out
-
-
 def accuracy(
     model: NextActivityLSTM,
     encoder: Encoder,
     cases: Sequence[Case],
     batch_size: int,
     device: torch.device,
-    rules: RuleSet | None = None,
+    rules: Rules | None = None,
     cache: dict | None = None,
 ) -> dict:
     """Next-activity accuracy pooled over every prefix of length ≥ 1 of `cases` (the end of case
@@ -246,9 +225,8 @@ def accuracy(
         "accuracy_end": float(hits[ends].mean()),
     }
     if rules is not None:
-        live = rules.dfa.live()
         masked = [
-            np.where(allowed_next(rules, encoder.indices(c), live), p, -np.inf).argmax(-1) == t
+            np.where(allowed_next(rules, encoder.indices(c)), p, -np.inf).argmax(-1) == t
             for c, p, t in zip(cases, log_probs, targets, strict=True)
         ]
         out["accuracy_rules"] = float(np.concatenate(masked).mean())
