@@ -5,6 +5,7 @@ same on every machine.
 
     git worktree add /tmp/tleaf-base <commit>
     python benchmarks/op_count.py --baseline /tmp/tleaf-base [--out DIR] [--formulas 300]
+                                  [--only q_e q_m lstm tcn]
 
 Each trainer runs its ordinary command (`tleaf train-edge`, `train-meta`, `train-task
 action-recognition`) in a fresh process with the tree's package and one torch thread; a hook
@@ -117,14 +118,20 @@ def count(tree: Path, skip: int, batches: int, *args: str) -> dict[str, float]:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def measure(tree: Path, name: str, data: Path, batches: int) -> dict[str, dict[str, float]]:
-    """Operators per batch of every trainer with `tree`'s code."""
+TRAINERS = ("q_e", "q_m", "lstm", "tcn")
+
+
+def measure(
+    tree: Path, name: str, data: Path, batches: int, only: tuple[str, ...] = TRAINERS
+) -> dict[str, dict[str, float]]:
+    """Operators per batch of every trainer in `only` with `tree`'s code."""
     low, ar, runs = data / "low", data / "ar", data / "runs" / f"ops-{name}"
     edge = runs / "edge"
-    if not (edge / "weights.pt").exists():  # q_m reads this tree's q_e
+    if "q_m" in only and not (edge / "weights.pt").exists():  # q_m reads this tree's q_e
         speed.tleaf(tree, "train-edge", str(low / "dfas.parquet"), "-o", str(edge), "--epochs", "1")
-    out = {
-        "q_e": count(
+    out = {}
+    if "q_e" in only:
+        out["q_e"] = count(
             tree,
             3,
             batches,
@@ -135,22 +142,22 @@ def measure(tree: Path, name: str, data: Path, batches: int) -> dict[str, dict[s
             "--epochs",
             "1",
         )
-    }
-    out["q_m"] = count(
-        tree,
-        3,
-        batches,
-        "train-meta",
-        str(low / "dfas.parquet"),
-        str(low / "traces.parquet"),
-        "--edge",
-        str(edge),
-        "-o",
-        str(runs / "meta-count"),
-        "--epochs",
-        "2",
-    )
-    for model in ("lstm", "tcn"):
+    if "q_m" in only:
+        out["q_m"] = count(
+            tree,
+            3,
+            batches,
+            "train-meta",
+            str(low / "dfas.parquet"),
+            str(low / "traces.parquet"),
+            "--edge",
+            str(edge),
+            "-o",
+            str(runs / "meta-count"),
+            "--epochs",
+            "2",
+        )
+    for model in [m for m in ("lstm", "tcn") if m in only]:
         for loss in ("none", "exact", "tleaf"):
             q = ["--embedder", str(ar / "meta")] if loss == "tleaf" else []
             out[f"{model} {loss}"] = count(
@@ -203,15 +210,23 @@ def main() -> None:
     parser.add_argument("--this", type=Path, default=ROOT, help="the tree to count [this one]")
     parser.add_argument("--formulas", type=int, default=300, help="Low-tier formulas")
     parser.add_argument("--batches", type=int, default=8, help="batches counted per trainer")
+    parser.add_argument(
+        "--only",
+        nargs="+",
+        choices=TRAINERS,
+        default=list(TRAINERS),
+        help="count these trainers only (lstm, tcn: all three losses) [all]",
+    )
     args = parser.parse_args()
+    only = tuple(args.only)
     print("CPU:", cpu_description(), flush=True)
     out = args.out.resolve()
     speed.prepare(out / "data", args.this.resolve(), args.formulas)
-    this = measure(args.this.resolve(), "this", out / "data", args.batches)
+    this = measure(args.this.resolve(), "this", out / "data", args.batches, only)
     print("this", json.dumps(this), flush=True)
     baseline = None
     if args.baseline:
-        baseline = measure(args.baseline.resolve(), "baseline", out / "data", args.batches)
+        baseline = measure(args.baseline.resolve(), "baseline", out / "data", args.batches, only)
         print("baseline", json.dumps(baseline), flush=True)
     (out / "op_count.json").write_text(json.dumps({"this": this, "baseline": baseline}, indent=2))
     print(table(this, baseline))

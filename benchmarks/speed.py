@@ -3,20 +3,21 @@ this tree against another (e.g. the landed commit), on the CPU and, where one is
 
     git worktree add /tmp/tleaf-base <commit>
     python benchmarks/speed.py --baseline /tmp/tleaf-base [--out DIR] [--devices cpu cuda]
-                               [--repeat 2]
+                               [--repeat 2 [--median]] [--embedders-only]
 
 Every figure comes from the run's own `metrics.json` (`seconds` of each epoch: training only,
 without evaluation), as the mean over the epochs after the first (with `--repeat N`, the
-fastest of N such runs, the trees taking turns); every command runs in a fresh
-process with one torch thread (OMP_NUM_THREADS=1), the trees one after the other on the same
-data, so the ratios compare like with like. Data (SYNTHETIC): the Low tier, `--formulas`
-formulas with 20 traces each, as the Table I pipeline draws them; activities as the
-action-recognition pipeline draws them (60 training videos), with a q trained for one epoch on
-their rule sets (its quality does not matter for time). q_m runs the default preset (best); the
-tleaf loss reads that q; the "labels" rows take each video's rule set from its labels (fixed for
-the run) instead of from the model's predictions (new sets every batch). Prints a markdown
-table: seconds per epoch for each tree and device, and the baseline / this-tree ratio; for the
-action recogniser also each loss against `none`.
+fastest of N such runs, or with `--median` their median, the trees taking turns); every
+command runs in a fresh process with one torch thread (OMP_NUM_THREADS=1), the trees one
+after the other on the same data, so the ratios compare like with like. Data (SYNTHETIC): the
+Low tier, `--formulas` formulas with 20 traces each, as the Table I pipeline draws them;
+activities as the action-recognition pipeline draws them (60 training videos), with a q
+trained for one epoch on their rule sets (its quality does not matter for time). q_m runs the
+default preset (best); the tleaf loss reads that q; the "labels" rows take each video's rule
+set from its labels (fixed for the run) instead of from the model's predictions (new sets
+every batch). Prints a markdown table: seconds per epoch for each tree and device, and the
+baseline / this-tree ratio; for the action recogniser also each loss against `none`
+(`--embedders-only`: q_e and q_m alone).
 """
 
 from __future__ import annotations
@@ -143,8 +144,11 @@ def prepare(data: Path, tree: Path, formulas: int) -> None:
         )
 
 
-def measure(tree: Path, name: str, data: Path, device: str, epochs: int) -> dict[str, float]:
-    """Seconds per epoch of every trainer with `tree`'s code on `device`."""
+def measure(
+    tree: Path, name: str, data: Path, device: str, epochs: int, recognisers: bool = True
+) -> dict[str, float]:
+    """Seconds per epoch of every trainer with `tree`'s code on `device` (without the action
+    recogniser's unless `recognisers`)."""
     low, ar, runs = data / "low", data / "ar", data / "runs" / f"{name}-{device}"
     shutil.rmtree(runs, ignore_errors=True)  # fresh runs (a model folder is never overwritten)
     common = ["--device", device]
@@ -173,7 +177,7 @@ def measure(tree: Path, name: str, data: Path, device: str, epochs: int) -> dict
         *common,
     )
     out = {"q_e": epoch_seconds(runs / "edge"), "q_m": epoch_seconds(runs / "meta")}
-    for model in ("lstm", "tcn"):
+    for model in ("lstm", "tcn") if recognisers else ():
         for name in LOSSES:
             loss, _, source = name.partition(" ")  # "tleaf labels": rule sets from the labels
             run = runs / f"{model}-{name.replace(' ', '-')}"
@@ -216,6 +220,8 @@ def table(results: dict[tuple[str, str], dict[str, float]], devices: list[str]) 
             if ("baseline", d) in results and ("this", d) in results
         ]
         rows.append(f"| {key} | " + " | ".join(cells) + f" | {', '.join(ratios)} |")
+    if "lstm none" not in next(iter(results.values())):  # --embedders-only
+        return "\n".join(rows)
     rows.append("")
     rows.append("Each loss's epoch against `none` (same model, tree and device):")
     rows.append("")
@@ -254,10 +260,20 @@ def main() -> None:
         "figure's fastest run (the host's speed drifts between runs)",
     )
     parser.add_argument(
+        "--median",
+        action="store_true",
+        help="with --repeat: keep each figure's median over the runs, not the fastest",
+    )
+    parser.add_argument(
         "--devices",
         nargs="+",
         default=None,
         help="cpu and/or cuda [default: cpu, and cuda where present]",
+    )
+    parser.add_argument(
+        "--embedders-only",
+        action="store_true",
+        help="time q_e and q_m only, not the action recogniser",
     )
     args = parser.parse_args()
     devices = args.devices
@@ -269,14 +285,20 @@ def main() -> None:
     prepare(out / "data", args.this.resolve(), args.formulas)
     trees = [("this", args.this.resolve())]
     trees += [("baseline", args.baseline.resolve())] if args.baseline else []
-    results: dict[tuple[str, str], dict[str, float]] = {}
+    runs: dict[tuple[str, str], list[dict[str, float]]] = {}
     for _ in range(args.repeat):
         for device in devices:
             for name, tree in trees:
-                run = measure(tree, name, out / "data", device, args.epochs)
+                run = measure(
+                    tree, name, out / "data", device, args.epochs, not args.embedders_only
+                )
                 print(name, device, json.dumps(run), flush=True)
-                kept = results.setdefault((name, device), run)
-                results[(name, device)] = {key: min(kept[key], run[key]) for key in run}
+                runs.setdefault((name, device), []).append(run)
+    keep = statistics.median if args.median else min
+    results = {
+        where: {key: keep([r[key] for r in every]) for key in every[0]}
+        for where, every in runs.items()
+    }
     (out / "speed.json").write_text(
         json.dumps({f"{t} {d}": r for (t, d), r in results.items()}, indent=2)
     )

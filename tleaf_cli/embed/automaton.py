@@ -357,7 +357,9 @@ class AutomatonEncoder(nn.Module):
             monitor = batch.monitor
             same = monitor is not None and monitor.shape[1] == self.monitor_width
             parts.append(monitor if same else self.monitor_features(batch))
-        return self.head(torch.cat(parts, dim=1))
+        # the head as `nn.Linear` computes it (addmm), without its wrapper's operators
+        head = self.head
+        return torch.addmm(head.bias, torch.cat(parts, dim=1), head.weight.transpose(0, 1))
 
     def monitor_features(self, batch) -> torch.Tensor:
         """[graphs, monitor_width]: the monitors' shares of the accepted (and, for `runs`,

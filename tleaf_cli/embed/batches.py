@@ -200,7 +200,7 @@ class JointStore:
     every trace's letters and monitor features, so that a batch of formulas and traces
     (`select`) is index arithmetic on the host (numpy: which nodes, which matrix entries,
     where each block's columns move) and a handful of operations on the device: one gather of
-    the nodes' input vectors, one of the letters placed on the chains' edge nodes, one of the
+    the nodes' input vectors (the letters' rows on the chains' edge nodes), one of the
     monitor features, and the CSR matrices made from the host's arrays (int32 indices, which
     the CSR product reads without converting). The same inputs and matrices as a
     `GraphStore` select of the formulas and chains with the letters placed (tests).
@@ -232,16 +232,18 @@ class JointStore:
         self.ptr = store.ptr.numpy()
         self.letter = store.letter.numpy()
         x = inputs(store)
-        self.x = x.to(self.device)
         self.lengths = np.array([len(t) for t in letters], dtype=np.int64)
         self.letter_ptr = np.concatenate([[0], np.cumsum(self.lengths)])
         self.chain_of = np.zeros(int(self.lengths.max(initial=0)) + 1, dtype=np.int64)
         for length, graph in chain_of.items():
             self.chain_of[length] = graph
-        # the letters as the rows their edge nodes read: kind "edge", no flags, the vector
+        # the letters as the rows their edge nodes read (kind "edge", no flags, the vector)
+        # after the store's nodes' rows: a batch's input vectors are one gather
         rows = torch.cat(list(letters)).to(x.dtype)
         on_edge = x[store.letter >= 0][:1, : x.shape[1] - rows.shape[1]]
-        self.letters = torch.cat([on_edge.expand(len(rows), -1), rows], dim=1).to(self.device)
+        letter_rows = torch.cat([on_edge.expand(len(rows), -1), rows], dim=1)
+        self.x = torch.cat([x, letter_rows]).to(self.device)
+        self.nodes = x.shape[0]
         self.formulas = len(graphs) - len(chain_of)
         self.monitor = None
         if monitor is not None:  # the formulas' features, then the traces'
@@ -263,9 +265,10 @@ class JointStore:
         nodes, ptr = _host_ranges(self.ptr, ids)
         on_letters = np.flatnonzero(self.letter[nodes] >= 0)  # trace by trace, step by step
         letter_rows, _ = _host_ranges(self.letter_ptr, trace_ids)
-        x = self.x.index_select(0, self._tensor(nodes))
-        x.index_copy_(0, self._tensor(on_letters), self.letters[self._tensor(letter_rows)])
-        rows = self._tensor(np.concatenate([formula_ids, self.formulas + trace_ids]))
+        sources = nodes.copy()
+        sources[on_letters] = self.nodes + letter_rows
+        x = self.x.index_select(0, self.on_device(sources))
+        rows = self.on_device(np.concatenate([formula_ids, self.formulas + trace_ids]))
         monitor = None if self.monitor is None else self.monitor.index_select(0, rows)
         evidence = None if self.evidence is None else self.evidence.index_select(0, rows)
         pairs = {
@@ -276,10 +279,17 @@ class JointStore:
             for key, (matrix, transposed) in self.matrices.items()
         }
         return JointBatch(
-            x, pairs["adjacency"], pairs["pool"], monitor, self._tensor(lengths), len(ids), evidence
+            x,
+            pairs["adjacency"],
+            pairs["pool"],
+            monitor,
+            self.on_device(lengths),
+            len(ids),
+            evidence,
         )
 
-    def _tensor(self, array: np.ndarray) -> torch.Tensor:
+    def on_device(self, array: np.ndarray) -> torch.Tensor:
+        """A host array as a tensor on the store's device (on the CPU, the same memory)."""
         out = torch.from_numpy(array)
         return out if self.device.type == "cpu" else out.to(self.device, non_blocking=True)
 
@@ -289,9 +299,9 @@ class JointStore:
             warnings.simplefilter("ignore", UserWarning)
             # the arrays are a CSR matrix by construction (tests): no checks, no conversions
             return torch.ops.aten._sparse_compressed_tensor_unsafe(
-                self._tensor(crow),
-                self._tensor(col),
-                self._tensor(values),
+                self.on_device(crow),
+                self.on_device(col),
+                self.on_device(values),
                 list(size),
                 layout=torch.sparse_csr,
             )

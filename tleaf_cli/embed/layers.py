@@ -78,7 +78,7 @@ class _GCNLayer(torch.autograd.Function):
         weights, biases = weights_and_biases[:ways], weights_and_biases[ways:]
         weight = weights[0] if ways == 1 else torch.cat(weights)
         bias = biases[0] if ways == 1 else sum(biases[1:], biases[0])
-        states = torch.mm(x, weight.t()).view(-1, bias.shape[0])
+        states = torch.mm(x, weight.transpose(0, 1)).view(-1, bias.shape[0])
         out = torch.addmm(bias, matrix, states).relu_()
         ctx.save_for_backward(x, weight, out)
         ctx.transposed, ctx.ways = transposed, ways
@@ -91,7 +91,7 @@ class _GCNLayer(torch.autograd.Function):
         grad_bias = grad.sum(0)
         grad_states = csr_product(ctx.transposed, grad).view(out.shape[0], -1)
         grad_x = torch.mm(grad_states, weight) if ctx.needs_input_grad[0] else None
-        grad_weight = torch.mm(grad_states.t(), x)
+        grad_weight = torch.mm(grad_states.transpose(0, 1), x)
         grad_weights = grad_weight.view(ctx.ways, -1, x.shape[1]).unbind(0)
         return grad_x, None, None, *grad_weights, *([grad_bias] * ctx.ways)
 

@@ -54,9 +54,8 @@ class TripletEmbedder(nn.Module):
         self.radius = radius
 
     def _out(self, z: torch.Tensor) -> torch.Tensor:
-        """z, or with `sphere` z over its length: `nn.functional.normalize(z, dim=-1)`'s
-        values, broadcast instead of expanded (three operators, not six)."""
-        return z / z.norm(dim=-1, keepdim=True).clamp_min(1e-12) if self.sphere else z
+        """z, or with `sphere` z over its length (`_Unit`)."""
+        return _Unit.apply(z) if self.sphere else z
 
     def embed_formulas(self, batch) -> torch.Tensor:
         return self._formula_vectors(self.formula(batch), batch)
@@ -74,6 +73,15 @@ class TripletEmbedder(nn.Module):
         k = int(formulas.ptr.numel() - 1)
         return self._formula_vectors(z[:k], formulas), self._trace_vectors(z[k:], traces)
 
+    def joint_vectors(self, batch: JointBatch, formulas: int) -> torch.Tensor:
+        """[graphs, dim]: `embed_joined`'s vectors of a `JointStore` batch in one tensor, the
+        formulas' rows, then the traces'."""
+        if self.evidence is not None and batch.evidence is not None:
+            # the block's unit vectors carried: scaled by γ, beside every graph's vector at once
+            z = self._out(self.trace(batch))
+            return torch.cat([z, self.evidence.log_scale.exp() * batch.evidence], dim=1)
+        return torch.cat(self.embed_joined(batch, formulas))
+
     def embed_joined(self, batch, formulas: int) -> tuple[torch.Tensor, torch.Tensor]:
         """`embed_both` for one batch that holds the formulas' graphs, then the traces' chains
         (`formulas` graphs, then the rest; a `GraphStore`'s select of both, whose batches
@@ -84,8 +92,7 @@ class TripletEmbedder(nn.Module):
         if self.evidence is None:
             return z_formulas, z_traces
         if isinstance(batch, JointBatch) and batch.evidence is not None:
-            # the block's unit vectors carried: scaled by γ, beside every graph's vector at once
-            z = torch.cat([z, self.evidence.log_scale.exp() * batch.evidence], dim=1)
+            z = self.joint_vectors(batch, formulas)
             return z[:formulas], z[formulas:]
         monitor = self.trace.monitor_features(batch)
         if isinstance(batch, JointBatch):  # the traces' letters, carried
@@ -164,3 +171,23 @@ def store_run_weights(encoder: AutomatonEncoder, graphs: list, batch: int = 512)
         weights = encoder.run_weights(collated).t()
         for k, g in enumerate(part):
             g.run_weights = weights[collated.ptr[k] : collated.ptr[k + 1]]
+
+
+class _Unit(torch.autograd.Function):
+    """z / max(‖z‖, 1e-12) row by row (`nn.functional.normalize(z, dim=-1)`'s values), its
+    backward written out, (g − y (g · y)) / ‖z‖ for y = z / ‖z‖: five operators where
+    autograd's backward of the norm and the division launches about fifteen. (For a row
+    shorter than 1e-12, whose true gradient is g / 1e-12, this gives the sphere's tangent
+    part only: q's vectors are never that short.)"""
+
+    @staticmethod
+    def forward(ctx, z: torch.Tensor) -> torch.Tensor:
+        norm = z.norm(dim=-1, keepdim=True).clamp_min(1e-12)
+        y = z / norm
+        ctx.save_for_backward(y, norm)
+        return y
+
+    @staticmethod
+    def backward(ctx, grad: torch.Tensor) -> torch.Tensor:
+        y, norm = ctx.saved_tensors
+        return (grad - y * (grad * y).sum(dim=-1, keepdim=True)) / norm

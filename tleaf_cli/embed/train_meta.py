@@ -37,7 +37,7 @@ from tleaf_cli.embed.meta_data import (
     trace_inputs,
     with_chain_templates,
 )
-from tleaf_cli.embed.model import build_model, store_run_weights
+from tleaf_cli.embed.model import TripletEmbedder, build_model, store_run_weights
 from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.embed.triplets import (
     SCORE,
@@ -225,30 +225,6 @@ def train_meta(
             "violating_distance": violating,
         }
 
-    def joint_step(chunk) -> Step:
-        """`triplet_step`'s step for a JointStore's batches and squared distances: each
-        triplet's two distances computed once and read by every term (the triplet loss, the
-        pull, the radius loss, the accuracy), the same sums in the same order."""
-        formulas, sats, negs = zip(*chunk, strict=True)
-        distinct = list(dict.fromkeys(formulas))
-        row = {key: i for i, key in enumerate(distinct)}
-        z_formulas, z_traces = model.embed_joined(
-            store.select(distinct, sats + negs), len(distinct)
-        )
-        anchors = np.array([row[f] for f in formulas] * 2, dtype=np.int64)
-        anchor = z_formulas.index_select(0, torch.from_numpy(anchors).to(device))
-        distances = (anchor - z_traces).pow(2).sum(dim=1)  # positive pairs, then negative
-        d_pos, d_neg = distances[: len(chunk)], distances[len(chunk) :]
-        loss = torch.relu(d_pos - d_neg + settings.margin).mean()
-        if settings.pull or settings.radius_weight:
-            extra = d_pos.mean() * settings.pull if settings.pull else None
-            if settings.radius_weight:
-                radius = settings.radius_weight * model.radius.loss_of_distances(distances)
-                extra = radius if extra is None else extra + radius
-            loss = loss + extra
-        accuracy = float((d_pos < d_neg).float().mean())
-        return Step(loss, {"loss": loss.item(), "train_accuracy": accuracy}, len(chunk))
-
     def extra_loss(triplet) -> torch.Tensor:
         loss = anchor_pull(triplet[0], triplet[1]) * settings.pull
         if settings.radius_weight:
@@ -259,7 +235,7 @@ def train_meta(
     metrics = fit(
         model,
         epoch_triplets,
-        joint_step
+        joint_step(model, store, settings)
         if isinstance(store, JointStore) and settings.distance == "squared"
         else triplet_step(
             embed,
@@ -313,6 +289,37 @@ def train_meta(
     write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
+
+
+def joint_step(
+    model: TripletEmbedder, store: JointStore, settings: MetaSettings
+) -> Callable[[list], Step]:
+    """`triplet_step`'s step for a JointStore's batches of triplets (formula index, satisfying
+    trace index, violating trace index) and squared distances: each triplet's two distances
+    computed once and read by every term (the triplet loss, the pull, the radius loss, the
+    accuracy), the terms added in `triplet_step`'s order."""
+
+    def step(chunk) -> Step:
+        formulas, sats, negs = zip(*chunk, strict=True)
+        distinct = list(dict.fromkeys(formulas))
+        row = {key: i for i, key in enumerate(distinct)}
+        z = model.joint_vectors(store.select(distinct, sats + negs), len(distinct))
+        anchors = np.array([row[f] for f in formulas] * 2, dtype=np.int64)
+        anchor = z.index_select(0, store.on_device(anchors))
+        # positive pairs, then negative pairs
+        distances = (anchor - z[len(distinct) :]).pow(2).sum(dim=1)
+        d_pos, d_neg = distances[: len(chunk)], distances[len(chunk) :]
+        loss = torch.relu(d_pos - d_neg + settings.margin).mean()
+        if settings.pull or settings.radius_weight:
+            extra = d_pos.mean() * settings.pull if settings.pull else None
+            if settings.radius_weight:
+                radius = settings.radius_weight * model.radius.loss_of_distances(distances)
+                extra = radius if extra is None else extra + radius
+            loss = loss + extra
+        accuracy = float((d_pos < d_neg).float().mean())
+        return Step(loss, {"loss": loss.item(), "train_accuracy": accuracy}, len(chunk))
+
+    return step
 
 
 def _evidence_units(model, formula_graphs, letters, monitor, device):
