@@ -89,11 +89,14 @@ def train_next_activity(
     encoder = Encoder.fit(cases)
 
     setup_start = time.perf_counter()
+    # λ = 0 (the reference candidate of a λ choice) trains without the logic term: the same
+    # updates as 0 · ℓ_logic, without computing ℓ_logic (nor reading the rules and q for it)
+    logic = "none" if settings.lam == 0 else settings.logic_loss
     rules = None
-    if kb_path is not None and settings.logic_loss != "none":
+    if kb_path is not None and logic != "none":
         rules = read_rules(kb_path, encoder.atoms)
     embedder = None
-    if settings.logic_loss == "tleaf":
+    if logic == "tleaf":
         from tleaf_cli.embed.load import load_embedder
 
         embedder = load_embedder(embedder_dir)
@@ -129,9 +132,9 @@ def train_next_activity(
     def step(batch: CaseBatch) -> Step:
         logits = model(batch.activities, batch.times, batch.lengths)
         task = F.cross_entropy(logits.flatten(0, 1), batch.targets.flatten(), ignore_index=PAD)
-        logic = logic_term(settings.logic_loss, batch, logits, rules, embedder).mean()
-        loss = task + settings.lam * logic
-        return Step(loss, {"task_loss": task.item(), "logic_loss": logic.item()})
+        term = logic_term(logic, batch, logits, rules, embedder).mean()
+        loss = task + settings.lam * term
+        return Step(loss, {"task_loss": task.item(), "logic_loss": term.item()})
 
     run = fit(
         model,
