@@ -1,21 +1,31 @@
 """q_m in few, large operations: the joint adjacency (both directions in one sparse product per
 layer), the readout pool as a CSR pair, and a GraphStore that gathers a batch's matrices instead
 of rebuilding them give the vectors of the per-direction implementation they replaced, to float
-rounding. The references below are that implementation, kept here."""
+rounding; a JointStore's batches, the one-node GCN layer, joint_step and Adam over flat
+parameters give that implementation's losses, gradients and updates. The references below are
+that implementation, kept here."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
+import pytest
 import torch
 from torch import nn
 from torch_geometric.data import Batch
 from torch_geometric.utils import to_undirected
 
 from tleaf_cli.embed.automaton import KINDS, AutomatonEncoder, run_readout
-from tleaf_cli.embed.batches import GraphStore, join
-from tleaf_cli.embed.evidence import MonitorEvidence
+from tleaf_cli.embed.batches import GraphStore, JointStore, join
+from tleaf_cli.embed.evidence import MonitorEvidence, chain_lengths
 from tleaf_cli.embed.graphs import dfa_graph, gcn_adjacency, joint_adjacency, readout_pool
+from tleaf_cli.embed.layers import csr_product, gcn_layer
 from tleaf_cli.embed.meta_data import chain_batch, with_chain_templates
 from tleaf_cli.embed.model import TripletEmbedder
+from tleaf_cli.embed.radius import RadiusClassifier
+from tleaf_cli.embed.train_meta import joint_step
+from tleaf_cli.embed.training import LoopSettings, Step, fit
+from tleaf_cli.embed.triplets import anchor_pull, triplet_step
 from tleaf_cli.logic.compile import compile_formula
 
 EDGE_DIM = 6
@@ -194,3 +204,239 @@ def test_embed_joined_is_embed_both_with_evidence():
     got = model.embed_joined(join(formulas, chains), len(graphs))
     for a, b in zip(got, want, strict=True):
         assert torch.allclose(a, b, atol=1e-6)
+
+
+# ---- q_m's training step in few operators (JointStore, gcn_layer, joint_step, flat Adam),
+# against the implementation it replaced (GraphStore batches, a GCN layer per direction,
+# triplet_step with F.normalize and binary_cross_entropy_with_logits), kept here
+
+
+def reference_radius_loss(radius, anchor, positive, negative):
+    """RadiusClassifier.loss as it was: binary cross-entropy with logits on both pairs."""
+    logits = torch.cat([radius(anchor, positive), radius(anchor, negative)])
+    target = torch.cat([torch.ones(len(anchor)), torch.zeros(len(anchor))])
+    return nn.functional.binary_cross_entropy_with_logits(logits, target)
+
+
+def reference_vectors(model: TripletEmbedder, batch, formulas: int):
+    """TripletEmbedder.embed_joined as it was: F.normalize, the evidence block from the
+    monitor features, both per part."""
+    z = model.trace(batch)
+    unit = [nn.functional.normalize(part, dim=-1) for part in (z[:formulas], z[formulas:])]
+    monitor = model.trace.monitor_features(batch)
+    lengths = chain_lengths(batch)[formulas:]
+    return (
+        torch.cat([unit[0], model.evidence.formulas(monitor[:formulas])], dim=1),
+        torch.cat([unit[1], model.evidence.traces(monitor[formulas:], lengths)], dim=1),
+    )
+
+
+def joint_setup(directed: bool = True):
+    """A small q_m with monitors, evidence, the sphere and a radius, fixed formula graphs and
+    traces (letters, monitor features), its JointStore and the plain GraphStore of the same
+    graphs."""
+    torch.manual_seed(0)
+    trace = AutomatonEncoder(
+        EDGE_DIM,
+        hidden=16,
+        layers=3,
+        out_dim=8,
+        directed=directed,
+        readout="runs",
+        bins=2,
+        max_length=6,
+        monitors=2,
+    )
+    bank = trace.monitor_bank
+    model = TripletEmbedder(
+        trace, trace, RadiusClassifier(1.5), sphere=True, evidence=MonitorEvidence(bank, 32.0)
+    )
+    generator = torch.Generator().manual_seed(3)
+    graphs = dfa_graphs()
+    for g in graphs:
+        g.monitor = torch.rand(1, 2 * bank.features, generator=generator)
+    lengths = [3, 5, 2, 3, 4, 1]
+    letters = [torch.randn(t, EDGE_DIM, generator=generator) for t in lengths]
+    monitor = torch.rand(len(lengths), 2 * bank.features, generator=generator)
+    store_graphs, chain_of = with_chain_templates(trace, graphs, set(lengths))
+    width = trace.monitor_width
+    formula_monitor = torch.cat([g.monitor for g in graphs])[:, :width]
+    with torch.no_grad():
+        units = (
+            model.evidence.formula_units(formula_monitor),
+            model.evidence.trace_units(monitor[:, :width], torch.tensor(lengths)),
+        )
+    store = JointStore(
+        store_graphs,
+        chain_of,
+        trace.node_inputs,
+        trace.block_matrices,
+        letters,
+        monitor[:, :width],
+        evidence=units,
+    )
+    plain = GraphStore(store_graphs, matrices=trace.block_matrices)
+    return model, store, plain, chain_of, letters, monitor
+
+
+def plain_batch(plain, chain_of, letters, monitor, formulas, traces):
+    """train_meta's batch before JointStore: one GraphStore select, the letters placed on the
+    chains' edge nodes, the traces' monitor features in their rows."""
+    batch = plain.select(formulas + [chain_of[len(letters[k])] for k in traces])
+    on = (batch.letter >= 0).nonzero().flatten()
+    batch.edge_vec = batch.edge_vec.index_copy(0, on, torch.cat([letters[k] for k in traces]))
+    batch.monitor = torch.cat([batch.monitor[: len(formulas)], monitor[list(traces)]])
+    return batch
+
+
+def test_gcn_layer_is_a_layer_per_direction_summed_with_gradients():
+    batch = Batch.from_data_list(dfa_graphs())
+    n = int(batch.num_nodes)
+    arcs = batch.edge_index
+    for directed in (True, False):
+        model = encoder(directed)
+        convs = [model.convs[0]] + ([model.back[0]] if directed else [])
+        x = torch.randn(n, convs[0].in_channels, requires_grad=True)
+        joint = joint_adjacency(arcs, n, directed)
+        got = gcn_layer(x, joint, tuple(c.lin.weight for c in convs), tuple(c.bias for c in convs))
+        if directed:
+            along, against = gcn_adjacency(arcs, n), gcn_adjacency(arcs.flip(0), n)
+            want = torch.relu(convs[0](x, along) + convs[1](x, against))
+        else:
+            want = torch.relu(convs[0](x, gcn_adjacency(to_undirected(arcs, num_nodes=n), n)))
+        assert torch.allclose(got, want, atol=1e-5), directed
+        inputs = [x] + [p for c in convs for p in (c.lin.weight, c.bias)]
+        weights = torch.randn_like(got)  # a gradient that differs per entry
+        g1 = torch.autograd.grad((got * weights).sum(), inputs)
+        g2 = torch.autograd.grad((want * weights).sum(), inputs)
+        for a, b in zip(g1, g2, strict=True):
+            assert torch.allclose(a, b, atol=1e-5, rtol=1e-5), directed
+
+
+def test_csr_product_ignores_what_its_output_held():
+    batch = Batch.from_data_list(dfa_graphs())
+    n = int(batch.num_nodes)
+    joint = joint_adjacency(batch.edge_index, n, True)
+    x = torch.randn(2 * n, 5)
+    assert torch.allclose(csr_product(joint.matrix, x), joint.matrix.to_dense() @ x, atol=1e-6)
+
+
+def test_joint_store_batch_is_the_graph_store_batch():
+    """Inputs, matrices, monitor features and evidence units of a JointStore select are the
+    plain batch's, and q_m reads both to the same vectors."""
+    model, store, plain, chain_of, letters, monitor = joint_setup()
+    formulas, traces = [4, 0, 2], [5, 1, 1, 3, 0]  # repeats and any order
+    joint = store.select(formulas, traces)
+    old = plain_batch(plain, chain_of, letters, monitor, formulas, traces)
+    assert torch.equal(joint.x, model.trace.node_inputs(old))
+    for key in ("adjacency", "pool"):
+        for got, want in zip(getattr(joint, key), old[key], strict=True):
+            assert got.crow_indices().dtype == torch.int32
+            assert torch.equal(got.to_dense(), want.to_dense()), key
+    assert torch.equal(joint.monitor, model.trace.monitor_features(old))
+    lengths = chain_lengths(old)[len(formulas) :]
+    assert torch.equal(joint.lengths, lengths)
+    with torch.no_grad():
+        want = torch.cat(
+            [
+                model.evidence.formula_units(joint.monitor[: len(formulas)]),
+                model.evidence.trace_units(joint.monitor[len(formulas) :], lengths),
+            ]
+        )
+    assert torch.allclose(joint.evidence, want, atol=1e-7)
+    assert torch.allclose(model.trace(joint), reference_forward(model.trace, old), atol=1e-5)
+
+
+@pytest.mark.parametrize("directed", [True, False])
+def test_joint_step_is_the_triplet_step_with_gradients(directed):
+    """One training step of q_m (triplet loss, pull, radius loss, accuracy) from a JointStore
+    batch, against triplet_step on the plain batch with the implementation it replaced: the
+    same loss, figures and parameter gradients."""
+    model, store, plain, chain_of, letters, monitor = joint_setup(directed)
+    settings = SimpleNamespace(margin=1.0, pull=0.02, radius_weight=0.5)
+    chunk = [(4, 0, 1), (4, 3, 2), (0, 5, 1), (2, 3, 4)]  # (formula, satisfying, violating)
+    got = joint_step(model, store, settings)(chunk)
+
+    def embed(chunk):
+        formulas, sats, negs = zip(*chunk, strict=True)
+        distinct = list(dict.fromkeys(formulas))
+        batch = plain_batch(plain, chain_of, letters, monitor, distinct, sats + negs)
+        z_formulas, z_traces = reference_vectors(model, batch, len(distinct))
+        rows = torch.tensor([distinct.index(f) for f in formulas])
+        return z_formulas[rows], z_traces[: len(sats)], z_traces[len(sats) :]
+
+    def extra(triplet):
+        loss = anchor_pull(triplet[0], triplet[1]) * settings.pull
+        return loss + settings.radius_weight * reference_radius_loss(model.radius, *triplet)
+
+    want = triplet_step(embed, settings.margin, extra)(chunk)
+    assert abs(got.loss.item() - want.loss.item()) < 1e-5
+    assert got.figures["train_accuracy"] == want.figures["train_accuracy"]
+    assert got.weight == want.weight
+    parameters = list(model.parameters())
+    g1 = torch.autograd.grad(got.loss, parameters)
+    g2 = torch.autograd.grad(want.loss, parameters)
+    assert any(a.abs().sum() > 0 for a in g1)
+    for a, b in zip(g1, g2, strict=True):
+        assert torch.allclose(a, b, atol=1e-5, rtol=1e-4)
+
+
+def test_unit_vectors_are_normalize_with_its_gradient():
+    z = torch.randn(7, 5, requires_grad=True)
+    model = TripletEmbedder(nn.Identity(), nn.Identity(), sphere=True)
+    got, want = model._out(z), nn.functional.normalize(z, dim=-1)
+    assert torch.allclose(got, want, atol=1e-7)
+    weights = torch.randn(7, 5)
+    (g1,) = torch.autograd.grad((got * weights).sum(), z)
+    (g2,) = torch.autograd.grad((want * weights).sum(), z)
+    assert torch.allclose(g1, g2, atol=1e-6)
+
+
+def test_radius_loss_of_distances_is_the_cross_entropy():
+    torch.manual_seed(0)
+    radius = RadiusClassifier(1.5)
+    anchor, pos, neg = (torch.randn(6, 4) for _ in range(3))
+    got, want = radius.loss(anchor, pos, neg), reference_radius_loss(radius, anchor, pos, neg)
+    assert torch.allclose(got, want, atol=1e-6)
+    g1 = torch.autograd.grad(got, list(radius.parameters()))
+    g2 = torch.autograd.grad(want, list(radius.parameters()))
+    for a, b in zip(g1, g2, strict=True):
+        assert torch.allclose(a, b, atol=1e-6)
+
+
+def test_flat_parameters_give_adams_updates(tmp_path):
+    """fit with the parameters laid out flat ends at the weights of fit over the separate
+    tensors; a parameter left without a gradient is refused."""
+    data = [(torch.randn(8, 3), torch.randn(8, 2)) for _ in range(4)]
+
+    def train(flat: bool, out: str) -> nn.Module:
+        torch.manual_seed(0)
+        model = nn.Sequential(nn.Linear(3, 5), nn.ReLU(), nn.Linear(5, 2))
+        step = lambda b: Step(nn.functional.mse_loss(model(b[0]), b[1]), {"loss": 0.0})  # noqa: E731
+        epochs = iter(range(100))
+        settings = LoopSettings(epochs=3, patience=None, lr=0.05, seed=0, weight_decay=0.01)
+        fit(model, lambda e, g: data, step, lambda: next(epochs), settings, tmp_path / out,
+            score="s", flat=flat)  # fmt: skip
+        return model
+
+    separate, flat = train(False, "a"), train(True, "b")
+    for (name, a), (_, b) in zip(
+        separate.state_dict().items(), flat.state_dict().items(), strict=True
+    ):
+        assert torch.allclose(a, b, atol=1e-6), name
+    torch.manual_seed(0)
+    start = nn.Sequential(nn.Linear(3, 5), nn.ReLU(), nn.Linear(5, 2))
+    assert not torch.allclose(flat[0].weight, start[0].weight, atol=1e-3)  # it trained
+    unused = nn.Sequential(nn.Linear(3, 2), nn.Linear(3, 2))
+    settings = LoopSettings(epochs=1, patience=None, lr=0.05, seed=0)
+    with pytest.raises(RuntimeError, match="no gradient"):
+        fit(
+            unused,
+            lambda e, g: data,
+            lambda b: Step(nn.functional.mse_loss(unused[0](b[0]), b[1]), {}),
+            lambda: 0.0,
+            settings,
+            tmp_path / "c",
+            score="s",
+            flat=True,
+        )
