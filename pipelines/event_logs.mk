@@ -15,7 +15,8 @@
 # tax-order/*.csv and formulas.tsv, published/*.csv: the logs and the peers' figures, downloaded
 # once); SMALL=1 runs the chain on the shipped example (examples/event_logs/) in a minute.
 # Each run uses one core: -j2 on 2 cores. make tracks files, not settings: a new OUT when
-# changing LAMBDAS or TASK.
+# changing LAMBDAS or TASK. The report is written from RUNS (every run measured so far, on
+# this code: an invocation with RM_LOGS=/DF_LOGS= some logs adds theirs to the others').
 TLEAF ?= tleaf
 PYTHON ?= python
 SMALL ?= 0
@@ -40,6 +41,7 @@ df_csv = examples/event_logs/$(1).csv
 FORMULAS := examples/event_logs/formulas.tsv
 PUBLISHED :=
 REPORT ?= $(OUT)/event_logs.md
+RUNS ?= $(OUT)/runs.json
 else
 ifndef DATA
 $(error DATA=PATH is required: the downloaded logs, laid out as docs/event_logs.md says)
@@ -57,6 +59,8 @@ df_csv = $(DATA)/tax-order/$(1).csv
 FORMULAS := $(DATA)/tax-order/formulas.tsv
 PUBLISHED := --published $(DATA)/published
 REPORT ?= docs/results/event_logs.md
+# every run's figures, kept beside the page: invocations on some logs add to the others'
+RUNS ?= docs/results/event_logs.runs.json
 endif
 
 # Di Francescomarino et al.'s prefix lengths per log (formulas.tsv: from, to exclusive)
@@ -170,7 +174,7 @@ $(foreach l,$(DF_LOGS),$(foreach m,none $(LOSSES),$(foreach f,strong weak,\
 
 $(REPORT): $(RM_EVALS) $(DF_EVALS) pipelines/event_logs_report.py
 	@mkdir -p $(@D)
-	$(PYTHON) pipelines/event_logs_report.py $(OUT) -o $@ $(PUBLISHED)
+	$(PYTHON) pipelines/event_logs_report.py $(OUT) -o $@ $(PUBLISHED) --runs $(RUNS)
 
 .SECONDARY:
 clean:

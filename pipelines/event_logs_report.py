@@ -1,12 +1,18 @@
 """docs/results/event_logs.md from pipelines/event_logs.mk's runs and the peers' published figures.
 
-    python pipelines/event_logs_report.py OUT -o REPORT.md [--published DIR]
+    python pipelines/event_logs_report.py OUT -o REPORT.md [--published DIR] [--runs FILE]
 
 OUT: the pipeline's folder (rm/<log>/fold<k>/..., df/<log>/...). DIR: the peers' published
 figures (accuracy_raw_results.csv: Rama-Maneiro et al.'s per-fold accuracies;
 apriori_suffix_dl.csv: Di Francescomarino et al.'s suffix similarities). Only what was run is
 reported: a log or fold without its metrics is left out, and the page says how many folds each
 row has.
+
+FILE: a record of runs kept beside the report (JSON: each metrics.json of OUT by its path in
+OUT, the fields the report reads, and each pipeline invocation's wall time). The runs of OUT are
+added to it (replacing the same paths), and the report is written from all of it: the whole
+pipeline takes hours, and runs measured by separate invocations (some logs now, others later,
+each `make ... RM_LOGS=... DF_LOGS=...` on the same code) add up to one page.
 """
 
 from __future__ import annotations
@@ -14,20 +20,63 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import os
 import statistics
+import tempfile
 from collections import defaultdict
 from pathlib import Path
 
 WAYS = ("argmax", "beam", "rules")
+Runs = dict[str, dict]  # a metrics.json's path in OUT ("rm/Helpdesk/fold0/eval-none/...") -> it
 
 
-def read(path: Path) -> dict | None:
-    return json.loads(path.read_text()) if path.is_file() else None
+def runs_of(out: Path) -> Runs:
+    """Every metrics.json under `out`, by its path there, reduced to what the report reads: an
+    evaluation's accuracy and suffix scores, a training run's epoch seconds."""
+    runs: Runs = {}
+    for path in sorted(out.rglob("metrics.json")) if out.is_dir() else []:
+        metrics = json.loads(path.read_text())
+        key = path.relative_to(out).as_posix()
+        if "suffix" in metrics:  # eval next-activity
+            runs[key] = {k: metrics[k] for k in ("accuracy", "suffix", "scored_cases")}
+        elif metrics.get("task") == "next-activity":  # train-task next-activity
+            seconds = sum(h["seconds"] for h in metrics["history"])
+            runs[key] = {"train_seconds": seconds, "lambda": metrics.get("lambda")}
+    return runs
 
 
-def folders(path: Path) -> list[str]:
-    """The names of the folders in `path` (none if it does not exist)."""
-    return sorted(p.name for p in path.iterdir() if p.is_dir()) if path.is_dir() else []
+def wall_minutes(out: Path) -> float | None:
+    """The invocation's wall time: first artifact written to last (its files' times)."""
+    stamps = [p.stat().st_mtime for p in out.rglob("*") if p.is_file()] if out.is_dir() else []
+    return (max(stamps) - min(stamps)) / 60 if stamps else None
+
+
+def kept_runs(out: Path, record: Path | None) -> tuple[Runs, dict[str, float]]:
+    """The runs of `out` added to the `record` file (rewritten, atomically), and every
+    invocation's wall minutes (keyed by the logs it ran)."""
+    kept = {"runs": {}, "walls": {}}
+    if record is not None and record.is_file():
+        kept = json.loads(record.read_text())
+    fresh = runs_of(out)
+    kept["runs"].update(fresh)
+    minutes = wall_minutes(out)
+    if fresh and minutes is not None:
+        logs = sorted({"/".join(key.split("/")[:2]) for key in fresh})
+        kept["walls"][" ".join(logs)] = round(minutes, 1)
+    if record is not None:
+        with tempfile.NamedTemporaryFile("w", dir=record.parent, delete=False) as f:
+            json.dump(kept, f, indent=1, sort_keys=True)
+        os.replace(f.name, record)
+    return kept["runs"], kept["walls"]
+
+
+def read(runs: Runs, path: str) -> dict | None:
+    return runs.get(path)
+
+
+def folders(runs: Runs, part: str) -> list[str]:
+    """The logs `runs` holds in `part` (rm or df)."""
+    return sorted({k.split("/")[1] for k in runs if k.startswith(part + "/")})
 
 
 def similarity(row: dict | None, way: str) -> str:
@@ -75,7 +124,7 @@ def published_suffix(folder: Path | None) -> dict[tuple[str, str, str, int], flo
         }
 
 
-def rm_table(out: Path, peers: dict[str, dict[str, float]]) -> tuple[list[str], list[str]]:
+def rm_table(runs: Runs, peers: dict[str, dict[str, float]]) -> tuple[list[str], list[str]]:
     """Rama-Maneiro et al.'s protocol: the table's lines and the goals' lines.
 
     The knowledge model is declared before the runs: the exact loss's run (λ chosen on val
@@ -88,12 +137,13 @@ def rm_table(out: Path, peers: dict[str, dict[str, float]]) -> tuple[list[str], 
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     beat_tax, beat_best, raised, run = 0, 0, 0, 0
-    for log in folders(out / "rm"):
+    for log in folders(runs, "rm"):
         rows = defaultdict(list)
         wins, done = 0, 0
-        for fold in sorted((out / "rm" / log).glob("fold*")):
-            none = read(fold / "eval-none/metrics.json")
-            exact = read(fold / "eval-exact/metrics.json")
+        fold_names = {k.split("/")[2] for k in runs if k.startswith(f"rm/{log}/fold")}
+        for fold in (f"rm/{log}/{name}" for name in sorted(fold_names)):
+            none = read(runs, f"{fold}/eval-none/metrics.json")
+            exact = read(runs, f"{fold}/eval-exact/metrics.json")
             if none is None or exact is None:
                 continue
             done += 1
@@ -102,7 +152,7 @@ def rm_table(out: Path, peers: dict[str, dict[str, float]]) -> tuple[list[str], 
             rows["exact"].append(exact["accuracy"]["accuracy"])
             rows["none_rules"].append(none["accuracy"].get("accuracy_rules", a_none))
             rows["exact_rules"].append(exact["accuracy"].get("accuracy_rules", a_none))
-            tleaf = read(fold / "eval-tleaf/metrics.json")
+            tleaf = read(runs, f"{fold}/eval-tleaf/metrics.json")
             if tleaf is not None:
                 rows["tleaf"].append(tleaf["accuracy"]["accuracy"])
             wins += rows["exact_rules"][-1] > a_none
@@ -133,7 +183,7 @@ def rm_table(out: Path, peers: dict[str, dict[str, float]]) -> tuple[list[str], 
     return lines, goals
 
 
-def df_table(out: Path, peers: dict) -> tuple[list[str], list[str]]:
+def df_table(runs: Runs, peers: dict) -> tuple[list[str], list[str]]:
     """Di Francescomarino et al.'s protocol: the table's lines and the goals' lines."""
     lines = [
         "| log | formula | prefix | cases | their baseline | their a-priori | argmax | beam | "
@@ -143,17 +193,12 @@ def df_table(out: Path, peers: dict) -> tuple[list[str], list[str]]:
     ]
     cells, met, mined_logs, logs_run = 0, 0, set(), set()
     mined_cells: dict[str, list[bool]] = defaultdict(list)
-    logs = (
-        sorted(p.name for p in (out / "df").iterdir() if p.is_dir())
-        if (out / "df").is_dir()
-        else []
-    )
-    for log in logs:
+    for log in folders(runs, "df"):
         for formula in ("strong", "weak"):
-            none = read(out / "df" / log / f"eval-none-{formula}/metrics.json")
-            mined = read(out / "df" / log / f"eval-none-{formula}-mined/metrics.json")
-            exact = read(out / "df" / log / f"eval-exact-{formula}/metrics.json")
-            tleaf = read(out / "df" / log / f"eval-tleaf-{formula}/metrics.json")
+            none = read(runs, f"df/{log}/eval-none-{formula}/metrics.json")
+            mined = read(runs, f"df/{log}/eval-none-{formula}-mined/metrics.json")
+            exact = read(runs, f"df/{log}/eval-exact-{formula}/metrics.json")
+            tleaf = read(runs, f"df/{log}/eval-tleaf-{formula}/metrics.json")
             if none is None:
                 continue
             logs_run.add(log)
@@ -195,27 +240,17 @@ def df_table(out: Path, peers: dict) -> tuple[list[str], list[str]]:
     return lines, goals
 
 
-def cost(out: Path) -> str:
+def cost(runs: Runs) -> str:
     """Training seconds summed over every run (each λ candidate's), as the runs measured them."""
-    total = 0.0
-    for path in out.rglob("metrics.json"):
-        m = read(path)
-        if (
-            m
-            and m.get("task") == "next-activity"
-            and "history" in m
-            and "lambda-choice" in str(path)
-        ):
-            total += sum(h["seconds"] for h in m["history"])
+    total = sum(m["train_seconds"] for k, m in runs.items() if "lambda-choice" in k)
     return f"{total / 60:.1f} CPU minutes of training (every λ candidate's run, one thread each)"
 
 
-def wall(out: Path) -> str:
-    """The pipeline's wall time, first artifact written to last evaluation (its files' times)."""
-    stamps = [p.stat().st_mtime for p in out.rglob("*") if p.is_file()]
-    if not stamps:
+def wall(walls: dict[str, float]) -> str:
+    """The invocations' wall times, summed."""
+    if not walls:
         return "no runs"
-    return f"{(max(stamps) - min(stamps)) / 60:.0f} minutes of wall time"
+    return f"{sum(walls.values()):.0f} minutes of wall time ({len(walls)} invocation(s))"
 
 
 NOTES = """
@@ -244,15 +279,17 @@ def main() -> None:
     parser.add_argument("out", type=Path)
     parser.add_argument("-o", "--report", type=Path, required=True)
     parser.add_argument("--published", type=Path, default=None)
+    parser.add_argument("--runs", type=Path, default=None, help="the record of runs to add to")
     args = parser.parse_args()
-    rm, rm_goals = rm_table(args.out, published_accuracy(args.published))
-    df, df_goals = df_table(args.out, published_suffix(args.published))
+    runs, walls = kept_runs(args.out, args.runs)
+    rm, rm_goals = rm_table(runs, published_accuracy(args.published))
+    df, df_goals = df_table(runs, published_suffix(args.published))
     text = "\n".join(
         [
             "# Results: next-activity and suffix prediction on real event logs",
             "",
             "Measured by `make -f pipelines/event_logs.mk DATA=PATH -j2` (docs/event_logs.md: "
-            f"the data, the protocols) on 2 CPU cores: {wall(args.out)}, {cost(args.out)}.",
+            f"the data, the protocols) on 2 CPU cores: {wall(walls)}, {cost(runs)}.",
             "",
             "## Next-activity accuracy, Rama-Maneiro et al.'s protocol (5-fold means ± sd, %)",
             "",
