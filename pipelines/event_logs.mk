@@ -9,7 +9,8 @@
 # λ-0 candidate IS the no-knowledge reference: the same seed, no logic loss) -> eval
 # next-activity (under the mined rules; df: also under each formula) -> the report. The tleaf
 # loss reads a q trained on the mined rules alone (compile-dfa --one-hot -> gen-traces ->
-# train-edge -> train-meta, a minute), one per log (df) or fold (rm).
+# train-edge -> train-meta, a minute), one per log (df) or fold (rm); its λ-0 candidate is the
+# exact run's (--reference: λ 0 trains without the logic term, the same run).
 #   make -f pipelines/event_logs.mk DATA=PATH [OUT=out/event_logs] [SMALL=1] [-j2]
 # DATA: a folder laid out as docs/event_logs.md's "Data" section says (preprocessed/*.csv,
 # tax-order/*.csv and formulas.tsv, published/*.csv: the logs and the peers' figures, downloaded
@@ -129,9 +130,11 @@ $(1)/q/edge/metrics.json: $(1)/q/rules.parquet
 	$(TLEAF) train-edge $$< -o $$(@D) --epochs 3 -q
 $(1)/q/meta/metrics.json: $(1)/q/rules.parquet $(1)/q/traces.parquet $(1)/q/edge/metrics.json
 	$(TLEAF) train-meta $(1)/q/rules.parquet $(1)/q/traces.parquet --edge $(1)/q/edge -o $$(@D) $(Q) -q
-$(1)/tleaf/metrics.json: $(1)/cases.parquet $(1)/mined.ltl $(1)/q/meta/metrics.json
+$(1)/tleaf/metrics.json: $(1)/cases.parquet $(1)/mined.ltl $(1)/q/meta/metrics.json \
+    $(1)/exact/metrics.json
 	$(TLEAF) train-task next-activity $$< --kb $(1)/mined.ltl --logic-loss tleaf \
-	    --embedder $(1)/q/meta --lambdas $(TLEAF_LAMBDAS) --seed $(SEED) $(TASK) -o $$(@D) -q
+	    --embedder $(1)/q/meta --lambdas $(TLEAF_LAMBDAS) --seed $(SEED) $(TASK) \
+	    --reference $(1)/exact/lambda-choice/lambda-0 -o $$(@D) -q
 endef
 $(foreach l,$(RM_LOGS),$(foreach k,$(FOLDS),$(eval $(call Q_AND_TLEAF,$(OUT)/rm/$(l)/fold$(k)))))
 $(foreach l,$(DF_LOGS),$(eval $(call Q_AND_TLEAF,$(OUT)/df/$(l))))

@@ -182,6 +182,25 @@ def test_exact_loss_runs_choose_lambda_with_zero_and_report_it(tmp_path):
     assert (tmp_path / "run" / "lambda-choice" / "lambda-0" / "weights.pt").is_file()
 
 
+def test_a_reference_run_is_the_lambda_zero_candidate_another_run_would_train(tmp_path):
+    data, kb = cases_artifact(tmp_path), rules_file(tmp_path)
+    small = dict(epochs=2, hidden=16, layers=1)
+    first = NextActivitySettings(logic_loss="exact", lambdas="1", **small)
+    train_next_activity(data, kb, None, tmp_path / "a", first)
+    zero = tmp_path / "a" / "lambda-choice" / "lambda-0"
+    again = NextActivitySettings(logic_loss="exact", lambdas="2", **small)
+    trained = train_next_activity(data, kb, None, tmp_path / "b", again)
+    taken = train_next_activity(data, kb, None, tmp_path / "c", again, reference=zero)
+    # λ 0 trains without the logic term: another run's λ-0 candidate is the same model
+    other_zero = torch.load(tmp_path / "b" / "lambda-choice" / "lambda-0" / "weights.pt")
+    for name, value in torch.load(zero / "weights.pt").items():
+        torch.testing.assert_close(value, other_zero[name], rtol=0, atol=0)
+    assert taken["lambda"]["candidates"] == trained["lambda"]["candidates"]
+    other = NextActivitySettings(logic_loss="exact", lambdas="2", epochs=2, hidden=8, layers=1)
+    with pytest.raises(SettingError, match="hidden"):
+        train_next_activity(data, kb, None, tmp_path / "d", other, reference=zero)
+
+
 def test_eval_scores_suffixes_under_the_rules_and_only_satisfying_cases(tmp_path):
     data = cases_artifact(tmp_path, cases=120, broken=12)
     settings = NextActivitySettings(epochs=4, hidden=16, layers=1)

@@ -32,6 +32,14 @@ def train_task_next_activity(
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
+    reference: Annotated[
+        Path | None,
+        typer.Option(
+            help="With --lambdas: a finished λ-0 run of the same settings and cases (e.g. "
+            "another loss's lambda-choice/lambda-0), taken as the λ-0 candidate instead of "
+            "training it again."
+        ),
+    ] = None,
     preset: NextPreset = DEFAULT_NEXT_PRESET,
     resume: Resume = False,
     quiet: Quiet = False,
@@ -46,7 +54,7 @@ def train_task_next_activity(
     """
     from tleaf_cli.tasks.next_activity.train import train_next_activity
 
-    targets([cases, kb, embedder], folders=[out])
+    targets([cases, kb, embedder, reference], folders=[out])
     settings = NextActivitySettings.preset(preset, **given(ctx, values))
     if settings.logic_loss == "none":
         refuse(given_flags(ctx, "lam", "lambdas"), "only with a logic loss, not --logic-loss none")
@@ -65,8 +73,9 @@ def train_task_next_activity(
             )
 
         metrics = train_next_activity(
-            cases, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup
-        )
+            cases, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup,
+            reference=reference,
+        )  # fmt: skip
     if settings.lambdas is not None:
         from tleaf_cli.tasks.lambda_source import LambdaChoice
 

@@ -61,12 +61,15 @@ def train_next_activity(
     on_epoch: Callable[[EpochRecord], None] | None = None,
     resume: bool = False,
     on_setup: Callable[[RunSetup], None] | None = None,
+    reference: str | Path | None = None,
 ) -> dict:
     """Train on the train split, keep the best val epoch, score it on test; the metrics.
 
     `kb_path`: the rules of the logic loss (a `.ltl`, all its rules conjoined); needed unless
     `settings.logic_loss` is none. With `settings.lambdas`, one run per candidate λ and 0, the
-    best on val kept. SettingError for settings that do not fit, InputError for inputs."""
+    best on val kept; `reference`: a finished λ-0 run of the same settings and cases (another
+    loss's) taken as the λ-0 candidate, not trained again. SettingError for settings that do
+    not fit, InputError for inputs."""
     settings.check()
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
@@ -74,9 +77,11 @@ def train_next_activity(
         raise SettingError("kb", f"the {settings.logic_loss} loss needs rules (a .ltl file)")
     if settings.logic_loss == "tleaf" and embedder_dir is None:
         raise SettingError("embedder", "the tleaf loss needs an embedder (a train-meta folder)")
+    if reference is not None and settings.lambdas is None:
+        raise SettingError("reference", "is the λ-0 candidate of a choice: give lambdas too")
     if settings.lambdas is not None:
         return train_choosing_lambda(
-            train_next_activity, out_dir, settings, on_setup, score=SCORE,
+            train_next_activity, out_dir, settings, on_setup, score=SCORE, reference=reference,
             cases_path=cases_path, kb_path=kb_path, embedder_dir=embedder_dir,
             on_epoch=on_epoch, resume=resume,
         )  # fmt: skip
