@@ -45,8 +45,7 @@ from ltlf2dfa.ltlf import (
     LTLfWeakNext,
 )
 from torch_geometric.data import Batch, Data
-from torch_geometric.nn.conv.gcn_conv import gcn_norm
-from torch_geometric.utils import to_torch_csr_tensor, to_undirected
+from torch_geometric.utils import to_undirected
 
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
@@ -309,14 +308,56 @@ def gcn_adjacency(edge_index: torch.Tensor, num_nodes: int, dtype=torch.float32)
     """Â = D^-1/2 (A + I) D^-1/2 of the arcs `edge_index` (source -> target), row v holding v's
     incoming messages: what `GCNConv` computes from `edge_index` at every call (`gcn_norm`),
     computed once per batch and read by every layer (`layers.NormalisedGCNConv`)."""
-    arcs, weight = gcn_norm(edge_index, None, num_nodes, add_self_loops=True, dtype=dtype)
+    (src, dst), weight = _gcn_arcs(edge_index, num_nodes, dtype)
     size = (num_nodes, num_nodes)
-    with warnings.catch_warnings():  # torch marks CSR support beta; PyG's own path uses it
+    return Adjacency(_csr(dst, src, weight, size), _csr(src, dst, weight, size))
+
+
+def _gcn_arcs(
+    edge_index: torch.Tensor, num_nodes: int, dtype: torch.dtype
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """`gcn_norm(edge_index, None, num_nodes, add_self_loops=True)`'s arcs and weights, the
+    same values in the same order (the arcs but self-loops, then one self-loop per node; weight
+    d_u^-1/2 d_v^-1/2, d a node's incoming arcs and its loop), in a dozen operators where
+    torch-geometric's general path (edge weights, other flows) launches about ninety."""
+    src, dst = edge_index
+    if bool((src == dst).any()):  # gcn_norm replaces a graph's own self-loops by its loops
+        src, dst = edge_index[:, src != dst]
+    loops = torch.arange(num_nodes, device=edge_index.device)
+    src, dst = torch.cat([src, loops]), torch.cat([dst, loops])
+    degree = torch.bincount(dst, minlength=num_nodes).to(dtype)
+    scale = degree.pow(-0.5)  # every node has its loop: no zero degree
+    return torch.stack([src, dst]), scale.index_select(0, src) * scale.index_select(0, dst)
+
+
+def _quiet_csr_warning() -> None:
+    """Torch warns once per process that sparse CSR support is beta. A CSR tensor made through
+    `torch.ops` (`_csr`, `batches.JointStore`) would print that warning to stderr past Python's
+    warning filters; one made here, through the Python binding under a filter, uses it up."""
+    with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)
-        return Adjacency(
-            to_torch_csr_tensor(arcs.flip(0), weight, size=size),
-            to_torch_csr_tensor(arcs, weight, size=size),
-        )
+        index = torch.zeros(1, dtype=torch.int32)
+        torch.sparse_csr_tensor(index, index[:0], torch.zeros(0), (0, 0))
+
+
+_quiet_csr_warning()
+
+
+def _csr(
+    row: torch.Tensor, col: torch.Tensor, values: torch.Tensor, size: tuple[int, int]
+) -> torch.Tensor:
+    """The sparse CSR matrix with `values` at (row, col) (no two entries at one place), entries
+    sorted by row, then column, as `to_torch_csr_tensor` sorts them, with int32 indices: the
+    CSR product reads int32 indices as they are, and converts int64 ones at every call."""
+    order = torch.argsort(row * size[1] + col, stable=True)
+    crow = torch._convert_indices_from_coo_to_csr(
+        row.index_select(0, order), size[0], out_int32=True
+    )
+    col = col.index_select(0, order).int()
+    # valid by construction (sorted, in range): no checks, no conversions
+    return torch.ops.aten._sparse_compressed_tensor_unsafe(
+        crow, col, values.index_select(0, order), list(size), layout=torch.sparse_csr
+    )
 
 
 def joint_adjacency(
@@ -332,17 +373,15 @@ def joint_adjacency(
         return gcn_adjacency(to_undirected(edge_index, num_nodes=num_nodes), num_nodes, dtype)
     rows, cols, weights = [], [], []
     for way, arcs in enumerate((edge_index, edge_index.flip(0))):
-        (src, dst), weight = gcn_norm(arcs, None, num_nodes, add_self_loops=True, dtype=dtype)
+        (src, dst), weight = _gcn_arcs(arcs, num_nodes, dtype)
         rows.append(dst)
         cols.append(2 * src + way)
         weights.append(weight)
     row, col, weight = torch.cat(rows), torch.cat(cols), torch.cat(weights)
-    with warnings.catch_warnings():  # torch marks CSR support beta; PyG's own path uses it
-        warnings.simplefilter("ignore", UserWarning)
-        return Adjacency(
-            to_torch_csr_tensor(torch.stack([row, col]), weight, size=(num_nodes, 2 * num_nodes)),
-            to_torch_csr_tensor(torch.stack([col, row]), weight, size=(2 * num_nodes, num_nodes)),
-        )
+    return Adjacency(
+        _csr(row, col, weight, (num_nodes, 2 * num_nodes)),
+        _csr(col, row, weight, (2 * num_nodes, num_nodes)),
+    )
 
 
 def readout_pool(weights: torch.Tensor, graph_of: torch.Tensor, graphs: int) -> Adjacency:
@@ -353,12 +392,8 @@ def readout_pool(weights: torch.Tensor, graph_of: torch.Tensor, graphs: int) -> 
     rows = (graph_of.unsqueeze(1) * parts + torch.arange(parts, device=weights.device)).reshape(-1)
     cols = torch.arange(n, device=weights.device).repeat_interleave(parts)
     size = (graphs * parts, n)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", UserWarning)
-        return Adjacency(
-            to_torch_csr_tensor(torch.stack([rows, cols]), weights.reshape(-1), size=size),
-            to_torch_csr_tensor(torch.stack([cols, rows]), weights.reshape(-1), size=size[::-1]),
-        )
+    values = weights.reshape(-1)
+    return Adjacency(_csr(rows, cols, values, size), _csr(cols, rows, values, size[::-1]))
 
 
 def syntax_graph(formula: LTLfFormula, vocabulary: dict[str, int]) -> Data:
