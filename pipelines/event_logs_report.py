@@ -9,7 +9,7 @@ reported: a log or fold without its metrics is left out, and the page says how m
 row has.
 
 FILE: a record of runs kept beside the report (JSON: each metrics.json of OUT by its path in
-OUT, the fields the report reads, and each pipeline invocation's wall time). The runs of OUT are
+OUT, the fields the report reads, and each OUT folder's wall time). The runs of OUT are
 added to it (replacing the same paths), and the report is written from all of it: the whole
 pipeline takes hours, and runs measured by separate invocations (some logs now, others later,
 each `make ... RM_LOGS=... DF_LOGS=...` on the same code) add up to one page.
@@ -52,8 +52,8 @@ def wall_minutes(out: Path) -> float | None:
 
 
 def kept_runs(out: Path, record: Path | None) -> tuple[Runs, dict[str, float]]:
-    """The runs of `out` added to the `record` file (rewritten, atomically), and every
-    invocation's wall minutes (keyed by the logs it ran)."""
+    """The runs of `out` added to the `record` file (rewritten, atomically), and the wall
+    minutes of every folder that measured some (keyed by the folder as given)."""
     kept = {"runs": {}, "walls": {}}
     if record is not None and record.is_file():
         kept = json.loads(record.read_text())
@@ -61,8 +61,9 @@ def kept_runs(out: Path, record: Path | None) -> tuple[Runs, dict[str, float]]:
     kept["runs"].update(fresh)
     minutes = wall_minutes(out)
     if fresh and minutes is not None:
-        logs = sorted({"/".join(key.split("/")[:2]) for key in fresh})
-        kept["walls"][" ".join(logs)] = round(minutes, 1)
+        # by folder: a folder's wall time grows with each invocation into it (replaced), and
+        # separate folders' add up
+        kept["walls"][out.as_posix()] = round(minutes, 1)
     if record is not None:
         with tempfile.NamedTemporaryFile("w", dir=record.parent, delete=False) as f:
             json.dump(kept, f, indent=1, sort_keys=True)
@@ -247,10 +248,10 @@ def cost(runs: Runs) -> str:
 
 
 def wall(walls: dict[str, float]) -> str:
-    """The invocations' wall times, summed."""
+    """The output folders' wall times, summed."""
     if not walls:
         return "no runs"
-    return f"{sum(walls.values()):.0f} minutes of wall time ({len(walls)} invocation(s))"
+    return f"{sum(walls.values()):.0f} minutes of wall time ({len(walls)} output folder(s))"
 
 
 NOTES = """
