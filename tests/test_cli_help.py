@@ -141,3 +141,12 @@ def test_help_at_80_columns_shows_every_option_name_whole(path, command) -> None
         for name in [*param.opts, *param.secondary_opts]:
             if name.startswith("-"):
                 assert name in words, (name, result.output)
+
+
+def test_help_paragraphs_flow_at_any_width_and_lists_keep_their_lines():
+    from tleaf_cli.cli.formatting import reflowed
+
+    text = "First line\nof the first.\n\nA second\nparagraph goes on.\n- an item\n- another\n  kept"
+    assert reflowed(text) == (
+        "First line of the first.\n\nA second paragraph goes on.\n- an item\n- another\n  kept"
+    )

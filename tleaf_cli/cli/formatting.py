@@ -67,9 +67,32 @@ def _plain_errors(parse_args):
     return wrapper
 
 
+def reflowed(help_text: str) -> str:
+    """A docstring's paragraphs as --help should flow them: typer's rich help keeps the line
+    breaks of every paragraph after the first, which at another width break lines mid-sentence
+    ("metrics.json (per" / "epoch: ..."). Lines of a paragraph are joined with spaces, except a
+    line that starts a list item (-, *, 1.) or is indented, which keeps its own line."""
+    out = []
+    for paragraph in help_text.split("\n\n"):
+        lines: list[str] = []
+        for line in paragraph.split("\n"):
+            item = line.startswith((" ", "\t", "- ", "* ")) or line.split(". ")[0].isdigit()
+            if lines and not item:
+                lines[-1] += " " + line.strip()
+            else:
+                lines.append(line.rstrip())
+        out.append("\n".join(lines))
+    return "\n\n".join(out)
+
+
 class Command(typer.core.TyperCommand):
-    """A tleaf command: its flags show no type in --help, its arguments upper-case names, its
-    refusals of a value no pydantic prefix."""
+    """A tleaf command: its help's paragraphs reflowed, its flags show no type in --help, its
+    arguments upper-case names, its refusals of a value no pydantic prefix."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        if self.help:
+            self.help = reflowed(self.help)
 
     def get_params(self, ctx) -> list:
         return _shown_params(super().get_params(ctx))
