@@ -489,7 +489,7 @@ def test_the_cli_prints_the_lambda_and_its_source_and_stores_it(chain_cli, tmp_p
         "best": (exact, "λ 0.01 (the best preset's)", "given"),
         "paper": ([*exact, "--preset", "paper"], "λ 1 (the paper preset's)", "given"),
         "given": ([*exact, "--lambda", 0.3], "λ 0.3 (given with --lambda)", "given"),
-        "none": ([], "λ 0.01 (unused: no logic loss)", "unused"),
+        "none": ([], "λ unused: no logic loss", "unused"),
     }
     for name, (flags, line, source) in runs.items():
         out = tmp_path / name

@@ -37,12 +37,14 @@ class LambdaChoice:
     candidates: list[dict] = field(default_factory=list)
 
     def text(self, given: str = "given") -> str:
-        """One line: the λ and its source (`given`: how to say the caller set it)."""
+        """One line: the λ and its source (`given`: how to say the caller set it); no value where
+        nothing weighs by it (a run without logic loss)."""
+        if self.source == "unused":
+            return "λ unused: no logic loss"
         why = {
             "given": given,
             "recommended": "recommended for this q by its train-meta folder",
             "default": "the loss's default",
-            "unused": "unused: no logic loss",
             "candidate": "a candidate for the choice on validation",
             "validation": "chosen on validation among "
             + ", ".join(f"{c['lambda']:g} ({100 * _val_score(c):.2f}%)" for c in self.candidates),
