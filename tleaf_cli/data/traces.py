@@ -228,8 +228,19 @@ def assign_splits(ids: Sequence[str], fractions: tuple[float, float, float], see
 
 
 def splits_in_order(ids: Sequence[str], fractions: tuple[float, float, float]) -> dict:
-    """id -> split: the first `fractions[0]` of `ids` (in the order given) train, then val, test."""
-    bounds = np.round(np.cumsum(fractions) * len(ids)).astype(int)
+    """id -> split: the first `fractions[0]` of `ids` (in the order given) train, then val, test.
+
+    Every split with a positive fraction gets at least one id where there are enough (7 rules
+    split 0.8/0.1/0.1 would round val to none, and a q trained on them has no epoch to choose):
+    the largest split gives it one."""
+    counts = np.diff(np.round(np.cumsum([0.0, *fractions]) * len(ids)).astype(int))
+    positive = [i for i, f in enumerate(fractions) if f > 0]
+    if len(ids) >= len(positive):
+        for i in positive:
+            if counts[i] == 0:
+                counts[int(np.argmax(counts))] -= 1
+                counts[i] = 1
+    bounds = np.cumsum(counts)
     return {
         case: SPLITS[int(np.searchsorted(bounds, rank, side="right"))]
         for rank, case in enumerate(ids)
