@@ -440,3 +440,49 @@ def test_flat_parameters_give_adams_updates(tmp_path):
             score="s",
             flat=True,
         )
+
+
+def reference_accepted_run_weights(edge_index, share, ends, start, graph_of, max_length, bins):
+    """accepted_run_weights as it was: one length at a time."""
+    src, dst = edge_index
+    n, graphs = share.shape[0], int(start.numel())
+    limit = torch.as_tensor(max_length).expand(graphs)
+    hops = 2 * int(limit.max())
+    prob = torch.where(share[src] > 0, share[src], 1.0)
+    a = [torch.zeros(n).index_fill_(0, start, 1.0)]
+    b = [ends.float()]
+    for _ in range(hops):
+        a.append(torch.zeros(n).index_add_(0, dst, a[-1][src] * prob))
+        b.append(torch.zeros(n).index_add_(0, src, b[-1][dst] * prob))
+    a_t, b_t = torch.stack(a), torch.stack(b)
+    out = torch.zeros(bins, n)
+    for length in range(1, hops // 2 + 1):
+        h = 2 * length
+        z = b_t[h, start]
+        occupancy = a_t[: h + 1] * b_t[: h + 1].flip(0)
+        i = torch.arange(h + 1)
+        part = torch.zeros(bins, h + 1)
+        part[(i * bins) // (h + 1), i] = 1.0
+        ok = (z > 0) & (length <= limit)
+        out += torch.where(ok[graph_of], part @ occupancy / torch.where(ok, z, 1.0)[graph_of], 0.0)
+    total = torch.zeros(len(out), graphs).index_add_(1, graph_of, out)
+    return out / total.clamp(min=1e-12)[:, graph_of]
+
+
+@pytest.mark.parametrize("bins", [1, 3])
+def test_run_weights_of_every_length_at_once_are_the_length_by_length_ones(bins):
+    from tleaf_cli.embed.automaton import accepted_run_weights
+    from tleaf_cli.embed.graphs import trace_graph
+
+    graphs = [*dfa_graphs(), trace_graph(4), trace_graph(1)]
+    for chain in graphs[-2:]:
+        chain.edge_vec = torch.zeros(chain.num_nodes, EDGE_DIM)
+    batch = Batch.from_data_list(graphs)
+    start = batch.ptr[:-1] + batch.initial
+    limit = torch.tensor([6] * 6 + [4, 1])  # the DFAs to 6 letters, each chain to its end
+    for ends in (batch.flags[:, 1], batch.rejecting):
+        arguments = (batch.edge_index, batch.share, ends, start, batch.batch, limit, bins)
+        got = accepted_run_weights(*arguments)
+        want = reference_accepted_run_weights(*arguments)
+        assert got.abs().sum() > 0
+        assert torch.allclose(got, want, atol=1e-6)

@@ -30,6 +30,7 @@ word, read in order) and no rejected ones.
 
 from __future__ import annotations
 
+import functools
 import itertools
 
 import torch
@@ -105,33 +106,48 @@ def accepted_run_weights(
     # the edge node; state->edge: 1): a_h at an edge node is the mass arriving there, b_h the
     # mass going on, and their product at every node is the same as with the share on the way in
     prob = torch.where(share[src] > 0, share[src], 1.0)
-    a = [torch.zeros(n, device=share.device).index_fill_(0, start, 1.0)]
-    b = [ends.float()]
+    # a (forwards along the arcs) and b (backwards) as one vector [a ; b] of 2n entries, so a
+    # hop is one gather, product and index-add for both
+    reads = torch.cat([src, n + dst])
+    writes = torch.cat([dst, n + src])
+    prob = torch.cat([prob, prob])
+    first = torch.zeros(n, device=share.device).index_fill_(0, start, 1.0)
+    both = [torch.cat([first, ends.float()])]
     for _ in range(hops):
-        a.append(torch.zeros(n, device=share.device).index_add_(0, dst, a[-1][src] * prob))
-        b.append(torch.zeros(n, device=share.device).index_add_(0, src, b[-1][dst] * prob))
-    a_t, b_t = torch.stack(a), torch.stack(b)
-    out = torch.zeros(bins, n, device=share.device)
-    for length in range(1, hops // 2 + 1):
-        h = 2 * length
-        z = b_t[h, start]  # [graphs]: accepted mass at this length
-        occupancy = a_t[: h + 1] * b_t[: h + 1].flip(0)  # [h + 1, n]
-        per_part = _part_matrix(h, bins, share.device) @ occupancy  # [bins, n]
-        ok = (z > 0) & (length <= limit)
-        out += torch.where(ok[graph_of], per_part / torch.where(ok, z, 1.0)[graph_of], 0.0)
+        step = both[-1].index_select(0, reads) * prob
+        both.append(torch.zeros(2 * n, device=share.device).index_add_(0, writes, step))
+    a_t, b_t = torch.stack(both).view(hops + 1, 2, n).unbind(1)
+    # every length T = 1..hops / 2 at once: node i of a run of 2T hops is at v with a_i(v)
+    # b_(2T - i)(v) (`_part_matrices`' zero columns drop i > 2T), the parts summed over i by one
+    # batched product, each length's runs normalised by its own Z_T
+    parts, later = _part_matrices(hops, bins, share.device)
+    occupancy = a_t.unsqueeze(0) * b_t[later]  # [T, hops + 1, n]
+    per_part = torch.bmm(parts, occupancy)  # [T, bins, n]
+    lengths = torch.arange(1, hops // 2 + 1, device=share.device)
+    z = b_t[2 * lengths][:, start]  # [T, graphs]: accepted mass at each length
+    ok = (z > 0) & (lengths[:, None] <= limit)
+    scale = torch.where(ok, z, 1.0)[:, graph_of].unsqueeze(1)
+    out = torch.where(ok[:, graph_of].unsqueeze(1), per_part / scale, 0.0).sum(dim=0)
     # each part sums to 1 per graph (or 0 where the graph never reaches it)
     total = torch.zeros(len(out), graphs, device=share.device).index_add_(1, graph_of, out)
     return out / total.clamp(min=1e-12)[:, graph_of]
 
 
-def _part_matrix(hops: int, bins: int, device: torch.device) -> torch.Tensor:
-    """[bins, hops + 1]: which part each node of a run of `hops` hops counts into
-    (`accepted_run_weights`): the i-th of its hops + 1 nodes into part
-    floor(bins * i / (hops + 1))."""
-    i = torch.arange(hops + 1, device=device)
-    m = torch.zeros(bins, hops + 1, device=device)
-    m[(i * bins) // (hops + 1), i] = 1.0
-    return m
+@functools.lru_cache(maxsize=64)
+def _part_matrices(hops: int, bins: int, device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
+    """For runs of 2T hops, T = 1..hops / 2: [T, bins, hops + 1], which part each node of such a
+    run counts into (`accepted_run_weights`: the i-th of its 2T + 1 nodes into part
+    floor(bins * i / (2T + 1)); columns past 2T zero), and [T, hops + 1], the hop 2T − i whose
+    backward mass meets node i (0 past 2T, where the zero columns drop it). Built once per
+    (hops, bins, device)."""
+    lengths = hops // 2
+    i = torch.arange(hops + 1)
+    parts = torch.zeros(lengths, bins, hops + 1)
+    for t in range(1, lengths + 1):
+        h = 2 * t
+        parts[t - 1, (i[: h + 1] * bins) // (h + 1), i[: h + 1]] = 1.0
+    later = (2 * torch.arange(1, lengths + 1)[:, None] - i).clamp(min=0)
+    return parts.to(device), later.to(device)
 
 
 def run_readout(

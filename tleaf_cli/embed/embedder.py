@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Collection, Sequence
 
+import numpy as np
 import torch
 from torch_geometric.data import Batch
 
@@ -52,9 +53,13 @@ class Embedder:
         self.config = config
         for p in self.model.parameters():
             p.requires_grad_(False)
-        # formula -> (q(A_φ) [d], q_e of its one-hot letters [L, d_e]), on q's device: q is
-        # frozen, so a rule set's vectors never change once computed
-        self._rule_sets: dict[str, tuple[torch.Tensor, torch.Tensor]] = {}
+        # every rule set embedded so far, by formula: its q(A_φ) is row k of `_kept_vectors`
+        # and its one-hot letters' q_e vectors are `_kept_letters` rows offset.. offset + count
+        # (row 0: zeros, the padding), on q's device: q is frozen, so a rule set's vectors
+        # never change once computed, and a batch's are two gathers
+        self._rule_sets: dict[str, tuple[int, int, int]] = {}  # formula -> (k, offset, count)
+        self._kept_vectors: torch.Tensor | None = None
+        self._kept_letters: torch.Tensor | None = None
         # (atoms k, device) -> the soft monitor walk of a one-hot alphabet of k atoms: it
         # depends on the number of atoms only (monitors read atoms by position)
         self._monitor_walks: dict[tuple[int, str], AlphabetWalk] = {}
@@ -151,29 +156,44 @@ class Embedder:
         Raises InputError for atoms q's edge model never saw.
         """
         fresh = list({r.formula: r for r in rule_sets if r.formula not in self._rule_sets}.values())
+        device = self.device
         if fresh:  # their letters' and guards' new q_e vectors in one q_e call
+            counts = [len(r.atoms) + 1 for r in fresh]  # one-hot letters: none, each atom
             keys = [k for r in fresh for k in letter_keys(r.atoms, "one-hot")[1]]
-            if self.kind == "dfa":
-                keys += [k for r in fresh for k in guard_keys(r.dfa)]
-            self.vectors(keys)
+            guards = [k for r in fresh for k in guard_keys(r.dfa)] if self.kind == "dfa" else []
+            letters = self.vectors(keys + guards)[: len(keys)]  # the letters, set by set
             if self.kind == "dfa":
                 vectors = self.embed_dfas([r.dfa for r in fresh])
             else:  # the syntax-tree baseline reads the formula's text
                 rows = [{"formula": r.formula, "atoms": r.atoms} for r in fresh]
                 vectors = self.embed_formula_rows(rows)
-            device = self.device
-            for r, vector in zip(fresh, vectors, strict=True):
-                table = self.letter_vectors(r.atoms, "one-hot")[1].to(device)
-                self._rule_sets[r.formula] = (vector.to(device), table)
-        embedded = [self._rule_sets[r.formula] for r in rule_sets]
-        letters = max(len(table) for _, table in embedded)
-        tables = torch.stack(
-            [
-                torch.nn.functional.pad(table, (0, 0, 0, letters - len(table)))
-                for _, table in embedded
-            ]
-        )
-        return torch.stack([vector for vector, _ in embedded]), tables
+            self._keep(fresh, vectors.to(device), letters.to(device), counts)
+        if self._kept_vectors.device != device:  # q moved since
+            self._kept_vectors = self._kept_vectors.to(device)
+            self._kept_letters = self._kept_letters.to(device)
+        at = [self._rule_sets[r.formula] for r in rule_sets]
+        width = max(count for _, _, count in at)
+        index = np.zeros((len(at), width), dtype=np.int64)  # row 0: the zero padding
+        for i, (_, offset, count) in enumerate(at):
+            index[i, :count] = np.arange(offset, offset + count)
+        tables = self._kept_letters.index_select(0, torch.from_numpy(index).view(-1).to(device))
+        rows = torch.tensor([k for k, _, _ in at], device=device)
+        return self._kept_vectors.index_select(0, rows), tables.view(len(at), width, -1)
+
+    def _keep(
+        self, fresh: list[RuleSet], vectors: torch.Tensor, letters: torch.Tensor, counts: list
+    ) -> None:
+        """Add rule sets `fresh` (their q(A_φ) `vectors` [F, d], their letters' q_e vectors
+        `letters`, `counts` letters per set) to the kept rows."""
+        if self._kept_vectors is None:
+            self._kept_vectors = vectors[:0]
+            self._kept_letters = letters.new_zeros(1, letters.shape[1])
+        offset, first = len(self._kept_letters), len(self._kept_vectors)
+        for k, (r, count) in enumerate(zip(fresh, counts, strict=True)):
+            self._rule_sets[r.formula] = (first + k, offset, count)
+            offset += count
+        self._kept_vectors = torch.cat([self._kept_vectors, vectors])
+        self._kept_letters = torch.cat([self._kept_letters, letters])
 
     def monitor_walks(self, rule_sets: Sequence[RuleSet]) -> list[AlphabetWalk] | None:
         """Each rule set's soft monitor walk over its one-hot letters (`AlphabetWalk`, what
