@@ -17,7 +17,9 @@ leaves it out). Two counts: every aten call, and the leaf calls (no aten call in
 ones that do the work, what a GPU launches as kernels, give or take views). The data are
 `benchmarks/speed.py`'s, made once with this tree (`--formulas` Low formulas, the
 activities and their q), so both trees read the same files. Prints the CPU, then a markdown
-table: operators per batch for each tree and the baseline / this ratio.
+table: operators per batch for each tree and the baseline / this ratio. With OP_COUNT_TOP=N
+each figure also lists its N most frequent operators, with OP_COUNT_TIME=N the N that took the
+most CPU time (share of the aten operators' own time, profiler overhead included).
 """
 
 from __future__ import annotations
@@ -104,6 +106,14 @@ def per_batch(events) -> dict[str, float]:
     out = {"ops": statistics.median(every), "leaf": statistics.median(leaf)}
     if top:  # the most frequent operators, per batch on average (OP_COUNT_TOP=N)
         out["top"] = {name: round(n / len(every), 1) for name, n in top}
+    slowest = int(os.environ.get("OP_COUNT_TIME", 0))
+    if slowest:  # the operators that took the most CPU time (OP_COUNT_TIME=N): their share
+        spent: dict[str, float] = {}
+        for e in ops:
+            spent[e.name] = spent.get(e.name, 0.0) + e.self_cpu_time_total
+        total = sum(spent.values()) or 1.0
+        ranked = sorted(spent.items(), key=lambda kv: -kv[1])[:slowest]
+        out["cpu_time_share"] = {name: round(t / total, 3) for name, t in ranked}
     return out
 
 

@@ -92,6 +92,22 @@ def encoder(directed: bool) -> AutomatonEncoder:
     )
 
 
+def monitor_encoder(directed: bool, layers: int) -> AutomatonEncoder:
+    """A small q_m encoder with the runs readout and monitors over two atoms."""
+    torch.manual_seed(0)
+    return AutomatonEncoder(
+        EDGE_DIM,
+        hidden=16,
+        layers=layers,
+        out_dim=8,
+        directed=directed,
+        readout="runs",
+        bins=2,
+        max_length=6,
+        monitors=2,
+    )
+
+
 def test_joint_adjacency_is_both_directions_summed():
     batch = Batch.from_data_list(dfa_graphs())
     n, x = int(batch.num_nodes), torch.randn(int(batch.num_nodes), 5)
@@ -178,18 +194,7 @@ def test_one_select_of_formulas_and_chains_gives_the_joined_vectors():
 def test_embed_joined_is_embed_both_with_evidence():
     from tleaf_cli.logic.monitors import MonitorBank
 
-    torch.manual_seed(0)
-    trace = AutomatonEncoder(
-        EDGE_DIM,
-        hidden=16,
-        layers=2,
-        out_dim=8,
-        directed=True,
-        readout="runs",
-        bins=2,
-        max_length=6,
-        monitors=2,
-    )
+    trace = monitor_encoder(True, layers=2)
     bank: MonitorBank = trace.monitor_bank
     model = TripletEmbedder(trace, trace, sphere=True, evidence=MonitorEvidence(bank, 32.0))
     graphs = dfa_graphs(3)
@@ -235,18 +240,7 @@ def joint_setup(directed: bool = True):
     """A small q_m with monitors, evidence, the sphere and a radius, fixed formula graphs and
     traces (letters, monitor features), its JointStore and the plain GraphStore of the same
     graphs."""
-    torch.manual_seed(0)
-    trace = AutomatonEncoder(
-        EDGE_DIM,
-        hidden=16,
-        layers=3,
-        out_dim=8,
-        directed=directed,
-        readout="runs",
-        bins=2,
-        max_length=6,
-        monitors=2,
-    )
+    trace = monitor_encoder(directed, layers=3)
     bank = trace.monitor_bank
     model = TripletEmbedder(
         trace, trace, RadiusClassifier(1.5), sphere=True, evidence=MonitorEvidence(bank, 32.0)
