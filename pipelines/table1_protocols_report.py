@@ -1,0 +1,251 @@
+"""The Table I section "both ways" from pipelines/table1_protocols.mk's runs.
+
+    python pipelines/table1_protocols_report.py OUT -o SECTION.md [--page PAGE] [--settings S]
+
+OUT: the pipeline's folder (<protocol>/<tier>/seed<s>/eval-<preset>/report.json, and the
+per-call wall times the pipeline appends to OUT/times.tsv). Each cell is the MLP's test balanced
+accuracy at the epoch chosen on val (`mlp`) and at its best test epoch (`mlp_best_test`,
+recorded by eval model-checking, never used to choose), mean ± standard error over the seeds
+found, beside the paper's figures. Cells not run are listed as missing. With PAGE, the section
+replaces the text between the page's markers (or goes under its title if it has none). S: the
+make variables of the run, printed in the section's command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import re
+import statistics
+from collections import defaultdict
+from pathlib import Path
+
+TIERS = ("low", "moderate", "high")
+PAPER = {"low": (83.43, 0.73), "moderate": (78.43, 1.54), "high": (66.90, 0.70)}  # DFA row
+PROTOCOL_NAMES = {"paper": "authors' (`--protocol paper`)", "tleaf": "tleaf's tiers"}
+GOAL_POINTS = 2.0  # the reproduction is met when the val-chosen mean is this close to the paper
+START, END = "<!-- table1-protocols -->", "<!-- /table1-protocols -->"
+CELL = re.compile(
+    r"(?P<protocol>[\w-]+)/(?P<tier>low|moderate|high)/seed(?P<seed>\d+)/"
+    r"eval-(?P<preset>[\w-]+)/report\.json$"
+)
+# a call's output (-o PATH): a tier's data or q_e, or a cell's q_m (meta-) or evaluation (eval-)
+CALL = re.compile(
+    r"-o \S*/(?P<protocol>[\w-]+)/(?P<tier>low|moderate|high)/"
+    r"(?:seed\d+/(?P<kind>meta|eval)-(?P<preset>[\w-]+)|(?P<data>\S+))"
+)
+
+Cells = dict[tuple[str, str, str], dict[int, dict]]  # (protocol, preset, tier) -> seed -> scores
+
+
+def cells_of(out: Path) -> Cells:
+    """Every evaluation under `out`: its val-chosen and best-test MLP scores and epochs."""
+    cells: Cells = defaultdict(dict)
+    for path in sorted(out.rglob("report.json")):
+        match = CELL.search(path.relative_to(out).as_posix())
+        if not match:
+            continue
+        report = json.loads(path.read_text())
+        kept = [e for e in report.get("mlp_epochs", []) if e["kept"]]
+        best = report.get("mlp_best_test")
+        cells[match["protocol"], match["preset"], match["tier"]][int(match["seed"])] = {
+            "val_chosen": 100 * report["mlp"]["balanced_accuracy"],
+            "best_test": None if best is None else 100 * best["test_balanced_accuracy"],
+            "kept_epoch": kept[-1]["epoch"] if kept else None,
+            "best_epoch": None if best is None else best["epoch"],
+            "epochs": len(report.get("mlp_epochs", [])),
+            "pair_features": report["settings"]["pair_features"],
+        }
+    return cells
+
+
+def wall_times(out: Path) -> dict[tuple[str, ...], float]:
+    """Wall seconds summed per (protocol, tier, 'data') and (protocol, tier, kind, preset) from
+    OUT/times.tsv (wall, user, system, command; absent: no times)."""
+    times: dict[tuple[str, ...], float] = defaultdict(float)
+    path = out / "times.tsv"
+    if not path.exists():
+        return times
+    with path.open() as f:
+        for row in csv.reader(f, delimiter="\t"):
+            if len(row) < 4 or not re.match(r"^[\d.]+$", row[0]):
+                continue  # /usr/bin/time's notes (a non-zero exit) take a line of their own
+            match = CALL.search(row[3])
+            if not match:
+                continue
+            if match["data"]:
+                times[match["protocol"], match["tier"], "data"] += float(row[0])
+            else:
+                key = (match["protocol"], match["tier"], match["kind"], match["preset"])
+                times[key] += float(row[0])
+            times["all",] += float(row[0])
+    return times
+
+
+def mean_se(values: list[float]) -> str:
+    if not values:
+        return "–"
+    if len(values) == 1:
+        return f"{values[0]:.2f} (1 seed)"
+    se = statistics.stdev(values) / len(values) ** 0.5
+    return f"{statistics.mean(values):.2f} ± {se:.2f} ({len(values)} seeds)"
+
+
+def section(out: Path, settings: str = "") -> str:
+    cells = cells_of(out)
+    times = wall_times(out)
+    protocols = sorted({p for p, _, _ in cells}, key=lambda p: (p != "paper", p))
+    presets = sorted({e for _, e, _ in cells}, key=lambda e: (e != "paper-code", e))
+    lines = [
+        START,
+        "## Table I both ways: the authors' data and q beside tleaf's (SYNTHETIC)",
+        "",
+        "Balanced accuracy (%) of the MLP 512-128 on test formulas never trained on, mean ± s.e. "
+        "over the model seeds run, at the MLP epoch chosen on val and at the MLP's best test "
+        "epoch (recorded by `eval model-checking`, never used to choose: what choosing on test, "
+        "which the authors' script allows, would be worth).",
+        "",
+        "| q (`train-meta --preset`) | data | MLP epoch | Low | Moderate | High |",
+        "|---|---|---|---|---|---|",
+        "| paper: DFA (T-LEAF) | the authors' | not stated | "
+        + " | ".join(f"{PAPER[t][0]:.2f} ± {PAPER[t][1]:.2f}" for t in TIERS)
+        + " |",
+    ]
+    for preset in presets:
+        for protocol in protocols:
+            for which, name in (("val_chosen", "val-chosen"), ("best_test", "best test")):
+                row = [
+                    mean_se(
+                        [
+                            c[which]
+                            for c in cells.get((protocol, preset, t), {}).values()
+                            if c[which] is not None
+                        ]
+                    )
+                    for t in TIERS
+                ]
+                lines.append(
+                    f"| `{preset}` | {PROTOCOL_NAMES.get(protocol, protocol)} | {name} | "
+                    + " | ".join(row)
+                    + " |"
+                )
+    lines += [
+        "",
+        *goal_lines(cells),
+        *epoch_lines(cells),
+        *missing_lines(cells, protocols, presets),
+    ]
+    lines += ["", *cost_lines(times, protocols, presets)]
+    command = "make -f pipelines/table1_protocols.mk TLEAF=.venv/bin/tleaf" + (
+        f" {settings}" if settings else ""
+    )
+    lines += ["", "```bash", command, "```", END]
+    return "\n".join(lines) + "\n"
+
+
+def goal_lines(cells: Cells) -> list[str]:
+    """Whether the authors' q on the authors' data is within GOAL_POINTS of the paper."""
+    parts = []
+    for t in TIERS:
+        runs = cells.get(("paper", "paper-code", t), {})
+        if not runs:
+            parts.append(f"{t} not run")
+            continue
+        gap = statistics.mean(c["val_chosen"] for c in runs.values()) - PAPER[t][0]
+        verdict = "within" if abs(gap) <= GOAL_POINTS else "not within"
+        parts.append(f"{t} {gap:+.2f} ({verdict} {GOAL_POINTS:g}, {len(runs)} seeds)")
+    return [
+        "`paper-code` on the authors' data against the paper, val-chosen epoch: "
+        + "; ".join(parts)
+        + "."
+    ]
+
+
+def epoch_lines(cells: Cells) -> list[str]:
+    """Each preset's MLP input, and per cell (seed 0 or the first seed run) the MLP epoch kept
+    on val, the best test epoch and the epochs trained (early stop: 10 without a better val)."""
+    parts, features = [], {}
+    for (protocol, preset, tier), runs in sorted(cells.items()):
+        c = runs[min(runs)]
+        features[preset] = c["pair_features"]
+        parts.append(
+            f"{preset} / {protocol} / {tier}: {c['kept_epoch']} / {c['best_epoch']} / {c['epochs']}"
+        )
+    return [
+        "MLP input: " + ", ".join(f"`{e}` {f}" for e, f in sorted(features.items())) + ". "
+        "MLP epoch kept on val / best test epoch / epochs trained (first seed): "
+        + "; ".join(parts)
+        + "."
+    ]
+
+
+def missing_lines(cells: Cells, protocols: list[str], presets: list[str]) -> list[str]:
+    seeds = sorted({s for runs in cells.values() for s in runs})
+    missing = [
+        f"{preset} / {protocol} / {t} seed {s}"
+        for preset in presets
+        for protocol in protocols
+        for t in TIERS
+        for s in seeds
+        if s not in cells.get((protocol, preset, t), {})
+    ]
+    return [f"Not run: {', '.join(missing)}." if missing else "Every cell has every seed."]
+
+
+def cost_lines(times: dict, protocols: list[str], presets: list[str]) -> list[str]:
+    if not times:
+        return ["No wall times recorded (OUT/times.tsv absent)."]
+    head = "| stage | " + " | ".join(
+        f"{PROTOCOL_NAMES.get(p, p).split(' (')[0]}, {t}" for p in protocols for t in TIERS
+    )
+    lines = [
+        f"Wall seconds summed over calls ({times['all',]:.0f} s in all; one core each, "
+        "`OMP_NUM_THREADS=1`):",
+        "",
+        head + " |",
+        "|---" * (1 + len(protocols) * len(TIERS)) + "|",
+    ]
+    stages = [("data", "data and q_e")] + [
+        (f"{kind}:{preset}", f"{'train-meta' if kind == 'meta' else 'eval'} `{preset}`")
+        for preset in presets
+        for kind in ("meta", "eval")
+    ]
+    for key, name in stages:
+        cells = []
+        for p in protocols:
+            for t in TIERS:
+                k = (p, t, "data") if key == "data" else (p, t, *key.split(":"))
+                cells.append(f"{times[k]:.0f}" if k in times else "–")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def write_page(page: Path, text: str) -> None:
+    """The section between the page's markers, or under its title (first line) if none."""
+    old = page.read_text()
+    if START in old and END in old:
+        before, rest = old.split(START, 1)
+        after = rest.split(END, 1)[1]
+        new = before + text.rstrip("\n") + after
+    else:
+        title, _, body = old.partition("\n")
+        new = f"{title}\n\n{text}\n{body.lstrip(chr(10))}"
+    page.write_text(new)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("-o", "--output", type=Path, required=True)
+    parser.add_argument("--page", type=Path)
+    parser.add_argument("--settings", default="")
+    args = parser.parse_args()
+    text = section(args.out, args.settings)
+    args.output.write_text(text)
+    if args.page:
+        write_page(args.page, text)
+
+
+if __name__ == "__main__":
+    main()
