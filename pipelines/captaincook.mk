@@ -10,11 +10,19 @@
 #      eval learning-curve (what the rules are worth in recordings) -> the results page.
 #   make -f pipelines/captaincook.mk [TLEAF=tleaf] [SMALL=1] [OUT=out/captaincook]
 #        [SIZES="10 20 40 80 213"] [SEEDS="0 1 2 3 4"] [LOSSES="none exact"] [NOISE=2] -j2
+# Table I on real traces (docs/procedures.md): recipe-formulas (one formula per recipe, the
+#   conjunction of its rules) -> compile-dfa --one-hot -> gen-traces --split (synthetic traces;
+#   the split holds recipes out) -> train-edge -> train-meta per preset (T1_PRESETS) ->
+#   recording-traces (train/val: the synthetic traces; test: every recording of the held-out
+#   recipes, labelled by the exact check) -> eval model-checking on the real and on the synthetic
+#   test traces -> the page's section (pipelines/captaincook_table1.py). `make ... table1-page`
+#   runs only this chain and puts its section into the existing page.
 # SMALL=1: four recipes, 8 training recordings, 2 epochs, one seed (used by the tests); its page
 # is $(OUT)/captaincook4d.md, the full run's docs/results/captaincook4d.md.
 # The tleaf loss needs a q trained on these rules (train-meta on their rule sets), not built here.
 # make tracks files, not settings: give a new OUT when changing a setting.
 TLEAF ?= tleaf
+PYTHON ?= python
 SMALL ?= 0
 DATA ?= examples/captaincook4d
 LOSSES ?= none exact
@@ -22,6 +30,16 @@ LAMBDA_exact ?= 1
 NOISE ?= 2
 DECODE_TOP_K ?= 5
 BATCH := 16
+# Table I on real traces: q's presets, their seeds, the recipes' train,val,test split (by recipe,
+# drawn with T1_SPLIT_SEED), the length range of the synthetic traces (the recordings have 5 to 25
+# steps), and a time limit per q_e and q_m (minutes: train-meta's --max-minutes, so the epochs
+# that fit depend on the machine's load)
+T1_PRESETS ?= best paper
+T1_SEEDS ?= 0
+T1_SPLIT ?= 0.6,0.2,0.2
+T1_SPLIT_SEED ?= 0
+T1_LENGTHS ?= --min-len 5 --max-len 25
+T1_MINUTES ?= 10
 OMP_NUM_THREADS ?= 1
 export OMP_NUM_THREADS
 
@@ -32,6 +50,9 @@ SIZES ?= 8
 SEEDS ?= 0
 TASK := --hidden 16 --epochs 2 --patience 2
 PAGE := $(OUT)/captaincook4d.md
+T1_K ?= 20
+T1_EDGE := --epochs 1 --hidden 32 --out-dim 16
+T1_META := --epochs 1 --hidden 32 --layers 2 --out-dim 16
 else
 OUT ?= out/captaincook
 RECIPES ?= $(basename $(notdir $(wildcard $(DATA)/task_graphs/*.json)))
@@ -39,6 +60,9 @@ SIZES ?= 10 20 40 80 213
 SEEDS ?= 0 1 2 3 4
 TASK := --epochs 150 --patience 20
 PAGE := docs/results/captaincook4d.md
+T1_K ?= 200
+T1_EDGE := --epochs 3 --max-minutes $(T1_MINUTES)
+T1_META := --epochs 10 --max-minutes $(T1_MINUTES)
 endif
 
 SPLITS := $(DATA)/data_splits/recordings_data_split_combined.json
@@ -47,7 +71,7 @@ RUNS := $(foreach l,$(LOSSES),$(foreach n,$(SIZES),$(foreach s,$(SEEDS),\
 ARGS_none = --logic-loss none
 ARGS_exact = --logic-loss exact --lambda $(LAMBDA_exact)
 
-.PHONY: all
+.PHONY: all table1-page
 all: $(PAGE)
 
 $(OUT)/started:
@@ -84,7 +108,46 @@ $(OUT)/eval/step_recognition.md: $(RUNS) $(OUT)/checks/checks.parquet
 $(OUT)/curve/curve.md: $(RUNS)
 	$(TLEAF) eval learning-curve $(RUNS:/metrics.json=) -o $(@D) -q
 
-$(PAGE): $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md $(OUT)/checks/checks.parquet
+# Table I on real traces: one q per preset and seed, trained on the synthetic traces of the train
+# recipes, evaluated on the held-out recipes' real recordings and on their synthetic traces
+T1 := $(OUT)/table1
+T1_REPORTS := $(foreach p,$(T1_PRESETS),$(foreach s,$(T1_SEEDS),\
+	$(T1)/seed$(s)/eval-$(p)-real/report.json $(T1)/seed$(s)/eval-$(p)-synthetic/report.json))
+$(T1)/recipes.ltl: $(OUT)/edges.ltl
+	$(TLEAF) recipe-formulas $< -o $@ -q
+$(T1)/dfas.parquet: $(T1)/recipes.ltl
+	$(TLEAF) compile-dfa $< --one-hot -o $@ -q
+$(T1)/traces.parquet: $(T1)/dfas.parquet
+	$(TLEAF) gen-traces $< --one-hot --per-formula $(T1_K) $(T1_LENGTHS) --hard-fraction 0 \
+	    --split $(T1_SPLIT) --seed $(T1_SPLIT_SEED) -o $@ -q
+$(T1)/recording_traces.parquet: $(OUT)/recordings.parquet $(OUT)/edges.ltl $(T1)/traces.parquet
+	$(TLEAF) recording-traces $^ -o $@ -q
+$(T1)/edge/metrics.json: $(T1)/dfas.parquet
+	$(TLEAF) train-edge $< -o $(@D) $(T1_EDGE) --seed 0 -q
+define T1_RUN
+$(T1)/seed$(2)/meta-$(1)/metrics.json: $(T1)/traces.parquet $(T1)/edge/metrics.json
+	$(TLEAF) train-meta $(T1)/dfas.parquet $$< --edge $(T1)/edge --preset $(1) $(T1_META) \
+	    --seed $(2) -o $$(@D) -q
+$(T1)/seed$(2)/eval-$(1)-real/report.json: $(T1)/recording_traces.parquet $(T1)/seed$(2)/meta-$(1)/metrics.json
+	$(TLEAF) eval model-checking $(T1)/dfas.parquet $$< --embedder $(T1)/seed$(2)/meta-$(1) \
+	    --label real --seed $(2) -o $$(@D) -q
+$(T1)/seed$(2)/eval-$(1)-synthetic/report.json: $(T1)/traces.parquet $(T1)/seed$(2)/meta-$(1)/metrics.json
+	$(TLEAF) eval model-checking $(T1)/dfas.parquet $$< --embedder $(T1)/seed$(2)/meta-$(1) \
+	    --label synthetic --seed $(2) -o $$(@D) -q
+endef
+$(foreach p,$(T1_PRESETS),$(foreach s,$(T1_SEEDS),$(eval $(call T1_RUN,$(p),$(s)))))
+T1_COMMAND = make -f pipelines/captaincook.mk$(if $(filter 1,$(SMALL)), SMALL=1) \
+	T1_PRESETS="$(T1_PRESETS)" T1_SEEDS="$(T1_SEEDS)" T1_SPLIT=$(T1_SPLIT) T1_K=$(T1_K) \
+	T1_MINUTES=$(T1_MINUTES)
+$(T1)/section.md: $(T1_REPORTS) $(T1)/recording_traces.parquet
+	$(PYTHON) pipelines/captaincook_table1.py $(T1) -o $@ --command '$(T1_COMMAND)'
+# only this chain, its section put into the page as it is
+table1-page: $(T1)/section.md
+	$(PYTHON) pipelines/captaincook_table1.py $(T1) -o $(T1)/section.md \
+	    --command '$(T1_COMMAND) table1-page' --page $(PAGE)
+
+$(PAGE): $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md $(OUT)/checks/checks.parquet \
+	    $(T1)/section.md
 	@mkdir -p $(@D)
 	{ echo "# CaptainCook4D: real recordings, their recipes' rules, and step recognition"; \
 	  echo; \
@@ -106,5 +169,7 @@ $(PAGE): $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md $(OUT)/checks/che
 	  echo "## Learning curve (step accuracy against training recordings)"; \
 	  echo; \
 	  sed -e '1{/^# /d;}' -e 's/^## /### /' $(OUT)/curve/curve.md; \
+	  echo; \
+	  cat $(T1)/section.md; \
 	} > $@.tmp
 	mv $@.tmp $@

@@ -231,3 +231,72 @@ def eval_step_recognition(
     with ui.progress("decoding the runs' outputs", quiet):
         report = evaluate_step_recognition(runs, checks, out)
     ui.summary(f"{out}/{MARKDOWN_FILE}: {len(report['runs'])} runs", quiet)
+
+
+@exits
+def recipe_formulas(
+    knowledge: Annotated[
+        Path,
+        typer.Argument(
+            help="The recipes' rules: a .ltl knowledge base from task-graph (rules named "
+            "<recipe>.<kind>...), or a folder of .ltl files."
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", parser=file_path, help="The .ltl to write."),
+    ] = Path("recipes.ltl"),
+    quiet: Quiet = False,
+) -> None:
+    """One formula per recipe: the conjunction of its rules, named by the recipe.
+
+    For compile-dfa and gen-traces, as Table I's one formula per trace label: a recording
+    satisfies its recipe's formula when it breaks none of its rules.
+    """
+    from tleaf_cli.tasks.recording_traces import write_recipe_formulas
+
+    targets([knowledge], [out])
+    formulas = write_recipe_formulas(knowledge, out)
+    ui.summary(f"{out}: {len(formulas)} recipes", quiet)
+
+
+@exits
+def recording_traces(
+    recordings: Annotated[
+        Path, typer.Argument(help="A recordings artifact (read-recordings' recordings.parquet).")
+    ],
+    knowledge: Annotated[
+        Path,
+        typer.Argument(help="The recipes' rules (task-graph's .ltl), for the exact labels."),
+    ],
+    traces: Annotated[
+        Path,
+        typer.Argument(
+            help="gen-traces' traces of the compiled recipe formulas (recipe-formulas), with a "
+            "split: its train and val rows are kept, its test recipes' recordings replace its "
+            "test rows."
+        ),
+    ],
+    out: Annotated[
+        Path,
+        typer.Option("--out", "-o", parser=file_path, help="The traces.parquet to write."),
+    ] = Path("recording_traces.parquet"),
+    quiet: Quiet = False,
+) -> None:
+    """Real recordings as Table I test traces, for eval model-checking.
+
+    Train and val: the synthetic traces of the train and val recipes. Test: every recording of
+    the held-out (test) recipes, one step a letter, labelled by the exact check of its recipe's
+    rules (as check-recordings), source 'recorded'. The evaluation's all_accuracy is then the
+    accuracy on real recordings against the exact answer.
+    """
+    from tleaf_cli.tasks.recording_traces import recording_traces as convert
+
+    targets([recordings, knowledge, traces], [out])
+    report = convert(recordings, knowledge, traces, out)
+    left = ", ".join(f"{n} {why}" for why, n in report.left_out.items()) or "none"
+    ui.summary(
+        f"{out}: synthetic {report.synthetic}; recordings of {len(report.test_recipes)} held-out "
+        f"recipes {report.recorded}; left out: {left}",
+        quiet,
+    )

@@ -35,7 +35,9 @@ from tleaf_cli.cli.procedures import (
     check_recordings,
     eval_step_recognition,
     read_recordings,
+    recipe_formulas,
     recording_activities,
+    recording_traces,
     task_graph,
 )
 
@@ -86,6 +88,8 @@ for name, function in {
     "read-recordings": read_recordings,
     "check-recordings": check_recordings,
     "recording-activities": recording_activities,
+    "recipe-formulas": recipe_formulas,
+    "recording-traces": recording_traces,
     "kb-extract": kb_extract,
     "train-edge": train_edge,
     "train-meta": train_meta,

@@ -1,0 +1,151 @@
+"""The CaptainCook4D page's section "Table I on real traces", from pipelines/captaincook.mk's runs.
+
+    python pipelines/captaincook_table1.py T1 -o SECTION.md [--command C] [--page PAGE]
+
+T1: the pipeline's table1/ folder: seed<s>/eval-<preset>-real/report.json (eval model-checking
+on recording_traces.parquet: test = the held-out recipes' real recordings) and
+seed<s>/eval-<preset>-synthetic/report.json (the same q on the same recipes' synthetic test
+traces), recording_traces.parquet and recipes.ltl. Per preset, mean over the seeds found, of the
+MLP chosen on val: on the real recordings, the accuracy against the exact answer (the report's
+`all_accuracy`), the share of recordings that keep their rules recognised as keeping (its
+`accuracy`, which reads satisfying and uniform traces only, so here the keeping recordings), the
+share that break recognised as breaking (from the two), and their mean (balanced accuracy); on the
+synthetic test traces, the accuracy; and the goal, the real accuracy within GOAL_POINTS of the
+synthetic one. With PAGE, the section replaces the text between the page's markers (or goes at
+its end if it has none).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import statistics
+from pathlib import Path
+
+import pyarrow.parquet as pq
+
+GOAL_POINTS = 5.0
+START, END = "<!-- captaincook-table1 -->", "<!-- /captaincook-table1 -->"
+REPORT = re.compile(r"seed(?P<seed>\d+)/eval-(?P<preset>[\w-]+)-(?P<data>real|synthetic)/")
+
+
+def read_reports(t1: Path) -> dict[str, dict[str, dict[int, dict]]]:
+    """preset -> "real" / "synthetic" -> seed -> the MLP's scores."""
+    found: dict[str, dict[str, dict[int, dict]]] = {}
+    for path in sorted(t1.glob("seed*/eval-*/report.json")):
+        m = REPORT.search(path.relative_to(t1).as_posix() + "/")
+        if m is None:
+            continue
+        report = json.loads(path.read_text())
+        cell = found.setdefault(m["preset"], {}).setdefault(m["data"], {})
+        cell[int(m["seed"])] = report["mlp"]
+    return found
+
+
+def recorded_counts(t1: Path) -> tuple[int, int, list[str]]:
+    """Test recordings that keep and that break their recipe's rules, and the held-out recipes."""
+    table = pq.read_table(t1 / "recording_traces.parquet", columns=["formula_id", "label", "split"])
+    rows = [r for r in table.to_pylist() if r["split"] == "test"]
+    keeps = sum(1 for r in rows if r["label"])
+    return keeps, len(rows) - keeps, sorted({r["formula_id"] for r in rows})
+
+
+def real_scores(mlp: dict, keeps: int, breaks: int) -> dict[str, float]:
+    """The real recordings' scores (%) from a report's `mlp` scores: `all_accuracy` over every
+    recording, `accuracy` over the keeping ones (the only ones it reads: recorded traces that
+    break are not `uniform`), the breaking ones' share from the two, and their mean."""
+    n = keeps + breaks
+    keep = mlp["accuracy"]
+    brk = (mlp["all_accuracy"] * n - keep * keeps) / breaks if breaks else float("nan")
+    return {
+        "accuracy": 100 * mlp["all_accuracy"],
+        "keep": 100 * keep,
+        "break": 100 * brk,
+        "balanced": 100 * (keep + brk) / 2,
+    }
+
+
+def _mean(values: list[float]) -> str:
+    if len(values) == 1:
+        return f"{values[0]:.1f}"
+    se = statistics.stdev(values) / len(values) ** 0.5
+    return f"{statistics.mean(values):.1f} ± {se:.1f}"
+
+
+def section(t1: Path, command: str) -> str:
+    keeps, breaks, recipes = recorded_counts(t1)
+    found = read_reports(t1)
+    lines = [
+        START,
+        "## Table I on real traces: model checking real recordings from embeddings",
+        "",
+        "A q trained on the recipes' rule sets (one formula per recipe, the conjunction of its "
+        "rules, compiled one-hot; synthetic traces of their DFAs as Table I draws them; the "
+        "recipes split train / val / test) predicts from z_φ and z_w alone whether a recording "
+        "keeps its recipe's rules. The MLP is fitted on the train recipes' synthetic traces and "
+        "chosen on the val recipes'; it is scored on every recording of the "
+        f"{len(recipes)} held-out recipes ({', '.join(recipes)}): {keeps + breaks} recordings, "
+        f"{keeps} keep and {breaks} break their rules (always answering the larger class: "
+        f"{100 * max(keeps, breaks) / (keeps + breaks):.1f} %), and on the same recipes' "
+        "synthetic test traces (half satisfying, half uniform violating: Table I's figure). "
+        "Accuracy against the exact answer (check-recordings), %:",
+        "",
+        "| q preset | seeds | real: accuracy | real: keeping recognised | real: breaking "
+        "recognised | real: balanced | synthetic: accuracy | real − synthetic | within "
+        f"{GOAL_POINTS:g} points |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    missing = []
+    for preset in sorted(found):
+        real, synthetic = found[preset].get("real", {}), found[preset].get("synthetic", {})
+        seeds = sorted(set(real) & set(synthetic))
+        missing += [f"{preset} seed {s}" for s in sorted(set(real) ^ set(synthetic))]
+        if not seeds:
+            continue
+        scores = [real_scores(real[s], keeps, breaks) for s in seeds]
+        synth = [100 * synthetic[s]["all_accuracy"] for s in seeds]
+        gap = statistics.mean(x["accuracy"] for x in scores) - statistics.mean(synth)
+        cells = [_mean([x[k] for x in scores]) for k in ("accuracy", "keep", "break", "balanced")]
+        met = "met" if abs(gap) <= GOAL_POINTS else "not met"
+        lines.append(
+            f"| {preset} | {len(seeds)} | {' | '.join(cells)} | {_mean(synth)} | {gap:+.1f} "
+            f"| {met} |"
+        )
+    reports = list(t1.glob("seed*/eval-*/report.json"))
+    wall = max(p.stat().st_mtime for p in reports) - (t1 / "recipes.ltl").stat().st_mtime
+    lines += [
+        "",
+        f"Command: `{command}`; wall time {wall:.0f} s (from the recipe formulas to the last "
+        f"evaluation, in {t1}).",
+    ]
+    if missing:
+        lines.append(f"Not run on both kinds of traces: {', '.join(missing)}.")
+    lines.append(END)
+    return "\n".join(lines) + "\n"
+
+
+def splice(page: str, text: str) -> str:
+    """`page` with the text between its markers replaced by `text` (markers included), or with
+    `text` at its end when it has no markers."""
+    if START in page and END in page:
+        head, rest = page.split(START, 1)
+        return head + text.rstrip("\n") + rest.split(END, 1)[1]
+    return page.rstrip("\n") + "\n\n" + text
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("t1", type=Path)
+    parser.add_argument("-o", "--out", type=Path, required=True)
+    parser.add_argument("--command", default="make -f pipelines/captaincook.mk")
+    parser.add_argument("--page", type=Path)
+    args = parser.parse_args()
+    text = section(args.t1, args.command)
+    args.out.write_text(text)
+    if args.page is not None:
+        args.page.write_text(splice(args.page.read_text(), text))
+
+
+if __name__ == "__main__":
+    main()
