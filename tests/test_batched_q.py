@@ -480,3 +480,33 @@ def test_run_weights_of_every_length_at_once_are_the_length_by_length_ones(bins)
         want = reference_accepted_run_weights(*arguments)
         assert got.abs().sum() > 0
         assert torch.allclose(got, want, atol=1e-6)
+
+
+def test_embed_dfas_collated_on_the_host_is_the_data_objects_path():
+    """Embedder.embed_dfas (meta_data.dfa_batch, the readout weights per batch) against the
+    path it replaced: featured_dfa_graphs, store_run_weights and Batch.from_data_list."""
+    from tleaf_cli.embed.embedder import Embedder
+    from tleaf_cli.embed.meta_data import GuardVectors, dfa_batch, featured_dfa_graphs
+    from tleaf_cli.embed.model import store_run_weights
+    from tleaf_cli.embed.proposition_encoder import PropositionEncoder
+
+    torch.manual_seed(0)
+    vocabulary = ["a", "b", "c"]
+    edge = PropositionEncoder(torch.eye(3), hidden=8, layers=2, out_dim=EDGE_DIM)
+    trace = monitor_encoder(True, layers=2)
+    model = TripletEmbedder(trace, trace, sphere=True).eval()
+    embedder = Embedder(model, GuardVectors(edge, vocabulary), {"settings": {"embedder": "dfa"}})
+    texts = ["F(a)", "G(a -> X(b))", "a U b", "F(b)", "c U a", "G(!a) | F(c)"]  # F(b): F(a)'s
+    dfas = [compile_formula(t) for t in texts]
+    got = embedder.embed_dfas(dfas, batch=4)
+    graphs = featured_dfa_graphs(dfas, embedder.vectors, trace.monitor_bank)
+    store_run_weights(trace, graphs)
+    collated = Batch.from_data_list(graphs)
+    with torch.no_grad():
+        want = model.embed_formulas(collated)
+    assert torch.allclose(got, want, atol=1e-5)
+    shares = torch.cat([g.monitor for g in graphs]).view(len(dfas), 2, -1).numpy()
+    batch = dfa_batch(dfas, embedder.vectors, shares)
+    for key in ("node_kind", "flags", "guard", "share", "rejecting", "horizon", "initial",
+                "edge_vec", "monitor", "edge_index", "ptr", "batch"):  # fmt: skip
+        assert torch.equal(batch[key], collated[key]), key

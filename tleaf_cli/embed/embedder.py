@@ -16,15 +16,16 @@ from torch_geometric.data import Batch
 
 from tleaf_cli import arguments
 from tleaf_cli.data.dfa_table import dfa_from_row
+from tleaf_cli.data.monitor_cache import monitor_shares
 from tleaf_cli.embed.graphs import syntax_graph
 from tleaf_cli.embed.meta_data import (
     GuardVectors,
     chain_batch,
-    featured_dfa_graphs,
+    dfa_batch,
     guard_keys,
     trace_inputs,
 )
-from tleaf_cli.embed.model import TripletEmbedder, store_run_weights
+from tleaf_cli.embed.model import TripletEmbedder
 from tleaf_cli.embed.soft_monitors import (
     AlphabetWalk,
     monitor_classes,
@@ -94,25 +95,42 @@ class Embedder:
     ) -> torch.Tensor:
         """[len(dfas), d]: q_m of compiled DFAs (a q of kind `dfa`; the syntax baseline reads
         formula text, `embed_formula_rows`). `cache_shares`: keep the monitor shares of this
-        DFA set on disk (`featured_dfa_graphs`), for sets that come back whole."""
+        DFA set on disk (`data.monitor_cache`), for sets that come back whole. The graphs are
+        collated on the host (`meta_data.dfa_batch`), their readout weights kept per automaton
+        (`_run_weights_of`)."""
         if self.kind != "dfa":
             raise InputError(f"a q of kind {self.kind!r} does not read DFAs")
         bank = self.model.trace.monitor_bank
-        graphs = featured_dfa_graphs(dfas, self.vectors, bank, cache_shares=cache_shares)
-        if self.model.formula.readout in RUN_READOUTS:
-            self._give_run_weights(dfas, graphs)
-        return self._encode(self.model.embed_formulas, graphs, batch)
+        shares = None
+        if bank is not None:  # for the whole set at once: its on-disk cache is per set
+            shares = monitor_shares(dfas, bank, use_cache=cache_shares)
+        encoder, device, parts = self.model.formula, self.device, []
+        with torch.no_grad():
+            for i in range(0, len(dfas), batch):
+                part = dfa_batch(
+                    dfas[i : i + batch],
+                    self.vectors,
+                    None if shares is None else shares[i : i + batch],
+                )
+                if encoder.readout in RUN_READOUTS:
+                    part.run_weights = self._run_weights_of(dfas[i : i + batch], part)
+                parts.append(self.model.embed_formulas(part.to(device)))
+        return torch.cat(parts) if parts else torch.zeros((0, 0), device=device)
 
-    def _give_run_weights(self, dfas: Sequence[DFA], graphs: list) -> None:
-        """Each DFA graph's readout weights (`AutomatonEncoder.run_weights`), computed once per
-        automaton (they never read the atoms' names: a loss's fresh rule sets often repeat an
-        automaton over other atoms) and kept on the CPU."""
-        first = {d.structure: g for d, g in zip(dfas, graphs, strict=True)}
-        fresh = [key for key in first if key not in self._run_weights]
-        store_run_weights(self.model.formula, [first[key] for key in fresh])
-        self._run_weights.update((key, first[key].run_weights) for key in fresh)
-        for d, g in zip(dfas, graphs, strict=True):
-            g.run_weights = self._run_weights[d.structure]
+    def _run_weights_of(self, dfas: Sequence[DFA], batch) -> torch.Tensor:
+        """[nodes, parts]: the readout weights (`AutomatonEncoder.run_weights`) of the graphs
+        of `dfas` collated as `batch`, kept per automaton (they never read the atoms' names: a
+        loss's fresh rule sets often repeat an automaton over other atoms), on the CPU; those
+        of automata not kept yet computed for the whole batch in one call."""
+        missing = [k for k, d in enumerate(dfas) if d.structure not in self._run_weights]
+        if missing:
+            weights = self.model.formula.run_weights(batch).t()
+            ptr = batch.ptr.tolist()
+            for k in missing:
+                self._run_weights[dfas[k].structure] = weights[ptr[k] : ptr[k + 1]]
+            if len(missing) == len(dfas):
+                return weights
+        return torch.cat([self._run_weights[d.structure] for d in dfas])
 
     def embed_traces(
         self,

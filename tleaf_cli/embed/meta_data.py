@@ -105,6 +105,24 @@ def _dfa_graph(dfa: DFA) -> tuple[Data, list]:
     return copy.copy(graph), guards
 
 
+# the fields of `dfa_graph`'s graphs that `dfa_batch` lays end to end (edge_index aside)
+GRAPH_FIELDS = ("node_kind", "flags", "guard", "share", "rejecting", "horizon", "initial")
+_ARRAYS: dict[tuple, tuple[dict[str, np.ndarray], list]] = {}
+
+
+def _dfa_arrays(dfa: DFA) -> tuple[dict[str, np.ndarray], list]:
+    """`_dfa_graph(dfa)`'s fields as numpy arrays, and its guards; built once per automaton
+    (at most GRAPHS_KEPT, the oldest dropped first)."""
+    key = dfa.structure
+    if key not in _ARRAYS:
+        if len(_ARRAYS) >= GRAPHS_KEPT:
+            _ARRAYS.pop(next(iter(_ARRAYS)))
+        graph, guards = _dfa_graph(dfa)
+        arrays = {field: graph[field].numpy() for field in (*GRAPH_FIELDS, "edge_index")}
+        _ARRAYS[key] = (arrays, guards)
+    return _ARRAYS[key]
+
+
 def _with_edge_vectors(graph: Data, vectors: torch.Tensor) -> Data:
     edge_vec = torch.zeros((graph.num_nodes, vectors.shape[1]))
     on_edges = graph.guard >= 0
@@ -137,6 +155,40 @@ def featured_dfa_graphs(
         for graph, one in zip(graphs, shares, strict=True):
             graph.monitor = torch.from_numpy(one).reshape(1, -1)
     return graphs
+
+
+def dfa_batch(
+    dfas: Sequence[DFA], vectors: GuardVectors, shares: np.ndarray | None = None
+) -> Batch:
+    """`Batch.from_data_list(featured_dfa_graphs(dfas, vectors, monitors))`, the same fields
+    and values, collated on the host: each automaton's graph (built once per automaton) as
+    numpy arrays laid end to end, its guards' q_e vectors placed on its edge nodes by one
+    index-copy, and `shares` [len(dfas), 2, F] (`data.monitor_cache.monitor_shares` of the
+    DFAs, where q reads monitors) as their `monitor`. A handful of operators, where collating
+    the `Data` objects launches a few dozen per graph (the tleaf loss embeds a batch's new rule
+    sets this way)."""
+    built = [_dfa_arrays(dfa) for dfa in dfas]
+    every = vectors([(dfa.atoms, g) for dfa, (_, guards) in zip(dfas, built, strict=True)
+                     for g in guards])  # fmt: skip
+    graphs = [g for g, _ in built]
+    sizes = np.array([len(g["node_kind"]) for g in graphs], dtype=np.int64)
+    ptr = np.concatenate([[0], np.cumsum(sizes)])
+    arcs = np.array([g["edge_index"].shape[1] for g in graphs], dtype=np.int64)
+    edge_index = np.concatenate([g["edge_index"] for g in graphs], axis=1)
+    edge_index = edge_index + np.repeat(ptr[:-1], arcs)
+    fields = {
+        key: torch.from_numpy(np.concatenate([g[key] for g in graphs])) for key in GRAPH_FIELDS
+    }
+    on_edges = torch.from_numpy(np.flatnonzero(fields["guard"].numpy() >= 0))
+    fields["edge_vec"] = every.new_zeros(int(ptr[-1]), every.shape[1]).index_copy_(
+        0, on_edges, every
+    )
+    if shares is not None:
+        fields["monitor"] = torch.from_numpy(np.ascontiguousarray(shares).reshape(len(dfas), -1))
+    batch = Batch(**fields, edge_index=torch.from_numpy(edge_index), ptr=torch.from_numpy(ptr))
+    batch.batch = torch.from_numpy(np.repeat(np.arange(len(graphs)), sizes))
+    batch.num_nodes = int(ptr[-1])
+    return batch
 
 
 def trace_monitor_features(

@@ -189,14 +189,13 @@ class _Walk(torch.autograd.Function):
         keep = 1 - running
         state = start
         # [T, in_edges, slots]: the state each edge reads at each step (what the weights'
-        # gradient multiplies), written in place step by step
+        # gradient multiplies), written in place step by step; every step's slices taken once
         read = weights.new_empty((steps, width, slots))
-        for t in range(steps):
-            torch.index_select(state, 0, source, out=read[t].view(-1))
-            moved = weights[t, 0] * read[t, 0]
-            for k in range(1, width):  # the slots' other edges in
-                moved.addcmul_(weights[t, k], read[t, k])
-            state = torch.addcmul(state * keep[t], moved, running[t])
+        per_step = zip(weights, read, keep, running, strict=True)
+        for weights_t, read_t, keep_t, running_t in per_step:
+            torch.index_select(state, 0, source, out=read_t.view(-1))
+            moved = (weights_t * read_t).sum(dim=0)  # over the slots' edges in
+            state = torch.addcmul(state * keep_t, moved, running_t)
         ctx.save_for_backward(weights, source, read, running)
         return state
 
