@@ -47,12 +47,15 @@ def exact_loss(
     # every step's arc letters in one gather [T, arcs], unbound once: indexing step t in the
     # loop would give a full-size gradient each
     on_arcs = letters[:, :steps].transpose(0, 1).flatten(1)[:, letter]
-    for t, at_t in enumerate(on_arcs.unbind(0)):
-        terms = alpha[source] + at_t  # [arcs]
-        top = letters.new_full((states,), NEG).scatter_reduce(0, target, terms.detach(), "amax")
-        sums = letters.new_zeros(states).scatter_add(0, target, (terms - top[target]).exp())
-        step = top + sums.clamp(min=1.0).log()  # a reached state's sum is >= 1
-        alpha = torch.where(running[t], step, alpha)
+    # the scatters start from these (out of place: each step's result is a new tensor), and
+    # gathers are index_select: the same values in fewer operators each way than indexing
+    lowest, zeros = letters.new_full((states,), NEG), letters.new_zeros(states)
+    for at_t, running_t in zip(on_arcs.unbind(0), running.unbind(0), strict=True):
+        terms = alpha.index_select(0, source) + at_t  # [arcs]
+        top = lowest.scatter_reduce(0, target, terms.detach(), "amax")
+        spread = (terms - top.index_select(0, target)).exp()
+        step = top + zeros.scatter_add(0, target, spread).clamp(min=1.0).log()  # reached: >= 1
+        alpha = torch.where(running_t, step, alpha)
     final = torch.where(accepting, alpha, letters.new_tensor(NEG))
     top = letters.new_full((n,), NEG).scatter_reduce(0, row_of, final.detach(), "amax")
     total = letters.new_zeros(n).scatter_add(0, row_of, (final - top[row_of]).exp())
