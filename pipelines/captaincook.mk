@@ -39,6 +39,12 @@ T1_SEEDS ?= 0
 T1_SPLIT ?= 0.6,0.2,0.2
 T1_SPLIT_SEED ?= 0
 T1_LENGTHS ?= --min-len 5 --max-len 25
+# the synthetic traces: uniform (Table I's: satisfying and uniform violating words of T1_LENGTHS)
+# or once-each (every step of the recipe exactly once, up to 3 steps it does not name: the shape
+# of a recording); each in its own folder and page section
+T1_TRACES ?= uniform
+T1_DRAW_uniform = $(T1_LENGTHS) --hard-fraction 0
+T1_DRAW_once-each = --once-each
 T1_MINUTES ?= 10
 OMP_NUM_THREADS ?= 1
 export OMP_NUM_THREADS
@@ -110,7 +116,7 @@ $(OUT)/curve/curve.md: $(RUNS)
 
 # Table I on real traces: one q per preset and seed, trained on the synthetic traces of the train
 # recipes, evaluated on the held-out recipes' real recordings and on their synthetic traces
-T1 := $(OUT)/table1
+T1 := $(OUT)/table1$(if $(filter once-each,$(T1_TRACES)),-once-each)
 T1_REPORTS := $(foreach p,$(T1_PRESETS),$(foreach s,$(T1_SEEDS),\
 	$(T1)/seed$(s)/eval-$(p)-real/report.json $(T1)/seed$(s)/eval-$(p)-synthetic/report.json))
 $(T1)/recipes.ltl: $(OUT)/edges.ltl
@@ -118,7 +124,7 @@ $(T1)/recipes.ltl: $(OUT)/edges.ltl
 $(T1)/dfas.parquet: $(T1)/recipes.ltl
 	$(TLEAF) compile-dfa $< --one-hot -o $@ -q
 $(T1)/traces.parquet: $(T1)/dfas.parquet
-	$(TLEAF) gen-traces $< --one-hot --per-formula $(T1_K) $(T1_LENGTHS) --hard-fraction 0 \
+	$(TLEAF) gen-traces $< --one-hot --per-formula $(T1_K) $(T1_DRAW_$(T1_TRACES)) \
 	    --split $(T1_SPLIT) --seed $(T1_SPLIT_SEED) -o $@ -q
 $(T1)/recording_traces.parquet: $(OUT)/recordings.parquet $(OUT)/edges.ltl $(T1)/traces.parquet
 	$(TLEAF) recording-traces $^ -o $@ -q
@@ -138,7 +144,7 @@ endef
 $(foreach p,$(T1_PRESETS),$(foreach s,$(T1_SEEDS),$(eval $(call T1_RUN,$(p),$(s)))))
 T1_COMMAND = make -f pipelines/captaincook.mk$(if $(filter 1,$(SMALL)), SMALL=1) \
 	T1_PRESETS="$(T1_PRESETS)" T1_SEEDS="$(T1_SEEDS)" T1_SPLIT=$(T1_SPLIT) T1_K=$(T1_K) \
-	T1_MINUTES=$(T1_MINUTES)
+	T1_MINUTES=$(T1_MINUTES)$(if $(filter once-each,$(T1_TRACES)), T1_TRACES=once-each)
 $(T1)/section.md: $(T1_REPORTS) $(T1)/recording_traces.parquet
 	$(PYTHON) pipelines/captaincook_table1.py $(T1) -o $@ --command '$(T1_COMMAND)'
 # only this chain, its section put into the page as it is

@@ -17,6 +17,7 @@ import pytest
 from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
+from tleaf_cli.data.artifacts import write_artifact
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.errors import InputError
@@ -142,8 +143,9 @@ def test_the_section_reads_keeping_and_breaking_recordings_apart(tmp_path: Path)
     assert scores["balanced"] == pytest.approx((75.0 + 100 * 2 / 6) / 2)
 
     page = "# title\n\nbefore\n"
-    once = script.splice(page, f"{script.START}\nA\n{script.END}\n")
-    twice = script.splice(once + "after\n", f"{script.START}\nB\n{script.END}\n")
+    start, end = script.markers(tmp_path / "table1")
+    once = script.splice(page, f"{start}\nA\n{end}\n", start, end)
+    twice = script.splice(once + "after\n", f"{start}\nB\n{end}\n", start, end)
     assert once.startswith(page.rstrip("\n")) and "A" in once
     assert "A\n" not in twice and "B" in twice and twice.endswith("after\n")
 
@@ -154,6 +156,10 @@ def test_the_section_from_reports(tmp_path: Path) -> None:
     t1 = tmp_path / "table1"
     t1.mkdir()
     (t1 / "recipes.ltl").write_text("r: a\n")
+    empty = pa.table({"formula_id": pa.array([], pa.string())})
+    write_artifact(
+        empty, t1 / "traces.parquet", kind="traces", schema=1, params={"once_each": True}, inputs=[]
+    )
     labels = [True, True, False, False, False]
     pq.write_table(
         pa.table({"formula_id": ["r"] * 5, "label": labels, "split": ["test"] * 5}),
@@ -161,7 +167,7 @@ def test_the_section_from_reports(tmp_path: Path) -> None:
     )
     cells = {
         ("best", "real"): {"accuracy": 1.0, "all_accuracy": 0.8},
-        ("best", "synthetic"): {"accuracy": 0.9, "all_accuracy": 0.9},
+        ("best", "synthetic"): {"accuracy": 0.9, "all_accuracy": 0.5},  # Table I's: accuracy
         ("paper", "real"): {"accuracy": 0.5, "all_accuracy": 0.6},
         ("paper", "synthetic"): {"accuracy": 0.7, "all_accuracy": 0.7},
     }
@@ -176,3 +182,4 @@ def test_the_section_from_reports(tmp_path: Path) -> None:
     # paper: real 60, keep 50, break (3 - 1) / 3, synthetic 70: -10 points
     assert "| 60.0 | 50.0 | 66.7 | 58.3 | 70.0 | -10.0 | not met |" in rows["| paper"]
     assert "60.0 %" in text  # always answering the larger class: 3 of 5
+    assert "exactly once" in text and text.startswith("<!-- captaincook-table1 -->")
