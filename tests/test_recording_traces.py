@@ -174,11 +174,12 @@ def test_the_section_from_reports(tmp_path: Path) -> None:
     for (preset, data), mlp in cells.items():
         folder = t1 / "seed0" / f"eval-{preset}-{data}"
         folder.mkdir(parents=True)
-        (folder / "report.json").write_text(json.dumps({"mlp": mlp}))
+        distance = {"accuracy": 0.3, "all_accuracy": 0.4}
+        (folder / "report.json").write_text(json.dumps({"mlp": mlp, "distance": distance}))
     text = script.section(t1, "make x")
     rows = {line.split(" | ")[0]: line for line in text.splitlines() if line.startswith("| ")}
     # best: real 80, keep 100, break 2/3, synthetic 90: -10 points, not met
-    assert "| 80.0 | 100.0 | 66.7 | 83.3 | 90.0 | -10.0 | not met |" in rows["| best"]
+    assert "| 80.0 | 100.0 | 66.7 | 83.3 | 90.0 | -10.0 | not met | 40.0 / 30.0 |" in rows["| best"]
     # paper: real 60, keep 50, break (3 - 1) / 3, synthetic 70: -10 points
     assert "| 60.0 | 50.0 | 66.7 | 58.3 | 70.0 | -10.0 | not met |" in rows["| paper"]
     assert "60.0 %" in text  # always answering the larger class: 3 of 5
