@@ -183,4 +183,5 @@ def test_the_section_from_reports(tmp_path: Path) -> None:
     # paper: real 60, keep 50, break (3 - 1) / 3, synthetic 70: -10 points
     assert "| 60.0 | 50.0 | 66.7 | 58.3 | 70.0 | -10.0 | not met |" in rows["| paper"]
     assert "60.0 %" in text  # always answering the larger class: 3 of 5
+    assert "larger class (60.0 %) on the real recordings: best." in text  # 80 > 60, paper's 60 not
     assert "exactly once" in text and text.startswith("<!-- captaincook-table1 -->")
