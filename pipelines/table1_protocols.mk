@@ -78,7 +78,7 @@ all: $(OUT)/table1_protocols.md
 
 $(OUT)/table1_protocols.md: $(CELLS)
 	$(PYTHON) pipelines/table1_protocols_report.py $(OUT) -o $@ $(if $(PAGE),--page $(PAGE)) \
-	    --settings '$(SETTINGS)'
+	    --settings '$(SETTINGS)' --protocols "$(PROTOCOLS)" --presets "$(PRESETS)" --seeds "$(SEEDS)"
 
 
 define DATA

@@ -92,11 +92,22 @@ def mean_se(values: list[float]) -> str:
     return f"{statistics.mean(values):.2f} ± {se:.2f} ({len(values)} seeds)"
 
 
-def section(out: Path, settings: str = "") -> str:
+def section(
+    out: Path,
+    settings: str = "",
+    protocols: list[str] | None = None,
+    presets: list[str] | None = None,
+    seeds: list[int] | None = None,
+) -> str:
+    """The section; `protocols`, `presets`, `seeds`: the grid the run asked for (default: what
+    is found), whose cells not found are listed as not run."""
     cells = cells_of(out)
     times = wall_times(out)
-    protocols = sorted({p for p, _, _ in cells}, key=lambda p: (p != "paper", p))
-    presets = sorted({e for _, e, _ in cells}, key=lambda e: (e != "paper-code", e))
+    found_protocols = {p for p, _, _ in cells} | set(protocols or [])
+    protocols = sorted(found_protocols, key=lambda p: (p != "paper", p))
+    presets = sorted(
+        {e for _, e, _ in cells} | set(presets or []), key=lambda e: (e != "paper-code", e)
+    )
     lines = [
         START,
         "## Table I both ways: the authors' data and q beside tleaf's (SYNTHETIC)",
@@ -180,8 +191,10 @@ def epoch_lines(cells: Cells) -> list[str]:
     ]
 
 
-def missing_lines(cells: Cells, protocols: list[str], presets: list[str]) -> list[str]:
-    seeds = sorted({s for runs in cells.values() for s in runs})
+def missing_lines(
+    cells: Cells, protocols: list[str], presets: list[str], seeds: list[int] | None = None
+) -> list[str]:
+    seeds = sorted({s for runs in cells.values() for s in runs} | set(seeds or []))
     missing = [
         f"{preset} / {protocol} / {t} seed {s}"
         for preset in presets
@@ -194,31 +207,32 @@ def missing_lines(cells: Cells, protocols: list[str], presets: list[str]) -> lis
 
 
 def cost_lines(times: dict, protocols: list[str], presets: list[str]) -> list[str]:
+    """Wall seconds per protocol and tier: data and q_e, then each preset's train-meta + eval
+    (summed over the seeds run)."""
     if not times:
         return ["No wall times recorded (OUT/times.tsv absent)."]
-    head = "| stage | " + " | ".join(
-        f"{PROTOCOL_NAMES.get(p, p).split(' (')[0]}, {t}" for p in protocols for t in TIERS
-    )
-    lines = [
-        f"Wall seconds summed over calls ({times['all',]:.0f} s in all; one core each, "
-        "`OMP_NUM_THREADS=1`):",
+
+    def cell(p: str, t: str) -> str:
+        parts = [f"data and q_e {times[p, t, 'data']:.0f}"] if (p, t, "data") in times else []
+        for e in presets:
+            meta, ev = times.get((p, t, "meta", e)), times.get((p, t, "eval", e))
+            if meta is not None or ev is not None:
+                parts.append(f"{e} {meta or 0:.0f} + {ev or 0:.0f}")
+        return " · ".join(parts) or "–"
+
+    return [
+        f"Wall seconds, summed over calls ({times['all',]:.0f} s in all, one call at a time, "
+        "`OMP_NUM_THREADS=1`): data and q_e, then each q's train-meta + eval:",
         "",
-        head + " |",
-        "|---" * (1 + len(protocols) * len(TIERS)) + "|",
+        "| data | Low | Moderate | High |",
+        "|---|---|---|---|",
+        *(
+            f"| {PROTOCOL_NAMES.get(p, p).split(' (')[0]} | "
+            + " | ".join(cell(p, t) for t in TIERS)
+            + " |"
+            for p in protocols
+        ),
     ]
-    stages = [("data", "data and q_e")] + [
-        (f"{kind}:{preset}", f"{'train-meta' if kind == 'meta' else 'eval'} `{preset}`")
-        for preset in presets
-        for kind in ("meta", "eval")
-    ]
-    for key, name in stages:
-        cells = []
-        for p in protocols:
-            for t in TIERS:
-                k = (p, t, "data") if key == "data" else (p, t, *key.split(":"))
-                cells.append(f"{times[k]:.0f}" if k in times else "–")
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
-    return lines
 
 
 def write_page(page: Path, text: str) -> None:
@@ -240,8 +254,17 @@ def main() -> None:
     parser.add_argument("-o", "--output", type=Path, required=True)
     parser.add_argument("--page", type=Path)
     parser.add_argument("--settings", default="")
+    parser.add_argument("--protocols", default="", help="the grid asked for (space-separated)")
+    parser.add_argument("--presets", default="")
+    parser.add_argument("--seeds", default="")
     args = parser.parse_args()
-    text = section(args.out, args.settings)
+    text = section(
+        args.out,
+        args.settings,
+        args.protocols.split(),
+        args.presets.split(),
+        [int(x) for x in args.seeds.split()],
+    )
     args.output.write_text(text)
     if args.page:
         write_page(args.page, text)

@@ -89,7 +89,7 @@ def test_the_report_averages_seeds_names_missing_cells_and_judges_the_goal(tmp_p
         "Command exited with non-zero status 1\n"
         "2.5\t2\t0.3\ttleaf compile-dfa f -o x/paper/low/dfas.parquet\n"
     )
-    text = report.section(out, "N=5")
+    text = report.section(out, "N=5", seeds=[0, 1])
     row = next(line for line in text.splitlines() if "`paper-code` | authors'" in line)
     assert "83.00 ± 1.00 (2 seeds)" in row and "50.00 (1 seed)" in row  # (82 + 84) / 2, s.e. 1
     best = next(line for line in text.splitlines() if "| best test |" in line)
@@ -98,7 +98,8 @@ def test_the_report_averages_seeds_names_missing_cells_and_judges_the_goal(tmp_p
     assert "high -16.90 (not within 2" in text
     assert "paper-code / paper / low seed 1" not in text  # that cell has both seeds
     assert "paper-code / paper / high seed 1" in text and "best / tleaf / low seed 1" in text
-    assert "| train-meta `paper-code` | 12 |" in text and "| data and q_e | 2 |" in text
+    assert "paper-code / tleaf / moderate seed 0" in text  # every tier of the grid asked for
+    assert "| authors' | data and q_e 2 · paper-code 12 + 0 | – | – |" in text
     assert "paper-code / paper / low: 1 / 2 / 2" in text and "N=5" in text
 
     page = tmp_path / "page.md"
