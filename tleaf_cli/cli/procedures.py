@@ -243,8 +243,7 @@ def recipe_formulas(
         ),
     ],
     out: Annotated[
-        Path,
-        typer.Option("--out", "-o", parser=file_path, help="The .ltl to write."),
+        Path, typer.Option("--out", "-o", parser=file_path, help="The .ltl to write.")
     ] = Path("recipes.ltl"),
     quiet: Quiet = False,
 ) -> None:
@@ -265,10 +264,7 @@ def recording_traces(
     recordings: Annotated[
         Path, typer.Argument(help="A recordings artifact (read-recordings' recordings.parquet).")
     ],
-    knowledge: Annotated[
-        Path,
-        typer.Argument(help="The recipes' rules (task-graph's .ltl), for the exact labels."),
-    ],
+    knowledge: Annotated[Path, typer.Argument(help="The recipes' rules (task-graph's .ltl).")],
     traces: Annotated[
         Path,
         typer.Argument(
