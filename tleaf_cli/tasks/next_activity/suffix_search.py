@@ -55,6 +55,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tleaf_cli import arguments
 from tleaf_cli.arguments import given
 from tleaf_cli.errors import ArgumentError, ArgumentTypeError
 from tleaf_cli.rule_set import RuleSet
@@ -135,17 +136,7 @@ def predict_suffixes(
     checked = _prefixes(prefixes, num_activities)
     automaton = None
     if rules is not None:
-        parts = [rules] if isinstance(rules, RuleSet) else rules
-        if (
-            isinstance(parts, str | bytes)
-            or not isinstance(parts, Sequence)
-            or not parts
-            or not all(isinstance(p, RuleSet) for p in parts)
-        ):
-            raise ArgumentTypeError(
-                "rules",
-                f"must be a RuleSet, a non-empty sequence of them or None, not {given(rules)}",
-            )
+        parts = arguments.rule_sets(rules, None, RuleSet)  # one, or parts: all must accept
         for part in parts:
             if len(part.vocabulary) != num_activities:
                 raise ArgumentError(
