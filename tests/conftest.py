@@ -69,10 +69,12 @@ def chain(tmp_path_factory, chain_cli) -> dict[str, Path]:
 def make_small(
     makefile: str, out: Path, *args: str, timeout: int = 600
 ) -> subprocess.CompletedProcess:
-    """`make -f pipelines/<makefile> SMALL=1` with this venv's tleaf, output in `out`; `args`
-    are further make flags or variables (e.g. "-q", "LOSSES=none tleaf")."""
+    """`make -f pipelines/<makefile> SMALL=1` with this venv's tleaf and Python (the report
+    scripts read Parquet), output in `out`; `args` are further make flags or variables (e.g.
+    "-q", "LOSSES=none tleaf")."""
     tleaf = Path(sys.executable).parent / "tleaf"
-    command = ["make", "-f", f"pipelines/{makefile}", "SMALL=1", f"TLEAF={tleaf}", f"OUT={out}"]
+    command = ["make", "-f", f"pipelines/{makefile}", "SMALL=1", f"TLEAF={tleaf}",
+               f"PYTHON={sys.executable}", f"OUT={out}"]  # fmt: skip
     root = Path(__file__).parent.parent
     return subprocess.run(
         [*command, *args], cwd=root, capture_output=True, text=True, timeout=timeout
