@@ -72,10 +72,6 @@ def kept_runs(out: Path, record: Path | None) -> tuple[Runs, dict[str, float]]:
     return kept["runs"], kept["walls"]
 
 
-def read(runs: Runs, path: str) -> dict | None:
-    return runs.get(path)
-
-
 def folders(runs: Runs, part: str) -> list[str]:
     """The logs `runs` holds in `part` (rm or df)."""
     return sorted({k.split("/")[1] for k in runs if k.startswith(part + "/")})
@@ -144,8 +140,8 @@ def rm_table(runs: Runs, peers: dict[str, dict[str, float]]) -> tuple[list[str],
         wins, done = 0, 0
         fold_names = {k.split("/")[2] for k in runs if k.startswith(f"rm/{log}/fold")}
         for fold in (f"rm/{log}/{name}" for name in sorted(fold_names)):
-            none = read(runs, f"{fold}/eval-none/metrics.json")
-            exact = read(runs, f"{fold}/eval-exact/metrics.json")
+            none = runs.get(f"{fold}/eval-none/metrics.json")
+            exact = runs.get(f"{fold}/eval-exact/metrics.json")
             if none is None or exact is None:
                 continue
             done += 1
@@ -154,7 +150,7 @@ def rm_table(runs: Runs, peers: dict[str, dict[str, float]]) -> tuple[list[str],
             rows["exact"].append(exact["accuracy"]["accuracy"])
             rows["none_rules"].append(none["accuracy"].get("accuracy_rules", a_none))
             rows["exact_rules"].append(exact["accuracy"].get("accuracy_rules", a_none))
-            tleaf = read(runs, f"{fold}/eval-tleaf/metrics.json")
+            tleaf = runs.get(f"{fold}/eval-tleaf/metrics.json")
             if tleaf is not None:
                 rows["tleaf"].append(tleaf["accuracy"]["accuracy"])
             wins += rows["exact_rules"][-1] > a_none
@@ -197,10 +193,10 @@ def df_table(runs: Runs, peers: dict) -> tuple[list[str], list[str]]:
     mined_cells: dict[str, list[bool]] = defaultdict(list)
     for log in folders(runs, "df"):
         for formula in ("strong", "weak"):
-            none = read(runs, f"df/{log}/eval-none-{formula}/metrics.json")
-            mined = read(runs, f"df/{log}/eval-none-{formula}-mined/metrics.json")
-            exact = read(runs, f"df/{log}/eval-exact-{formula}/metrics.json")
-            tleaf = read(runs, f"df/{log}/eval-tleaf-{formula}/metrics.json")
+            none = runs.get(f"df/{log}/eval-none-{formula}/metrics.json")
+            mined = runs.get(f"df/{log}/eval-none-{formula}-mined/metrics.json")
+            exact = runs.get(f"df/{log}/eval-exact-{formula}/metrics.json")
+            tleaf = runs.get(f"df/{log}/eval-tleaf-{formula}/metrics.json")
             if none is None:
                 continue
             logs_run.add(log)
