@@ -42,6 +42,13 @@ class Rules:
         """Each part's `DFA.live()`, computed once."""
         return tuple(part.dfa.live() for part in self.parts)
 
+    @functools.cached_property
+    def following(self) -> tuple[np.ndarray, ...]:
+        """Each part's state after each activity, int [S_k, V], computed once."""
+        return tuple(
+            part.dfa.table[:, part.letters(np.arange(len(part.vocabulary)))] for part in self.parts
+        )
+
     def broken(self, cases: Sequence[np.ndarray]) -> np.ndarray:
         """bool [n]: the cases (activity-index arrays) some part rejects."""
         out = np.zeros(len(cases), dtype=bool)
@@ -95,15 +102,14 @@ def allowed_next(rules: Rules, activities: np.ndarray) -> np.ndarray:
     n, v = len(activities), len(rules.parts[0].vocabulary)
     keep = np.ones(n, dtype=bool)  # every part live after the prefix
     tokens = np.ones((n, v + 1), dtype=bool)
-    for part, live in zip(rules.parts, rules.lives, strict=True):
-        dfa = part.dfa
+    for part, live, following in zip(rules.parts, rules.lives, rules.following, strict=True):
         states = np.empty(n, dtype=np.int64)
-        state = dfa.initial
-        for t, letter in enumerate(part.letters(activities)):
-            state = int(dfa.table[state, letter])
+        state = part.dfa.initial
+        for t, a in enumerate(activities):
+            state = int(following[state, a])
             states[t] = state
         keep &= live[states]
-        tokens[:, :-1] &= live[dfa.table[states][:, part.letters(np.arange(v))]]
-        tokens[:, -1] &= dfa.accepting[states]
+        tokens[:, :-1] &= live[following[states]]
+        tokens[:, -1] &= part.dfa.accepting[states]
     tokens[~keep] = True
     return tokens
