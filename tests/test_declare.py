@@ -89,6 +89,26 @@ def test_dropped_rules_are_implied_on_every_case(cases, sup, conf) -> None:
         assert any(all(k.holds(case) <= c.holds(case) for case in universe) for k in kept), c
 
 
+@settings(max_examples=80, deadline=None)
+@given(logs, st.sampled_from((0.3, 0.6, 0.9, 1.0)))
+def test_joint_support_keeps_the_conjunction_on_that_share(cases, joint) -> None:
+    """With min_joint_support the kept rules' conjunction holds on at least that share of the
+    cases, the rules are a subset of those mined without it, and every left-out rule would break
+    the share if added to the rules of higher support kept before it (greedy by support)."""
+    every = mine_declare(cases, min_support=0.5, min_confidence=0.5)
+    kept = mine_declare(cases, min_support=0.5, min_confidence=0.5, min_joint_support=joint)
+    assert [m.constraint for m in kept] == [m.constraint for m in every if m in kept]
+    holding = [all(m.constraint.holds(c) for m in kept) for c in cases]
+    assert sum(holding) >= joint * len(cases)
+    chosen = {m.constraint for m in kept}
+    order = sorted(every, key=lambda m: -m.support)
+    for i, m in enumerate(order):
+        if m.constraint in chosen:
+            continue
+        before = [o.constraint for o in order[:i] if o.constraint in chosen] + [m.constraint]
+        assert sum(all(r.holds(c) for r in before) for c in cases) < joint * len(cases)
+
+
 def test_a_log_with_a_clear_process_gives_its_rules() -> None:
     cases = [["register", "check", "decide", "notify"]] * 8 + [["register", "decide", "notify"]] * 2
     names = {m.constraint.name for m in mine_declare(cases, min_support=0.9, min_confidence=0.9)}
@@ -124,6 +144,8 @@ def test_bad_inputs_are_errors() -> None:
         mine_declare([["a"], []])
     with pytest.raises(InputError, match="unknown Declare template 'respond'"):
         mine_declare([["a"]], templates=["respond"])
+    with pytest.raises(InputError, match="min_joint_support are shares"):
+        mine_declare([["a"]], min_joint_support=1.5)
     assert set(TEMPLATES) >= {"existence", "succession", "not_coexistence"}
 
 
@@ -170,6 +192,13 @@ def test_mine_log_writes_the_rules_and_their_test_support(tmp_path) -> None:
         and by_rule["exactly_once.assign"][-1] == "0.9000"
     )
     assert "atom open_ticket = activity 'Open ticket'" in (tmp_path / "kb.ltl").read_text()
+    assert found.test_joint == 0.9  # the test case without assign breaks exactly_once.assign
+    jointly = mine_log(
+        cases, tmp_path / "kb2.ltl", DeclareSettings(min_activated=1, min_joint_support=0.95)
+    )
+    names = {m.constraint.name for m in jointly.rules}
+    assert "exactly_once.assign" not in names and "init.open_ticket" in names  # 18 of 20 < 0.95
+    assert jointly.test_joint == 1.0
 
 
 def test_mine_declare_command(tmp_path, chain_cli) -> None:

@@ -120,7 +120,8 @@ def mine_declare(
     shares = [s for s in found.test_support if s == s]  # nan: no test cases
     test = (
         f"; on the {found.test_cases} test cases each holds on "
-        f"{min(shares):.1%} to {max(shares):.1%} (mean {sum(shares) / len(shares):.1%})"
+        f"{min(shares):.1%} to {max(shares):.1%} (mean {sum(shares) / len(shares):.1%}), "
+        f"all of them on {found.test_joint:.1%}"
         if shares
         else "; no test cases"
     )

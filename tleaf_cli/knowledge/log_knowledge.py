@@ -33,6 +33,7 @@ class MinedLog:
 
     rules: list[Measured]
     test_support: list[float]  # per rule; nan without test cases
+    test_joint: float  # share of the test cases all the rules hold on; nan without test cases
     train_cases: int
     test_cases: int
     activities: int  # distinct activities in the train split
@@ -54,9 +55,15 @@ def mine_log(
         min_support=settings.min_support,
         min_confidence=settings.min_confidence,
         min_activated=settings.min_activated,
+        min_joint_support=settings.min_joint_support,
         templates=settings.chosen_templates,
     )
     shares = holding_shares([m.constraint for m in mined], test)
+    joint = (
+        sum(all(m.constraint.holds(c) for m in mined) for c in test) / len(test)
+        if test
+        else float("nan")
+    )
     named = {a for m in mined for a in m.constraint.activities}
     activity_of = {atom: name for name, atom in cases.activity_atoms.items()}
     header = [
@@ -80,7 +87,7 @@ def mine_log(
     write_text_atomic(out, text)
     write_text_atomic(support_table_path(out), "\n".join(rows) + "\n")
     activities = len({a for case in train for a in case})
-    return MinedLog(mined, shares, len(train), len(test), activities)
+    return MinedLog(mined, shares, joint, len(train), len(test), activities)
 
 
 def _shown(value: object) -> str:

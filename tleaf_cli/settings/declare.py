@@ -53,6 +53,13 @@ class DeclareSettings:
     min_activated: int = setting(
         10, "Train cases that must activate a relational rule (fewer: trivially satisfied).", min=1
     )
+    min_joint_support: float = setting(
+        0.0,
+        "Share of the train cases the whole knowledge base must hold on: the rules that pass "
+        "the thresholds are taken by falling support while their conjunction still holds on "
+        "this share (a rule that would break it is left out); 0: every rule that passes.",
+        min=0.0,
+    )
     templates: tuple[str, ...] | None = setting(
         None,
         "The templates to mine, separated by commas: existence, absence, exactly_once, init, end, "
@@ -69,7 +76,7 @@ class DeclareSettings:
     def check(self) -> None:
         """SettingError for a share above 1 (the command line checks the lower bounds)."""
         check_values(self)
-        for name in ("min_support", "min_confidence"):
+        for name in ("min_support", "min_confidence", "min_joint_support"):
             if getattr(self, name) > 1:
                 raise SettingError(
                     name, f"is a share of cases: at most 1, not {getattr(self, name)}"
