@@ -23,13 +23,25 @@ def test_the_captaincook_pipeline_runs_on_the_shipped_files(tmp_path: Path) -> N
     assert len(rows) >= 2  # the step-recognition table, one row per method
     assert "wall time" in page and "breaking at least one rule" in page
     report = json.loads((out / "eval" / "step_recognition.json").read_text())
-    assert {r["method"] for r in report["runs"]} == {"none", "exact"}
+    assert {r["method"] for r in report["runs"]} == {"none", "exact", "tleaf"}
     for run in report["runs"]:
         counts = run["test_recordings"]
         assert counts["keep"] > 0 and counts["break"] > 0
         assert run["weight"] in report["weights"]
         val = run["val_step_accuracy"]
         assert val[run["weight"]] == max(val.values())  # soft's weight: the best on val
+    # each logic loss chose its λ on val among its candidates and 0, the λ-0 candidate being
+    # the run without a logic loss of the same size and seed (taken, not trained again)
+    none = json.loads((out / "runs" / "none-n8-seed0" / "metrics.json").read_text())
+    for loss, lam in (("exact", 1.0), ("tleaf", 0.002)):  # SMALL's candidates besides 0
+        run = out / "runs" / f"{loss}-n8-seed0"
+        choice = json.loads((run / "metrics.json").read_text())["lambda"]
+        assert choice["source"] == "validation"
+        assert sorted(c["lambda"] for c in choice["candidates"]) == [0.0, lam]
+        zero = json.loads((run / "lambda-choice" / "lambda-0" / "metrics.json").read_text())
+        assert zero["history"] == none["history"]
+    config = json.loads((out / "runs" / "tleaf-n8-seed0" / "config.json").read_text())
+    assert config["settings"]["logic_loss"] == "tleaf" and (out / "q" / "meta").is_dir()
     assert make_small("captaincook.mk", out, "-q").returncode == 0  # nothing left to do
 
 

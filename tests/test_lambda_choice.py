@@ -150,3 +150,44 @@ def test_the_learning_curves_choice_counts_the_reference_as_lambda_0() -> None:
     assert choice["lambda"] == 0 and [v["lambda"] for v in choice["val"]] == [0, 1, 3]
     assert choice["method"] == "exact"
     assert choose_lambda(runs)["lambda"] == 3
+
+
+def test_a_run_without_a_logic_loss_is_the_lambda_0_candidate(tmp_path: Path) -> None:
+    """--reference: the run of no logic loss is taken as λ 0; where it wins, the run still
+    names its own loss at λ 0 (its copied config said `none`, λ 1: the learning curve counted it
+    as a second reference run)."""
+    reference = tmp_path / "none"
+    reference.mkdir()
+    (reference / "config.json").write_text(
+        json.dumps({"settings": {"logic_loss": "none", "lam": 1.0}})
+    )
+    (reference / "metrics.json").write_text(json.dumps({"best": {"val_action_accuracy": 0.6}}))
+    (reference / "weights.pt").write_bytes(b"none")
+    settings = TaskSettings(logic_loss="exact", lambdas="1")
+    out = tmp_path / "exact"
+    metrics = train_choosing_lambda(
+        _fake_train({1.0: 0.55}), out, settings, None, reference=reference
+    )
+    assert metrics["lambda"]["value"] == 0.0
+    assert [c["lambda"] for c in metrics["lambda"]["candidates"]] == [0.0, 1.0]
+    assert (out / "weights.pt").read_bytes() == b"none"
+    config = json.loads((out / "config.json").read_text())["settings"]
+    assert (config["logic_loss"], config["lam"]) == ("exact", 0.0)
+
+
+def test_the_cli_takes_the_reference_run_as_lambda_0(chain_cli, tiny, tmp_path: Path) -> None:
+    data, kb = tiny
+    none = tmp_path / "none"
+    result = chain_cli("train-task", "action-recognition", data, "--kb", kb, *TINY, "-o", none)
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "exact"
+    exact = ["--logic-loss", "exact", *TINY, "--lambdas", "2", "--reference", none]
+    result = chain_cli("train-task", "action-recognition", data, "--kb", kb, *exact, "-o", out)
+    assert result.exit_code == 0, result.output
+    lam = json.loads((out / "metrics.json").read_text())["lambda"]
+    assert [c["lambda"] for c in lam["candidates"]] == [0.0, 2.0]
+    taken = out / "lambda-choice" / "lambda-0" / "weights.pt"
+    assert taken.read_bytes() == (none / "weights.pt").read_bytes()  # not trained again
+    alone = chain_cli("train-task", "action-recognition", data, "--kb", kb, "--logic-loss",
+                      "exact", *TINY, "--reference", none, "-o", tmp_path / "x")  # fmt: skip
+    assert alone.exit_code != 0 and "lambdas" in alone.output

@@ -84,15 +84,17 @@ def test_lambda_choice_refuses_runs_that_differ_in_more_than_lambda_and_seed() -
 
 
 def _fake_run(root: Path, model: str, loss: str, videos: int, seed: int, argmax: float,
-              constrained: float, lam: float | None = None, val: float = 0.5) -> Path:  # fmt: skip
-    """A run folder with the figures the summary reads (no weights)."""
+              constrained: float, lam: float | None = None, val: float = 0.5,
+              pair: float = 0.3) -> Path:  # fmt: skip
+    """A run folder with the figures the summary reads (no weights); `pair`: its pair accuracy
+    under either decoding."""
     run = root / f"{model}-{loss}-n{videos}-seed{seed}-lam{lam}"
     run.mkdir(parents=True)
     settings = {"model": model, "logic_loss": loss, "formula_from": "predictions",
                 "lam": 1.0 if lam is None else lam, "seed": seed,
                 "train_videos": videos}  # fmt: skip
     config = {"kind": "action-recognizer", "settings": settings, "data": "synthetic: fake"}
-    figures = {"ingredient_accuracy": 0.5, "pair_accuracy": 0.3}
+    figures = {"ingredient_accuracy": 0.5, "pair_accuracy": pair}
     test = {**figures, "action_accuracy": argmax, "violation_fraction": 0.8}
     test["constrained"] = {**figures, "action_accuracy": constrained, "violation_fraction": 0.0,
                            "decode_seconds_per_video": 0.01}  # fmt: skip
@@ -140,6 +142,31 @@ def test_the_summary_of_fake_runs(tmp_path: Path) -> None:
     assert "> 4×" in md and "0: 45.00, **1: 50.00**" in md
     assert (tmp_path / "curve/curve.png").read_bytes()[:4] == b"\x89PNG"
     assert json.loads((tmp_path / "curve/curve.json").read_text())["data"] == ["synthetic: fake"]
+
+
+def test_a_curve_in_pair_accuracy(tmp_path: Path) -> None:
+    """A recording's step is its action (the graph's node) and its recipe (the ingredient): the
+    curve of pair accuracy reads the pairs' figures, not the actions'. The reference: action
+    0.50 / 0.60, pair 0.20 / 0.40 at 10 / 40 videos; exact at 10: action 0.45, pair 0.30 — no
+    gain in actions, worth sqrt(10 * 40) / 10 = 2x in pairs."""
+    runs = [_fake_run(tmp_path, "lstm", "none", n, 0, a, a, pair=p)
+            for n, a, p in ((10, 0.5, 0.2), (40, 0.6, 0.4))]  # fmt: skip
+    runs.append(_fake_run(tmp_path, "lstm", "exact", 10, 0, 0.45, 0.45, lam=1.0, pair=0.3))
+    exact = {}
+    for measure in ("action", "pair"):
+        result = learning_curve(runs, tmp_path / measure, measure=measure)
+        exact[measure] = next(r for r in result["curve"] if r["variant"] == "exact, argmax")
+        assert result["measure"] == measure and exact[measure]["measure"] == measure
+    assert exact["action"]["action_accuracy_mean"] == pytest.approx(0.45)
+    assert exact["action"]["data_worth"]["bound"] == "≤"
+    assert exact["pair"]["pair_accuracy_mean"] == pytest.approx(0.30)
+    assert "action_accuracy_mean" not in exact["pair"]
+    assert exact["pair"]["data_worth"]["ratio"] == pytest.approx(2.0)
+    md = (tmp_path / "pair" / "curve.md").read_text()
+    assert "Test pair (action and ingredient) accuracy" in md and "| pair acc (%) |" in md
+    assert "| 10 | exact, argmax | 1 | 1 | 30.00 ± 0.00 | +50.00 ± 0.00 | 1/1 | 2.00× |" in md
+    with pytest.raises(InputError, match="measure"):
+        learning_curve(runs, tmp_path / "x", measure="ingredient")
 
 
 def test_the_summary_needs_a_reference_and_both_decodings(tmp_path: Path) -> None:

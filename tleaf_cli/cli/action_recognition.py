@@ -4,7 +4,7 @@ learning-curve, choose-lambda and violations."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import typer
 
@@ -37,6 +37,14 @@ def train_task_action_recognition(
         Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
     ] = None,
     out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
+    reference: Annotated[
+        Path | None,
+        typer.Option(
+            help="With --lambdas: a finished λ-0 run of the same settings and data (e.g. the "
+            "--logic-loss none run of the same seed and size, or another loss's "
+            "lambda-choice/lambda-0), taken as the λ-0 candidate instead of training it again."
+        ),
+    ] = None,
     preset: TaskPreset = DEFAULT_TASK_PRESET,
     resume: Resume = False,
     quiet: Quiet = False,
@@ -51,7 +59,7 @@ def train_task_action_recognition(
     """
     from tleaf_cli.tasks.action_recognition.train import train_action_recognition
 
-    targets([activities, kb, embedder], folders=[out])
+    targets([activities, kb, embedder, reference], folders=[out])
     settings = TaskSettings.preset(preset, **given(ctx, values))
     if settings.decode != "constrained":
         refuse(given_flags(ctx, "decode_top_k"), "only with --decode constrained")
@@ -79,8 +87,9 @@ def train_task_action_recognition(
             )
 
         metrics = train_action_recognition(
-            activities, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup
-        )
+            activities, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup,
+            reference=reference,
+        )  # fmt: skip
     if settings.lambdas is not None:
         from tleaf_cli.tasks.lambda_source import LambdaChoice
 
@@ -142,9 +151,16 @@ def eval_learning_curve(
             "on val is shown."
         ),
     ] = None,
+    measure: Annotated[
+        Literal["action", "pair"],
+        typer.Option(
+            help="The accuracy of the curve and its data worth: of the action, or of the pair "
+            "(action and ingredient: a recording's step and its recipe)."
+        ),
+    ] = "action",
     quiet: Quiet = False,
 ) -> None:
-    """Action accuracy against training videos per variant (loss x decoding): the gain over the
+    """Accuracy against training videos per variant (loss x decoding): the gain over the
     same-seed reference, and the training videos the reference needs to match each variant.
 
     Writes curve.md, curve.json and curve.png (accuracy vs videos, log scale, mean ± s.e.).
@@ -153,7 +169,7 @@ def eval_learning_curve(
 
     sweep = sweep or []
     targets([*runs, *sweep], [out / f"curve.{ext}" for ext in ("json", "md", "png")], [out])
-    result = learning_curve(runs, out, sweep)
+    result = learning_curve(runs, out, sweep, measure)
     ui.summary(
         f"{out}/curve.md: {len(result['runs'])} runs, {len(result['curve'])} (model, size, "
         f"variant) cells, {len(result['lambda_choices'])} λ choices",

@@ -61,7 +61,8 @@ def train_choosing_lambda(
     `reference`: a finished λ-0 run of the same settings and data (another loss's candidate:
     λ 0 trains without the logic term, so it is the same run) taken as the λ-0 candidate
     instead of training it again; SettingError unless its settings and inputs match those of
-    a candidate trained here (only the loss and λ may differ)."""
+    a candidate trained here (only the loss and λ may differ). The run's config.json names
+    this run's loss and the chosen λ, whichever candidate it came from."""
     candidates = []
     for value in lambda_candidates(settings.lambdas or ""):
         if value == 0 and reference is not None:
@@ -92,6 +93,10 @@ def train_choosing_lambda(
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     config = json.loads((out_dir / "config.json").read_text())
     config["settings"]["lambdas"] = settings.lambdas  # how this run chose its λ
+    # this run's loss at the chosen λ, also where the λ-0 candidate is a run without a logic
+    # loss (`reference`): readers name a run by its settings
+    config["settings"]["logic_loss"] = settings.logic_loss
+    config["settings"]["lam"] = best["lambda"]
     if config.get("embedder") is not None:  # relative to this folder, not the candidate's
         config["embedder_relative"] = relative_to(out_dir, config["embedder"])
     write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))

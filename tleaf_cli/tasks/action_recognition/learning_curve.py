@@ -9,7 +9,9 @@ runs decoded by argmax, or under the knowledge base's rules (constrained decodin
 unlabelled videos it read and what it trained them on. The **reference** is the runs without a
 logic loss (and without unlabelled videos) decoded by argmax. Per model, size and variant:
 
-- action accuracy and the share of test videos that break a rule, mean ± s.e. over seeds;
+- accuracy — the measure's (`MEASURES`: action by default; pair, where a step is right only
+  with its ingredient, e.g. a recording's step and its recipe) — and the share of test videos
+  that break a rule, mean ± s.e. over seeds;
 - the gain, Δ = (accuracy − reference accuracy) / reference accuracy in %, each run against
   the reference run of the same model, size and seed, mean ± s.e. over seeds;
 - what the knowledge is worth in data: the number of training videos the reference needs to
@@ -44,6 +46,9 @@ from tleaf_cli.tasks.figures import pyplot, save_png
 from tleaf_cli.tasks.model_checking_table import mean_se
 
 REFERENCE = ("none", "argmax")
+# what a curve can measure: the test accuracy of the action, or of the pair (action and
+# ingredient); its rows' keys are `<measure>_accuracy`, `_mean`, `_se`
+MEASURES = {"action": "action", "pair": "pair (action and ingredient)"}
 LOSS_ORDER = ("none", "exact", "tleaf", "checker")
 DECODE_ORDER = ("argmax", "constrained")
 
@@ -178,14 +183,18 @@ def _variant_order(variant: tuple[str, str]) -> tuple:
     return (LOSS_ORDER.index(loss) if loss in LOSS_ORDER else 9, name, DECODE_ORDER.index(decode))
 
 
-def curve(runs: Sequence[dict]) -> list[dict]:
-    """One row per model, size and variant: accuracy, violations, the gain against the same-seed
-    reference (mean ± s.e.), and the data-worth against the model's reference curve."""
+def curve(runs: Sequence[dict], measure: str = "action") -> list[dict]:
+    """One row per model, size and variant: the `measure`'s accuracy (`MEASURES`), violations,
+    the gain against the same-seed reference (mean ± s.e.), and the data-worth against the
+    model's reference curve."""
+    if measure not in MEASURES:
+        raise InputError(f"no measure {measure!r}: one of {', '.join(MEASURES)}")
+    key = f"{measure}_accuracy"
     rows = []
     for model in sorted({r["model"] for r in runs}):
         mine = [r for r in runs if r["model"] == model]
         refs = {
-            (r["train_videos"], r["seed"]): r["decodings"]["argmax"]["action_accuracy"]
+            (r["train_videos"], r["seed"]): r["decodings"]["argmax"][key]
             for r in mine
             if r["method"] == "none"
         }
@@ -203,7 +212,7 @@ def curve(runs: Sequence[dict]) -> list[dict]:
                 if not group:
                     continue
                 figures = [r["decodings"][decode] for r in group]
-                accuracy = [f["action_accuracy"] for f in figures]
+                accuracy = [f[key] for f in figures]
                 mean, se = mean_se(accuracy)
                 row = {
                     "model": model,
@@ -215,9 +224,10 @@ def curve(runs: Sequence[dict]) -> list[dict]:
                     "reference": (name, decode) == REFERENCE,
                     "lambda": sorted({r["lambda"] for r in group if r["lambda"] is not None}),
                     "seeds": [r["seed"] for r in group],
-                    "action_accuracy": accuracy,
-                    "action_accuracy_mean": mean,
-                    "action_accuracy_se": se,
+                    "measure": measure,
+                    key: accuracy,
+                    f"{key}_mean": mean,
+                    f"{key}_se": se,
                     "violation_fraction_mean": float(
                         np.mean([f["violation_fraction"] for f in figures])
                     ),
@@ -241,25 +251,28 @@ def _pm(mean: float, se: float, scale: float = 100.0, sign: bool = False) -> str
     return f"{scale * mean:{'+' if sign else ''}.2f} ± {scale * se:.2f}"
 
 
-def markdown(rows: Sequence[dict], choices: Sequence[dict], data: Sequence[str]) -> str:
+def markdown(
+    rows: Sequence[dict], choices: Sequence[dict], data: Sequence[str], measure: str = "action"
+) -> str:
     """curve.md: per model, a table of mean accuracies per size and variant, then every figure."""
+    name = MEASURES[measure]
     lines = [
         "# Action recognition: the learning curve",
         "",
-        f"Data: {'; '.join(data)}. Test action accuracy (%), mean ± s.e. over seeds, against "
+        f"Data: {'; '.join(data)}. Test {name} accuracy (%), mean ± s.e. over seeds, against "
         "the number of training videos (a larger set holds every smaller one; the same val "
         "and test videos at every size). A variant is a training method (a logic loss; '(whole "
         "KB)': its rule sets are the whole knowledge base; '+ U unlabelled': it also read U "
         "unlabelled videos) with a decoding: argmax, or rules (constrained decoding under the "
         "knowledge base's rules). The reference: no logic loss, argmax. Δ: relative change of "
-        "action accuracy against the reference run of the same size and seed, mean ± s.e. "
+        f"{measure} accuracy against the reference run of the same size and seed, mean ± s.e. "
         "Data worth: the training videos the reference "
         "needs to reach the variant's mean accuracy (its curve of mean accuracies, linear "
         "between sizes on a log scale of videos) over the variant's own; '> x': the reference "
         "never reaches it (x = largest size / videos); '≤ x': its smallest size already does.",
     ]
     for model in sorted({r["model"] for r in rows}):
-        lines += _model_tables(model, [r for r in rows if r["model"] == model])
+        lines += _model_tables(model, [r for r in rows if r["model"] == model], measure)
     if choices:
         lines += [
             "",
@@ -285,7 +298,7 @@ def markdown(rows: Sequence[dict], choices: Sequence[dict], data: Sequence[str])
     return "\n".join(lines) + "\n"
 
 
-def _model_tables(model: str, mine: Sequence[dict]) -> list[str]:
+def _model_tables(model: str, mine: Sequence[dict], measure: str) -> list[str]:
     """curve.md's tables of one model: mean accuracy per size and variant (the methods without
     unlabelled videos), every such variant against the reference, then the runs that also read
     unlabelled videos, against the same reference."""
@@ -294,19 +307,19 @@ def _model_tables(model: str, mine: Sequence[dict]) -> list[str]:
     at = {(r["train_videos"], r["method"], r["decode"]): r for r in labelled}
     lines = [
         "",
-        f"## {model.upper()}: action accuracy (%)",
+        f"## {model.upper()}: {measure} accuracy (%)",
         "",
         "| videos | " + " | ".join(variant_name(*v) for v in variants) + " |",
         "|---|" + "---|" * len(variants),
     ]
     for n in sorted({r["train_videos"] for r in labelled}):
         cells = [at.get((n, *v)) for v in variants]
-        means = ["–" if r is None else _pm(r["action_accuracy_mean"], r["action_accuracy_se"])
-                 for r in cells]  # fmt: skip
+        means = ["–" if r is None else _pm(*_accuracy(r)) for r in cells]
         lines.append(f"| {n} | " + " | ".join(means) + " |")
     by_size = sorted(labelled, key=lambda r: (r["train_videos"], _variant_order(
         (r["method"], r["decode"]))))  # fmt: skip
-    lines += ["", f"## {model.upper()}: every variant against the reference", "", *_DETAIL]
+    lines += ["", f"## {model.upper()}: every variant against the reference", "",
+              *_detail_header(measure)]  # fmt: skip
     lines += [_detail(r) for r in by_size]
     unlabelled = sorted(
         (r for r in mine if r["unlabelled_videos"]),
@@ -320,17 +333,25 @@ def _model_tables(model: str, mine: Sequence[dict]) -> list[str]:
             "Δ and data worth against the reference of the same labelled videos (no logic loss, "
             "no unlabelled videos, argmax), seed by seed.",
             "",
-            *_DETAIL,
+            *_detail_header(measure),
             *(_detail(r) for r in unlabelled),
         ]
     return lines
 
 
-_DETAIL = [
-    "| videos | variant | λ | seeds | action acc (%) | Δ action (%) | improved | data worth "
-    "| violations |",
-    "|---|---|---|---|---|---|---|---|---|",
-]
+def _detail_header(measure: str) -> list[str]:
+    """The head of the tables against the reference."""
+    return [
+        f"| videos | variant | λ | seeds | {measure} acc (%) | Δ {measure} (%) | improved | "
+        "data worth | violations |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+
+
+def _accuracy(row: dict) -> tuple[float, float]:
+    """A curve row's mean accuracy and its s.e., in its measure."""
+    key = f"{row.get('measure', 'action')}_accuracy"
+    return row[f"{key}_mean"], row[f"{key}_se"]
 
 
 def _detail(r: dict) -> str:
@@ -346,14 +367,14 @@ def _detail(r: dict) -> str:
     lam = ", ".join(f"{x:g}" for x in r["lambda"]) if r["method"] != "none" else "–"
     return (
         f"| {r['train_videos']} | {r['variant']} | {lam} | {len(r['seeds'])} | "
-        f"{_pm(r['action_accuracy_mean'], r['action_accuracy_se'])} | {gain} | {improved} | "
+        f"{_pm(*_accuracy(r))} | {gain} | {improved} | "
         f"{worth} | {100 * r['violation_fraction_mean']:.1f}% |"
     )
 
 
-def figure(rows: Sequence[dict], path: Path) -> None:
-    """Action accuracy against training videos (log x), mean ± s.e. per variant, one panel per
-    model: colour = training method, solid = argmax, dashed = constrained decoding."""
+def figure(rows: Sequence[dict], path: Path, measure: str = "action") -> None:
+    """The `measure`'s accuracy against training videos (log x), mean ± s.e. per variant, one
+    panel per model: colour = training method, solid = argmax, dashed = constrained decoding."""
     plt = pyplot()
     models = sorted({r["model"] for r in rows}) or ["(no runs)"]
     fig, axes = plt.subplots(
@@ -373,8 +394,8 @@ def figure(rows: Sequence[dict], path: Path) -> None:
             shift = 1 + 0.012 * (k - (len(variants) - 1) / 2)  # side by side on the log axis
             ax.errorbar(
                 [r["train_videos"] * shift for r in points],
-                [100 * r["action_accuracy_mean"] for r in points],
-                yerr=[100 * r["action_accuracy_se"] for r in points],
+                [100 * _accuracy(r)[0] for r in points],
+                yerr=[100 * _accuracy(r)[1] for r in points],
                 label=variant_name(name, decode),
                 color=colours.get(name, "C9"),
                 linestyle="-" if decode == "argmax" else "--",
@@ -389,7 +410,7 @@ def figure(rows: Sequence[dict], path: Path) -> None:
         ax.set_xlabel("training videos (log scale)")
         ax.set_title(model.upper())
         ax.grid(alpha=0.3)
-    axes[0][0].set_ylabel("test action accuracy (%)")
+    axes[0][0].set_ylabel(f"test {measure} accuracy (%)")
     axes[0][-1].legend(fontsize="small", title="method, decoding")
     fig.suptitle("Learning curve, mean ± s.e. over seeds (synthetic data)")
     fig.tight_layout()
@@ -400,10 +421,12 @@ def learning_curve(
     run_dirs: Sequence[str | Path],
     out_dir: str | Path,
     sweep_dirs: Sequence[str | Path] = (),
+    measure: str = "action",
 ) -> dict:
     """Read the runs (and the λ sweep's), write curve.json, curve.md and curve.png; return the
     curve. `sweep_dirs`: runs that differ in λ, grouped by model, loss and size, each group's
-    choice shown (`choose_lambda`)."""
+    choice shown (`choose_lambda`); `measure`: the accuracy the curve and its data worth are in
+    (`MEASURES`; λ is chosen on val action accuracy, as the runs kept their best epoch)."""
     out_dir = Path(out_dir)
     for name in ("curve.json", "curve.md", "curve.png"):
         check_writable(out_dir / name)
@@ -412,14 +435,16 @@ def learning_curve(
     runs = [read_curve_run(d) for d in run_dirs]
     if not any(r["method"] == "none" for r in runs):
         raise InputError("no reference run (no logic loss) among the runs")
-    rows = curve(runs)
+    rows = curve(runs, measure)
     sweep = [read_curve_run(d, both_decodings=False) for d in sweep_dirs]
     choices = [_choice(cell, sweep, runs) for cell in _sweep_cells(sweep)]
     data = sorted({r["data"] for r in runs})
-    result = {"data": data, "curve": rows, "lambda_choices": choices, "runs": runs}
+    result = {
+        "data": data, "measure": measure, "curve": rows, "lambda_choices": choices, "runs": runs
+    }  # fmt: skip
     write_text_atomic(out_dir / "curve.json", json.dumps(result, indent=2))
-    write_text_atomic(out_dir / "curve.md", markdown(rows, choices, data))
-    figure(rows, out_dir / "curve.png")
+    write_text_atomic(out_dir / "curve.md", markdown(rows, choices, data, measure))
+    figure(rows, out_dir / "curve.png", measure)
     return result
 
 

@@ -104,6 +104,7 @@ def train_action_recognition(
     on_epoch: Callable[[EpochRecord], None] | None = None,
     resume: bool = False,
     on_setup: Callable[[RunSetup], None] | None = None,
+    reference: str | Path | None = None,
 ) -> dict:
     """Train h, keep the best val epoch, score it on test; returns the metrics written.
 
@@ -111,14 +112,18 @@ def train_action_recognition(
     `checkpoint.pt` and ends as the run never interrupted would. `on_setup` hears the run's λ
     and its source, and what of the knowledge base q cannot read, before the first epoch
     (`lambda_choice`). With `settings.lambdas`, one run per candidate λ and the best on val
-    kept (`lambda_choice.train_choosing_lambda`). SettingError when the tleaf loss's q can read
-    none of the knowledge base's rules (`q_coverage`)."""
+    kept (`lambda_choice.train_choosing_lambda`); `reference`: a finished λ-0 run of the same
+    settings and data (the run without a logic loss, or another loss's λ-0 candidate) taken as
+    the λ-0 candidate, not trained again. SettingError when the tleaf loss's q can read none of
+    the knowledge base's rules (`q_coverage`)."""
     settings.check()
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
+    if reference is not None and settings.lambdas is None:
+        raise SettingError("reference", "is the λ-0 candidate of a choice: give lambdas too")
     if settings.lambdas is not None:
         return train_choosing_lambda(
-            train_action_recognition, out_dir, settings, on_setup,
+            train_action_recognition, out_dir, settings, on_setup, reference=reference,
             activities_path=activities_path, kb_path=kb_path, embedder_dir=embedder_dir,
             on_epoch=on_epoch, resume=resume,
         )  # fmt: skip
