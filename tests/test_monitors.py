@@ -306,6 +306,36 @@ def test_the_rest_walk_of_a_large_dfa_is_the_dense_product():
     np.testing.assert_allclose(_rest_walk(counts)(beta), beta @ counts.T, rtol=1e-12)
 
 
+def test_the_table_walk_is_the_dense_product() -> None:
+    """`_table_walk` reads a DFA's table without building the [n, n] letter counts."""
+    from tleaf_cli.logic.monitors import _rest_walk, _table_walk
+
+    rng = np.random.default_rng(1)
+    n, letters = 150, 9
+    table = np.where(rng.random((n, letters)) < 0.7, rng.integers(0, n, (n, 1)), 3)
+    table[:, 0] = rng.integers(0, n, n)
+    counts = np.zeros((n, n))
+    np.add.at(counts, (np.arange(n)[:, None], table), 1.0)
+    beta = rng.random((5, 2, n))
+    np.testing.assert_allclose(_table_walk(table)(beta), beta @ counts.T, rtol=1e-12)
+    np.testing.assert_allclose(_table_walk(table)(beta), _rest_walk(counts)(beta), rtol=1e-12)
+
+
+def test_large_dfas_get_their_shares_without_dense_moves(monkeypatch) -> None:
+    """A recipe's precedence rules conjoined (12,401 states over 24 letters) asked 27.5 GiB
+    for the dense one-hot moves [letters, n, n]; above `DENSE_MOVES` entries the table is
+    walked instead, with the same shares."""
+    import tleaf_cli.logic.monitors as monitors
+
+    texts = [f"(!x{b} U x{a}) | G !x{b}" for a, b in ((0, 3), (1, 3), (2, 4), (3, 5), (4, 5))]
+    dfa = compile_formula(" & ".join(texts), alphabet="one-hot")
+    dense = MonitorBank(4, max_length=9, ranges=2).of_dfa(dfa)
+    monkeypatch.setattr(monitors, "DENSE_MOVES", 0)
+    walked = MonitorBank(4, max_length=9, ranges=2).of_dfa(dfa)
+    assert dfa.num_states > 8 and walked.dtype == np.float32
+    np.testing.assert_allclose(walked, dense, rtol=1e-5, atol=1e-7)
+
+
 def test_shares_are_kept_per_automaton_whatever_its_atoms() -> None:
     """`of_dfa` of the same automaton over other atoms is the first one's (kept, not
     recomputed), a caller's edits do not reach the kept copy, and another automaton over the

@@ -51,6 +51,10 @@ SHARES_VERSION = 1
 # `MonitorBank.of_dfa` results kept per bank (a trainer's rule sets repeat a few dozen automata
 # over ever new atoms): 1,024 of 13 KB each for a 10-slot bank
 SHARES_KEPT = 1024
+# `of_dfa` builds the DFA's one-hot moves [letters, n, n] densely up to this many entries; a
+# larger DFA over a one-hot alphabet walks its table instead (a recipe's conjunction of 25
+# precedence rules: 12,401 states over 24 letters, 27.5 GiB dense)
+DENSE_MOVES = 1 << 24
 
 # Templates: (transition rows [states][class], accepting states); class = p + 2 q of a letter.
 _ONE_ATOM: dict[str, tuple[list[list[int]], list[int]]] = {
@@ -224,20 +228,28 @@ class MonitorBank:
             return self._shares[key].copy()
         _, present = self.classes(truth)
         a, n = dfa.alphabet.size, dfa.num_states
-        # the DFA alone: P(at u after t uniform letters), for each length's accepted mass
-        onehot = np.zeros((a, n, n))
-        onehot[np.arange(a)[:, None], np.arange(n)[None, :], dfa.table.T] = 1.0
-        walk = onehot.mean(axis=0)
-        at = [np.eye(n)[dfa.initial]]
-        for _ in range(self.max_length):
-            at.append(at[-1] @ walk)
-        ends = np.stack([dfa.accepting, ~dfa.accepting]).astype(float)  # [2, n]
-        mass = np.stack(at[1:]) @ ends.T  # [lengths, 2]
         plan = None if general or dfa.alphabet.kind != "one-hot" else self._one_hot_plan(truth)
-        if plan is not None:
-            hit = self._hits_one_hot(dfa, plan, ends, onehot.sum(axis=0))
+        ends = np.stack([dfa.accepting, ~dfa.accepting]).astype(float)  # [2, n]
+        if plan is not None and a * n * n > DENSE_MOVES:  # the table's walk, never [a, n, n]
+            at = [np.eye(1, n, dfa.initial)[0]]  # P(at u after t uniform letters)
+            into, rows = dfa.table.ravel(), np.repeat(np.arange(n), a)  # u --letter--> v
+            for _ in range(self.max_length):
+                at.append(np.bincount(into, weights=at[-1][rows], minlength=n) / a)
+            mass = np.stack(at[1:]) @ ends.T  # [lengths, 2]
+            hit = self._hits_one_hot(dfa, plan, ends, _table_walk(dfa.table))
         else:
-            hit = self._hits_general(dfa, onehot, ends)
+            # the DFA alone: P(at u after t uniform letters), for each length's accepted mass
+            onehot = np.zeros((a, n, n))
+            onehot[np.arange(a)[:, None], np.arange(n)[None, :], dfa.table.T] = 1.0
+            step = onehot.mean(axis=0)
+            at = [np.eye(n)[dfa.initial]]
+            for _ in range(self.max_length):
+                at.append(at[-1] @ step)
+            mass = np.stack(at[1:]) @ ends.T  # [lengths, 2]
+            if plan is not None:
+                hit = self._hits_one_hot(dfa, plan, ends, _rest_walk(onehot.sum(axis=0)))
+            else:
+                hit = self._hits_general(dfa, onehot, ends)
         shares = self._averaged(hit, mass, present)
         if len(self._shares) >= SHARES_KEPT:
             self._shares.pop(next(iter(self._shares)))  # the oldest
@@ -271,11 +283,10 @@ class MonitorBank:
                 hit[t][:, members] = ends @ ends_at.T
         return hit
 
-    def _hits_one_hot(
-        self, dfa: DFA, plan: _OneHotPlan, ends: np.ndarray, counts: np.ndarray
-    ) -> np.ndarray:
-        """`_hits_general`'s hits over a one-hot alphabet (`counts[u, v]`: how many letters take
-        u to v), by a backward pass over the rows of `_one_hot_plan`.
+    def _hits_one_hot(self, dfa: DFA, plan: _OneHotPlan, ends: np.ndarray, walk) -> np.ndarray:
+        """`_hits_general`'s hits over a one-hot alphabet, by a backward pass over the rows of
+        `_one_hot_plan`; `walk`: B -> sum_v counts[u, v] B[..., v], where `counts[u, v]` is how
+        many letters take u to v (`_rest_walk`, `_table_walk`).
 
         beta_t[r, e, u] = P(a uniform word of t letters read from DFA state u and monitor state
         r ends in the DFA's end e (accepting / rejecting) with the monitor accepting). A monitor
@@ -303,7 +314,6 @@ class MonitorBank:
             at = np.arange(jump.shape[0] * 2).reshape(-1, 2, 1) * n
             terms.append((rows, follow[rows], plan.rest[rows], at + jump[:, None, :]))
         beta = plan.accepting[:, None, None] * ends[None]  # [rows, 2, n]
-        walk = _rest_walk(counts)
         hit = np.zeros((self.max_length, 2, self.width))
         for t in range(self.max_length):
             moved = walk(beta[plan.rest])
@@ -479,6 +489,24 @@ def _rest_walk(counts: np.ndarray):
     weight = np.take_along_axis(counts, nxt.T, axis=1).T  # [most, n]
     for k, x in enumerate(succ):
         weight[len(x) :, k] = 0.0
+    return lambda b: sum(b[..., nxt[k]] * weight[k] for k in range(most))
+
+
+def _table_walk(table: np.ndarray):
+    """`_rest_walk`'s gather form read off a DFA's table [n, letters] (table[u, c]: the state
+    letter c takes u to), without the [n, n] counts: per state its distinct successors in
+    increasing order (padded with the first, weight 0) and how many letters lead to each."""
+    n = len(table)
+    succ = np.sort(table, axis=1)
+    new = np.ones(succ.shape, dtype=bool)
+    new[:, 1:] = succ[:, 1:] != succ[:, :-1]
+    rank = np.cumsum(new, axis=1) - 1  # each letter's successor's place among the distinct
+    most = int(rank[:, -1].max()) + 1
+    nxt = np.repeat(succ[:, :1].T, most, axis=0)  # [most, n]
+    states = np.broadcast_to(np.arange(n)[:, None], succ.shape)
+    nxt[rank[new], states[new]] = succ[new]
+    weight = np.zeros((most, n))
+    np.add.at(weight, (rank.ravel(), states.ravel()), 1.0)
     return lambda b: sum(b[..., nxt[k]] * weight[k] for k in range(most))
 
 
