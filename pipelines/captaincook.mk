@@ -24,10 +24,22 @@
 #   runs only this chain and puts its section into the existing page.
 # SMALL=1: four recipes, 8 training recordings, 2 epochs, one seed (used by the tests); its page
 # is $(OUT)/captaincook4d.md, the full run's docs/results/captaincook4d.md.
-# Cost (one run at a time, nice, OMP_NUM_THREADS=1, 2 cores shared with one other training job;
-# seed 0, --epochs 150 --patience 20, one λ): none 20 s at 40 recordings, 77 s at 213; exact
-# (λ 1) 24 s and 165 s; tleaf (λ 0.002) 231 s at 40 recordings (its epochs cost 0.1 to 9 s:
-# each new rule set of the predicted steps is compiled and embedded by q once).
+# Cost: one run per loss and size, seed 0, one λ (exact 1, tleaf 0.002), --epochs 150 --patience
+# 20, one at a time under nice with OMP_NUM_THREADS=1 on 2 cores the other of which ran another
+# training job (s, wall):
+#     recordings    10    20    40    80   213   sum
+#     none          10    11    20    32    77   151
+#     exact          7    15    24    63   165   274
+#     tleaf         14    88   231   192   349   873
+# (tleaf's epochs cost 0.1 to 14 s: each new rule set of the predicted steps is compiled and
+# embedded by q once.) The full curve, λ among two values and 0 for each logic loss, the λ-0
+# run the none run: per seed 151 + 2 x 274 + 2 x 873 = 2,445 s, 5 seeds 12,200 s of runs, on
+# 2 cores free for it (-j2) about 1.7 h, q and the evaluations a few minutes more; the Table I
+# chain (T1_MINUTES per q_e and q_m) about 30 minutes more: 2 to 2.5 h in all. The epochs are
+# not cut: at 213 recordings the reference still improves at epoch 150 (val action (step node)
+# accuracy 60.7 %; stopped at 100 epochs 59.3 %, at 80 with patience 15 57.5 %), and at 40 its
+# val accuracy stays flat for the first ~30 epochs (patience 10 stops it at 17.1 % against
+# 22.2 %).
 # make tracks files, not settings: give a new OUT when changing a setting.
 TLEAF ?= tleaf
 PYTHON ?= python
@@ -137,7 +149,8 @@ $(OUT)/q/traces.parquet: $(OUT)/q/rules.parquet
 	    || [ $$? -eq 1 ]
 $(OUT)/q/edge/metrics.json: $(OUT)/q/rules.parquet
 	$(TLEAF) train-edge $< -o $(@D) $(Q_EDGE) -q
-$(OUT)/q/meta/metrics.json: $(OUT)/q/rules.parquet $(OUT)/q/traces.parquet $(OUT)/q/edge/metrics.json
+$(OUT)/q/meta/metrics.json: $(OUT)/q/rules.parquet $(OUT)/q/traces.parquet \
+    $(OUT)/q/edge/metrics.json
 	$(TLEAF) train-meta $< $(OUT)/q/traces.parquet --edge $(OUT)/q/edge -o $(@D) $(Q_META) -q
 
 # one run per loss, number of training recordings and seed; a logic loss chooses its λ on val
@@ -152,7 +165,8 @@ $(OUT)/runs/$(1)-n$(2)-seed$(3)/metrics.json: $(OUT)/activities.parquet $(OUT)/k
 	    --batch-size $(BATCH) $(TASK) --decode constrained --decode-top-k $(DECODE_TOP_K) \
 	    -o $$(@D) -q
 endef
-$(foreach l,none $(filter-out none,$(LOSSES)),$(foreach n,$(SIZES),$(foreach s,$(SEEDS),$(eval $(call RUN,$(l),$(n),$(s))))))
+$(foreach l,none $(filter-out none,$(LOSSES)),$(foreach n,$(SIZES),$(foreach s,$(SEEDS),\
+	$(eval $(call RUN,$(l),$(n),$(s))))))
 
 $(OUT)/eval/step_recognition.md: $(RUNS) $(OUT)/checks/checks.parquet
 	$(TLEAF) eval step-recognition $(RUNS:/metrics.json=) --checks $(OUT)/checks/checks.parquet \
