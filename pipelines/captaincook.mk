@@ -33,7 +33,8 @@
 #     tleaf         14    88   231   192   349   873
 # (tleaf's epochs cost 0.1 to 14 s: each new rule set of the predicted steps is compiled and
 # embedded by q once.) The full curve, λ among two values and 0 for each logic loss, the λ-0
-# run the none run: per seed 151 + 2 x 274 + 2 x 873 = 2,445 s, 5 seeds 12,200 s of runs, on
+# run the none run: per seed 151 + 2 x 274 + 2 x 873 = 2,445 s (the dearest cell as the pipeline
+# runs it, tleaf at 213 with --lambdas '0.002 0.02': 626 s), 5 seeds 12,200 s of runs, on
 # 2 cores free for it (-j2) about 1.7 h, q and the evaluations a few minutes more; the Table I
 # chain (T1_MINUTES per q_e and q_m) about 30 minutes more: 2 to 2.5 h in all. The epochs are
 # not cut: at 213 recordings the reference still improves at epoch 150 (val action (step node)

@@ -161,14 +161,15 @@ def test_a_run_without_a_logic_loss_is_the_lambda_0_candidate(tmp_path: Path) ->
     (reference / "config.json").write_text(
         json.dumps({"settings": {"logic_loss": "none", "lam": 1.0}})
     )
-    (reference / "metrics.json").write_text(json.dumps({"best": {"val_action_accuracy": 0.6}}))
+    metrics = {"logic_loss": "none", "best": {"val_action_accuracy": 0.6}}
+    (reference / "metrics.json").write_text(json.dumps(metrics))
     (reference / "weights.pt").write_bytes(b"none")
     settings = TaskSettings(logic_loss="exact", lambdas="1")
     out = tmp_path / "exact"
     metrics = train_choosing_lambda(
         _fake_train({1.0: 0.55}), out, settings, None, reference=reference
     )
-    assert metrics["lambda"]["value"] == 0.0
+    assert metrics["lambda"]["value"] == 0.0 and metrics["logic_loss"] == "exact"
     assert [c["lambda"] for c in metrics["lambda"]["candidates"]] == [0.0, 1.0]
     assert (out / "weights.pt").read_bytes() == b"none"
     config = json.loads((out / "config.json").read_text())["settings"]

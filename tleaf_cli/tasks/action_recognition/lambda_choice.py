@@ -90,6 +90,8 @@ def train_choosing_lambda(
         shutil.copyfile(chosen / name, out_dir / name)
     metrics = json.loads((out_dir / "metrics.json").read_text())
     metrics["lambda"] = choice.as_dict()
+    if "logic_loss" in metrics:  # as config.json's below: this run's loss
+        metrics["logic_loss"] = settings.logic_loss
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     config = json.loads((out_dir / "config.json").read_text())
     config["settings"]["lambdas"] = settings.lambdas  # how this run chose its λ

@@ -412,7 +412,7 @@ def figure(rows: Sequence[dict], path: Path, measure: str = "action") -> None:
         ax.grid(alpha=0.3)
     axes[0][0].set_ylabel(f"test {measure} accuracy (%)")
     axes[0][-1].legend(fontsize="small", title="method, decoding")
-    fig.suptitle("Learning curve, mean ± s.e. over seeds (synthetic data)")
+    fig.suptitle("Learning curve, mean ± s.e. over seeds")
     fig.tight_layout()
     save_png(fig, path)
 
