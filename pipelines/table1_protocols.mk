@@ -13,6 +13,9 @@
 # (its report keeps every MLP epoch's test score beside the val-chosen one); then the report
 # script writes $(OUT)/table1_protocols.md and, with PAGE=, that section of the page.
 # SMALL=1: the whole grid on a tiny set in about a minute (tests).
+# Ablation (`make ... ablation`): paper-code on the authors' data (the grid's paper cell, seed
+# 0, is its base), one choice at a time changed toward best, per ABLATION_TIERS; each variant's
+# data and train-meta options are in the ABL_ lines below; the report's second table.
 TLEAF ?= tleaf
 PYTHON ?= python
 SMALL ?= 0
@@ -73,12 +76,17 @@ SETTINGS = N=$(N) TIERS="$(TIERS)" SEEDS="$(SEEDS)" PRESETS="$(PRESETS)" PROTOCO
 CELLS := $(foreach p,$(PROTOCOLS),$(foreach t,$(TIERS),$(foreach s,$(SEEDS),$(foreach e,$(PRESETS),\
 	$(OUT)/$(p)/$(t)/seed$(s)/eval-$(e)/report.json))))
 
-.PHONY: all clean
+.PHONY: all clean ablation
 all: $(OUT)/table1_protocols.md
 
+# the report: the grid's cells found, and the ablation's when it has been run
+REPORT = $(PYTHON) pipelines/table1_protocols_report.py $(OUT) -o $(OUT)/table1_protocols.md \
+	$(if $(PAGE),--page $(PAGE)) --settings '$(SETTINGS)' --protocols "$(PROTOCOLS)" \
+	--presets "$(PRESETS)" --seeds "$(SEEDS)" \
+	$(if $(wildcard $(OUT)/ablation),--ablation "$(VARIANTS)" --ablation-tiers "$(ABLATION_TIERS)" \
+	--ablation-settings '$(ABL_SETTINGS)')
 $(OUT)/table1_protocols.md: $(CELLS)
-	$(PYTHON) pipelines/table1_protocols_report.py $(OUT) -o $@ $(if $(PAGE),--page $(PAGE)) \
-	    --settings '$(SETTINGS)' --protocols "$(PROTOCOLS)" --presets "$(PRESETS)" --seeds "$(SEEDS)"
+	$(REPORT)
 
 
 define DATA
@@ -93,6 +101,55 @@ $(OUT)/$(1)/%/edge/metrics.json: $(OUT)/$(1)/%/dfas.parquet
 	$(TIMED) $(TLEAF) train-edge $$< -o $$(@D) $(EDGE) --device $(DEVICE) --seed 0 -q
 endef
 $(foreach p,$(PROTOCOLS),$(eval $(call DATA,$(p))))
+
+# the ablation: each variant's data (a protocol's folder and its traces file) and q options
+VARIANTS ?= base positives negatives formulas directed readout sphere optimiser distance
+ABLATION_TIERS ?= $(TIERS)
+ABL_DATA = $(or $(ABL_DATA_$(1)),paper)
+ABL_TRACES = $(or $(ABL_TRACES_$(1)),traces)
+ABL_TRACES_positives = traces-tleaf-positives
+ABL_TRACES_negatives = traces-hard-negatives
+ABL_DATA_formulas = tiers-paper
+ABL_FLAGS_directed = --no-directed
+ABL_FLAGS_readout = --readout walk --walk-from initial --steps 24
+ABL_FLAGS_sphere = --no-sphere
+ABL_FLAGS_optimiser = --lr 0.001 --weight-decay 0 --schedule cosine
+ABL_FLAGS_distance = --distance squared
+# the data variants' traces, drawn for the paper protocol's formulas: tleaf's positives (uniform
+# accepted words of 2-12 letters, each paired with a uniform rejected word of its length), or the
+# authors' positives with tleaf's half hard negatives; the formula variant: tleaf's tier formulas
+# with the authors' traces
+FORMULAS_tiers-paper = $(FORMULAS_tleaf)
+TRACES_tiers-paper = $(TRACES_paper)
+$(OUT)/paper/%/traces-tleaf-positives.parquet: $(OUT)/paper/%/dfas.parquet
+	$(TIMED) $(TLEAF) gen-traces $< --per-formula $(K) --hard-fraction 0 --split 0.8,0.1,0.1 \
+	    --seed $(DATA_SEED) -q -o $@
+$(OUT)/paper/%/traces-hard-negatives.parquet: $(OUT)/paper/%/dfas.parquet
+	$(TIMED) $(TLEAF) gen-traces $< $(TRACES_paper) --paper-hard 0.5 --split 0.8,0.1,0.1 \
+	    --seed $(DATA_SEED) -q -o $@
+$(if $(filter formulas,$(VARIANTS)),$(eval $(call DATA,tiers-paper)))
+ABL_SETTINGS = N=$(N) ABLATION_TIERS="$(ABLATION_TIERS)" VARIANTS="$(VARIANTS)" \
+	PAPER_ARCS=$(PAPER_ARCS) DATA_SEED=$(DATA_SEED)$(if $(EPOCHS_paper-code), EPOCHS_paper-code=$(EPOCHS_paper-code))
+ABL_CELLS := $(foreach v,$(VARIANTS),$(foreach t,$(ABLATION_TIERS),$(OUT)/ablation/$(v)/$(t)/report.json))
+ablation: $(ABL_CELLS)
+	$(REPORT)
+
+# base: the grid's paper-code cell on the authors' data, seed 0 (a copy of its report)
+define ABLATE
+$(OUT)/ablation/$(1)/$(2)/report.json: $(if $(filter base,$(1)),$(OUT)/paper/$(2)/seed0/eval-paper-code/report.json,$(OUT)/ablation/$(1)/$(2)/eval/report.json)
+	@mkdir -p $$(@D)
+	cp $$< $$@
+$(OUT)/ablation/$(1)/$(2)/meta/metrics.json: $(OUT)/$(call ABL_DATA,$(1))/$(2)/$(call ABL_TRACES,$(1)).parquet $(OUT)/$(call ABL_DATA,$(1))/$(2)/edge/metrics.json
+	$(TIMED) $(TLEAF) train-meta $(OUT)/$(call ABL_DATA,$(1))/$(2)/dfas.parquet $$< \
+	    --edge $(OUT)/$(call ABL_DATA,$(1))/$(2)/edge -o $$(@D) $(call meta_flags,paper-code) \
+	    $(ABL_FLAGS_$(1)) --device $(DEVICE) --seed 0 -q
+$(OUT)/ablation/$(1)/$(2)/eval/report.json: $(OUT)/ablation/$(1)/$(2)/meta/metrics.json
+	$(TIMED) $(TLEAF) eval model-checking $(OUT)/$(call ABL_DATA,$(1))/$(2)/dfas.parquet \
+	    $(OUT)/$(call ABL_DATA,$(1))/$(2)/$(call ABL_TRACES,$(1)).parquet --embedder $$(<D) -o $$(@D) \
+	    --label $(2) --seed 0 --pair-features $(PAIR_FEATURES_paper-code) --device $(DEVICE) \
+	    --precision $(PRECISION) -q
+endef
+$(foreach v,$(VARIANTS),$(foreach t,$(ABLATION_TIERS),$(eval $(call ABLATE,$(v),$(t)))))
 
 define RUN
 $(OUT)/$(1)/$(2)/seed$(3)/meta-$(4)/metrics.json: $(OUT)/$(1)/$(2)/traces.parquet $(OUT)/$(1)/$(2)/edge/metrics.json

@@ -9,6 +9,10 @@ recorded by eval model-checking, never used to choose), mean ± standard error o
 found, beside the paper's figures. Cells not run are listed as missing. With PAGE, the section
 replaces the text between the page's markers (or goes under its title if it has none). S: the
 make variables of the run, printed in the section's command.
+
+With --ablation VARIANTS, the ablation's table follows the grid's: OUT/ablation/<variant>/<tier>/
+report.json (the MLP's val-chosen score) and q_m's val triplet accuracy (its metrics.json), one
+row per variant, each one choice of `paper-code` on the authors' data changed toward `best`.
 """
 
 from __future__ import annotations
@@ -35,6 +39,22 @@ CALL = re.compile(
     r"-o \S*/(?P<protocol>[\w-]+)/(?P<tier>low|moderate|high)/"
     r"(?:seed\d+/(?P<kind>meta|eval)-(?P<preset>[\w-]+)|(?P<data>\S+))"
 )
+
+# the ablation's variants: what each changes (pipelines/table1_protocols.mk, ABL_ lines, holds
+# their options)
+VARIANTS = {
+    "base": "none (the `paper-code` / authors' cell above, seed 0)",
+    "positives": "data: positives by tleaf's sampler (uniform accepted words of 2-12 letters, "
+    "20 pairs, uniform negatives of their lengths)",
+    "negatives": "data: half the negatives tleaf's hard ones (`--paper-hard 0.5`)",
+    "formulas": "data: tleaf's tier formulas (the authors' traces)",
+    "directed": "q: arcs both ways (`--no-directed`)",
+    "readout": "q: expected walk of 24 steps from the initial state (`--readout walk`)",
+    "sphere": "q: no unit scaling (`--no-sphere`)",
+    "optimiser": "q: Adam 1e-3, no weight decay, cosine",
+    "distance": "q: squared distance (`--distance squared`)",
+}
+ABLATION_START, ABLATION_END = "<!-- table1-ablation -->", "<!-- /table1-ablation -->"
 
 Cells = dict[tuple[str, str, str], dict[int, dict]]  # (protocol, preset, tier) -> seed -> scores
 
@@ -72,7 +92,7 @@ def wall_times(out: Path) -> dict[tuple[str, ...], float]:
             if len(row) < 4 or not re.match(r"^[\d.]+$", row[0]):
                 continue  # /usr/bin/time's notes (a non-zero exit) take a line of their own
             match = CALL.search(row[3])
-            if not match:
+            if not match or ablation_call(row[3]):
                 continue
             if match["data"]:
                 times[match["protocol"], match["tier"], "data"] += float(row[0])
@@ -81,6 +101,68 @@ def wall_times(out: Path) -> dict[tuple[str, ...], float]:
                 times[key] += float(row[0])
             times["all",] += float(row[0])
     return times
+
+
+def ablation_call(command: str) -> bool:
+    """Whether a recorded call is the ablation's (its runs, or the data only it reads)."""
+    return bool(re.search(r"-o \S*(/ablation/|/tiers-paper/|/traces-[\w-]+\.parquet)", command))
+
+
+def ablation_seconds(out: Path) -> float:
+    """Wall seconds of the ablation's calls in OUT/times.tsv."""
+    path = out / "times.tsv"
+    if not path.exists():
+        return 0.0
+    with path.open() as f:
+        rows = [r for r in csv.reader(f, delimiter="\t") if len(r) >= 4]
+    return sum(float(r[0]) for r in rows if re.match(r"^[\d.]+$", r[0]) and ablation_call(r[3]))
+
+
+def ablation_section(out: Path, variants: list[str], tiers: list[str], settings: str = "") -> str:
+    """The ablation's table: per variant and tier, the MLP's val-chosen test score and q_m's
+    val triplet accuracy (`–` where not run)."""
+
+    def cell(variant: str, tier: str) -> str:
+        report = out / "ablation" / variant / tier / "report.json"
+        if variant == "base":
+            meta = out / "paper" / tier / "seed0" / "meta-paper-code" / "metrics.json"
+        else:
+            meta = out / "ablation" / variant / tier / "meta" / "metrics.json"
+        if not report.exists():
+            return "–"
+        score = 100 * json.loads(report.read_text())["mlp"]["balanced_accuracy"]
+        if not meta.exists():
+            return f"{score:.2f}"
+        triplets = json.loads(meta.read_text())["best"]["heldout_accuracy"]
+        return f"{score:.2f} ({triplets:.2f})"
+
+    names = [t.capitalize() for t in tiers]
+    lines = [
+        ABLATION_START,
+        "### What each choice is worth: one change at a time from `paper-code` on the authors' "
+        "data (SYNTHETIC, seed 0)",
+        "",
+        "Balanced accuracy (%) at the val-chosen MLP epoch (q_m's val triplet accuracy in "
+        "brackets); a data variant is scored on its own test traces.",
+        "",
+        "| change | " + " | ".join(names) + " |",
+        "|---|" + "---|" * len(tiers),
+        *(
+            f"| {VARIANTS.get(v, v)} | " + " | ".join(cell(v, t) for t in tiers) + " |"
+            for v in variants
+        ),
+        "",
+        f"Wall time {ablation_seconds(out):.0f} s (one call at a time, `OMP_NUM_THREADS=1`, the "
+        "base and the data it shares with the grid not counted):",
+        "",
+        "```bash",
+        "make -f pipelines/table1_protocols.mk ablation "
+        + (f"{settings} " if settings else "")
+        + "TLEAF=.venv/bin/tleaf",
+        "```",
+        ABLATION_END,
+    ]
+    return "\n".join(lines) + "\n"
 
 
 def mean_se(values: list[float]) -> str:
@@ -235,12 +317,15 @@ def cost_lines(times: dict, protocols: list[str], presets: list[str]) -> list[st
     ]
 
 
-def write_page(page: Path, text: str) -> None:
-    """The section between the page's markers, or under its title (first line) if none."""
+def write_page(page: Path, text: str, start: str = START, end: str = END) -> None:
+    """The section between the page's markers; if none, the ablation's under the grid's
+    section, the grid's under the page's title (first line)."""
     old = page.read_text()
-    if START in old and END in old:
-        before, rest = old.split(START, 1)
-        after = rest.split(END, 1)[1]
+    if start not in old and start == ABLATION_START and END in old:
+        old = old.replace(END, f"{END}\n\n{start}\n{end}", 1)
+    if start in old and end in old:
+        before, rest = old.split(start, 1)
+        after = rest.split(end, 1)[1]
         new = before + text.rstrip("\n") + after
     else:
         title, _, body = old.partition("\n")
@@ -257,6 +342,9 @@ def main() -> None:
     parser.add_argument("--protocols", default="", help="the grid asked for (space-separated)")
     parser.add_argument("--presets", default="")
     parser.add_argument("--seeds", default="")
+    parser.add_argument("--ablation", default="", help="the ablation's variants (space-separated)")
+    parser.add_argument("--ablation-tiers", default="low moderate high")
+    parser.add_argument("--ablation-settings", default="")
     args = parser.parse_args()
     text = section(
         args.out,
@@ -265,9 +353,16 @@ def main() -> None:
         args.presets.split(),
         [int(x) for x in args.seeds.split()],
     )
-    args.output.write_text(text)
     if args.page:
         write_page(args.page, text)
+    if args.ablation:
+        ablation = ablation_section(
+            args.out, args.ablation.split(), args.ablation_tiers.split(), args.ablation_settings
+        )
+        text += "\n" + ablation
+        if args.page:
+            write_page(args.page, ablation, ABLATION_START, ABLATION_END)
+    args.output.write_text(text)
 
 
 if __name__ == "__main__":

@@ -25,9 +25,11 @@ from tleaf_cli.data.paper_protocol import (
     trimmed_states,
 )
 from tleaf_cli.data.random_formulas import syntax_tree_size
+from tleaf_cli.data.traces import paper_traces
 from tleaf_cli.errors import SettingError
 from tleaf_cli.logic.compile import compile_formula
 from tleaf_cli.logic.formulas import parse
+from tleaf_cli.logic.sampling import WordSampler
 
 FORMULAS = [
     "F(a) & F(b)",
@@ -307,3 +309,43 @@ def test_cli_paper_arcs(tmp_path):
     ):
         refused = runner.invoke(app, command)
         assert refused.exit_code == 2 and "--paper-arcs" in refused.output
+
+
+@pytest.mark.parametrize("text", [FORMULAS[0], FORMULAS[2], FORMULAS[4]])
+def test_paper_hard_swaps_a_share_of_negatives_for_nearest_rejected_words(text):
+    """--paper-hard: the authors' positives kept, a share of their negatives replaced by a
+    rejected word one letter away where one exists (the nearest, as tleaf's hard negatives);
+    0 draws exactly the authors' traces."""
+    dfa = compile_formula(text)
+    plain = paper_traces(dfa, np.random.default_rng(5), "guard")
+    again = paper_traces(dfa, np.random.default_rng(5), "guard", 0.0)
+    assert [w.tolist() for w in plain.words] == [w.tolist() for w in again.words]
+    assert plain.words and set(plain.sources) == {"uniform"}
+    mixed = paper_traces(dfa, np.random.default_rng(5), "guard", 1.0)
+    positives = mixed.words[::2]
+    assert [w.tolist() for w in positives] == [w.tolist() for w in plain.words[::2]]
+    sampler = WordSampler(dfa, max(len(w) for w in positives))
+    for sat, neg, source in zip(positives, mixed.words[1::2], mixed.sources[1::2], strict=True):
+        assert source == "hard" and len(neg) == len(sat) and not dfa.accepting[dfa.run(neg)]
+        changed = int((neg != sat).sum())
+        fewest = min(
+            sum(a != b for a, b in zip(word, sat.tolist(), strict=True))
+            for word in itertools.product(sampler.letters.tolist(), repeat=len(sat))
+            if not dfa.accepting[dfa.run(word)]
+        )
+        assert changed == fewest
+    half = paper_traces(dfa, np.random.default_rng(5), "guard", 0.5).sources[1::2]
+    assert 0 < half.count("hard") < len(half)
+
+
+def test_paper_hard_needs_the_paper_protocol(tmp_path):
+    ltl, dfas = tmp_path / "f.ltl", tmp_path / "d.parquet"
+    ltl.write_text("f0: F(a) & F(b)\n")
+    assert runner.invoke(app, ["compile-dfa", str(ltl), "-o", str(dfas), "-q"]).exit_code == 0
+    refused = runner.invoke(app, ["gen-traces", str(dfas), "--paper-hard", "0.5"])
+    assert refused.exit_code == 2 and "--paper-hard" in refused.output
+    out = tmp_path / "t.parquet"
+    args = ["gen-traces", str(dfas), "--protocol", "paper", "--paper-hard", "1", "-o", str(out)]
+    assert runner.invoke(app, [*args, "-q"]).exit_code == 0
+    rows = pq.read_table(out).to_pylist()
+    assert {r["source"] for r in rows if not r["label"]} == {"hard"}

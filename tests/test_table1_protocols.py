@@ -112,6 +112,43 @@ def test_the_report_averages_seeds_names_missing_cells_and_judges_the_goal(tmp_p
     assert written.rstrip().endswith("body")
 
 
+def test_the_ablation_table_has_a_row_per_variant_and_its_own_page_section(tmp_path) -> None:
+    report = _report_module()
+    out = tmp_path / "out"
+    _write_report(out, "paper", "low", 0, "paper-code", 0.67, 0.70)
+    base = out / "paper/low/seed0"
+    (base / "meta-paper-code").mkdir()
+    (base / "meta-paper-code/metrics.json").write_text('{"best": {"heldout_accuracy": 0.6}}')
+    for variant, score in (("base", 0.67), ("sphere", 0.81)):
+        folder = out / "ablation" / variant / "low"
+        folder.mkdir(parents=True)
+        (folder / "report.json").write_text(json.dumps({"mlp": {"balanced_accuracy": score}}))
+    (out / "times.tsv").write_text(
+        "30\t29\t1\ttleaf train-meta a b -o x/ablation/sphere/low/meta -q\n"
+        "7\t6\t1\ttleaf gen-traces d -o x/paper/low/traces-hard-negatives.parquet\n"
+        "12.5\t12\t0.3\ttleaf train-meta a b -o x/paper/low/seed0/meta-paper-code -q\n"
+    )
+    text = report.ablation_section(out, ["base", "sphere", "distance"], ["low", "moderate"])
+    rows = [line for line in text.splitlines() if line.startswith("| ") and "change" not in line]
+    assert len(rows) == 3
+    assert rows[0].endswith("| 67.00 (0.60) | – |")  # the grid's cell and its q_m's val score
+    assert rows[1].endswith("| 81.00 | – |") and rows[2].endswith("| – | – |")
+    assert "Wall time 37 s" in text  # the ablation's calls only
+    assert "in all" in report.section(out) and "(12 s in all" in report.section(out)
+
+    page = tmp_path / "page.md"
+    page.write_text("# Title\n\nbody\n")
+    report.write_page(page, report.section(out))
+    report.write_page(page, text, report.ABLATION_START, report.ABLATION_END)
+    report.write_page(
+        page, text.replace("81.00", "82.00"), report.ABLATION_START, report.ABLATION_END
+    )
+    written = page.read_text()
+    assert written.index(report.END) < written.index(report.ABLATION_START)
+    assert written.count(report.ABLATION_START) == 1 and "82.00" in written
+    assert written.rstrip().endswith("body")
+
+
 @pytest.mark.slow
 def test_the_table1_protocols_pipeline_runs_both_ways_on_a_tiny_set(tmp_path: Path) -> None:
     out = tmp_path / "t1"
@@ -133,3 +170,14 @@ def test_the_table1_protocols_pipeline_runs_both_ways_on_a_tiny_set(tmp_path: Pa
     section = (out / "table1_protocols.md").read_text()
     assert section.count("| `paper-code` |") == 4 and "| paper: DFA (T-LEAF) |" in section
     assert make_small("table1_protocols.mk", out, python, "-q").returncode == 0  # up to date
+    result = make_small("table1_protocols.mk", out, python, "ablation", timeout=900)
+    assert result.returncode == 0, result.stderr[-2000:]
+    hard = pq.read_table(out / "paper/low/traces-hard-negatives.parquet").column("source")
+    assert "hard" in hard.to_pylist()
+    config = json.loads((out / "ablation/optimiser/low/meta/config.json").read_text())
+    assert config["settings"]["lr"] == 0.001 and config["settings"]["schedule"] == "cosine"
+    assert config["settings"]["encoder"] == "authors"  # the rest of paper-code kept
+    section = (out / "table1_protocols.md").read_text()
+    rows = section.split("<!-- table1-ablation -->")[1].splitlines()
+    assert sum(line.startswith("| ") for line in rows) == 10  # header and 9 variants
+    assert not any(line.startswith("| ") and "| – |" in line for line in rows)

@@ -120,7 +120,7 @@ def gen_traces(
         )
         refuse(ignored, "not with --protocol paper (its paths decide the traces)")
     else:
-        refuse(given_flags(ctx, "paper_arcs"), "only with --protocol paper")
+        refuse(given_flags(ctx, "paper_arcs", "paper_hard"), "only with --protocol paper")
     if values["once_each"]:
         ignored = given_flags(ctx, "min_len", "max_len", "hard_fraction")
         refuse(ignored, "ignored with --once-each (a video's length is set by its atoms)")

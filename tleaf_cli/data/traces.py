@@ -82,7 +82,7 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
     if settings.once_each:
         return once_each_traces(dfa, settings, rng)
     if settings.protocol == "paper":
-        return paper_traces(dfa, rng, settings.paper_arcs)
+        return paper_traces(dfa, rng, settings.paper_arcs, settings.paper_hard)
     letters = one_hot_letters(dfa) if settings.one_hot else None
     sampler = WordSampler(dfa, settings.max_len, letters)
     acc, rej = sampler.counts(True), sampler.counts(False)
@@ -138,23 +138,32 @@ def traces_for_dfa(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) 
     return FormulaTraces(words, labels, sources, shortfall)
 
 
-def paper_traces(dfa: DFA, rng: np.random.Generator, arcs: str = "guard") -> FormulaTraces:
+def paper_traces(
+    dfa: DFA, rng: np.random.Generator, arcs: str = "guard", hard_fraction: float = 0.0
+) -> FormulaTraces:
     """The authors' traces (data/paper_protocol.py): three draws of the letters of up to 10
     simple accepting paths (their arcs `arcs`), each paired with a uniform rejected word of its
-    length."""
+    length, or, for a `hard_fraction` share of them, with a hard negative (the rejected word
+    with the fewest letters changed) as tleaf's protocol draws them."""
     paths = accepting_paths(dfa, shape=arcs)
     if not paths:
         return FormulaTraces([], [], [], "no accepting path that visits no state twice")
     positives = paper_positive_words(dfa, rng, paths)
     negatives = paper_negative_words(dfa, rng, [len(w) for w in positives])
-    words, labels = [], []
+    hard = WordSampler(dfa, max(len(w) for w in positives)) if hard_fraction > 0 else None
+    words, labels, sources = [], [], []
     for sat, neg in zip(positives, negatives, strict=True):
-        if neg is not None:
-            words += [sat, neg]
-            labels += [True, False]
+        if neg is None:
+            continue
+        source = "uniform"
+        if hard is not None and rng.random() < hard_fraction:
+            neg, source = hard.nearest_rejected(rng, sat), "hard"
+        words += [sat, neg]
+        labels += [True, False]
+        sources += ["uniform", source]
     missing = len(positives) - len(words) // 2
     shortfall = f"{missing} paths' lengths have no rejected word" if missing else None
-    return FormulaTraces(words, labels, ["uniform"] * len(words), shortfall)
+    return FormulaTraces(words, labels, sources, shortfall)
 
 
 def once_each_traces(dfa: DFA, settings: TraceSettings, rng: np.random.Generator) -> FormulaTraces:

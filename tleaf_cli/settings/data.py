@@ -175,6 +175,11 @@ class TraceSettings:
         choices=PROTOCOLS,
     )
     paper_arcs: str = setting("guard", PAPER_ARCS_HELP, choices=PAPER_ARCS)
+    paper_hard: float = setting(
+        0.0,
+        "With --protocol paper: the share of the authors' positives whose violating trace is "
+        "a hard negative (as --hard-fraction; the authors' protocol: 0, every one uniform).",
+    )
     split: tuple[float, float, float] | None = setting(
         None,
         "Add a split column by formula: train,val,test fractions.",
@@ -187,8 +192,9 @@ class TraceSettings:
 
     def check(self) -> None:
         _check_lengths(self.min_len, self.max_len)
-        if not 0.0 <= self.hard_fraction <= 1.0:
-            raise SettingError("hard_fraction", f"must be in [0, 1], got {self.hard_fraction}")
+        for name in ("hard_fraction", "paper_hard"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise SettingError(name, f"must be in [0, 1], got {getattr(self, name)}")
         if self.per_formula < 1:
             raise SettingError("per_formula", f"must be at least 1, got {self.per_formula}")
         if self.max_none < 0:
