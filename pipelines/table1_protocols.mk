@@ -96,7 +96,8 @@ $(OUT)/$(1)/%/formulas.ltl:
 $(OUT)/$(1)/%/dfas.parquet: $(OUT)/$(1)/%/formulas.ltl
 	$(TIMED) $(TLEAF) compile-dfa $$< -q -o $$@
 $(OUT)/$(1)/%/traces.parquet: $(OUT)/$(1)/%/dfas.parquet
-	$(TIMED) $(TLEAF) gen-traces $$< $(TRACES_$(1)) --split 0.8,0.1,0.1 --seed $(DATA_SEED) -q -o $$@
+	$(TIMED) $(TLEAF) gen-traces $$< $(TRACES_$(1)) --split 0.8,0.1,0.1 --seed $(DATA_SEED) -q -o $$@ \
+	    $(if $(filter tiers-paper,$(1)),|| test -s $$@)
 $(OUT)/$(1)/%/edge/metrics.json: $(OUT)/$(1)/%/dfas.parquet
 	$(TIMED) $(TLEAF) train-edge $$< -o $$(@D) $(EDGE) --device $(DEVICE) --seed 0 -q
 endef
@@ -118,7 +119,8 @@ ABL_FLAGS_distance = --distance squared
 # the data variants' traces, drawn for the paper protocol's formulas: tleaf's positives (uniform
 # accepted words of 2-12 letters, each paired with a uniform rejected word of its length), or the
 # authors' positives with tleaf's half hard negatives; the formula variant: tleaf's tier formulas
-# with the authors' traces
+# with the authors' traces (a formula their filters would have dropped, with no simple accepting
+# path or no rejected word of a path's length, gets none: gen-traces lists them and exits 1)
 FORMULAS_tiers-paper = $(FORMULAS_tleaf)
 TRACES_tiers-paper = $(TRACES_paper)
 $(OUT)/paper/%/traces-tleaf-positives.parquet: $(OUT)/paper/%/dfas.parquet
