@@ -179,6 +179,5 @@ $(REPORT): $(RM_EVALS) $(DF_EVALS) pipelines/event_logs_report.py
 	@mkdir -p $(@D)
 	$(PYTHON) pipelines/event_logs_report.py $(OUT) -o $@ $(PUBLISHED) --runs $(RUNS)
 
-.SECONDARY:
 clean:
 	rm -rf $(OUT)
