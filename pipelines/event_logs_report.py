@@ -45,25 +45,26 @@ def runs_of(out: Path) -> Runs:
     return runs
 
 
-def wall_minutes(out: Path) -> float | None:
-    """The invocation's wall time: first artifact written to last (its files' times)."""
-    stamps = [p.stat().st_mtime for p in out.rglob("*") if p.is_file()] if out.is_dir() else []
+def wall_minutes(folder: Path) -> float | None:
+    """A log's wall time: its folder's first artifact written to its last (the files' times)."""
+    stamps = [p.stat().st_mtime for p in folder.rglob("*") if p.is_file()]
     return (max(stamps) - min(stamps)) / 60 if stamps else None
 
 
 def kept_runs(out: Path, record: Path | None) -> tuple[Runs, dict[str, float]]:
     """The runs of `out` added to the `record` file (rewritten, atomically), and the wall
-    minutes of every folder that measured some (keyed by the folder as given)."""
+    minutes of every log folder (`rm/<log>`, `df/<log>`) that measured some: per log, not per
+    OUT, so that invocations into one OUT hours apart do not count the hours between them."""
     kept = {"runs": {}, "walls": {}}
     if record is not None and record.is_file():
         kept = json.loads(record.read_text())
     fresh = runs_of(out)
     kept["runs"].update(fresh)
-    minutes = wall_minutes(out)
-    if fresh and minutes is not None:
-        # by folder: a folder's wall time grows with each invocation into it (replaced), and
-        # separate folders' add up
-        kept["walls"][out.as_posix()] = round(minutes, 1)
+    logs = {"/".join(Path(name).parts[:2]) for name in fresh}
+    for log in sorted(logs):
+        minutes = wall_minutes(out / log)
+        if minutes is not None:  # a log's wall time grows with each invocation into it
+            kept["walls"][log] = round(minutes, 1)
     if record is not None:
         with tempfile.NamedTemporaryFile("w", dir=record.parent, delete=False) as f:
             json.dump(kept, f, indent=1, sort_keys=True)
@@ -250,10 +251,10 @@ def cost(runs: Runs) -> str:
 
 
 def wall(walls: dict[str, float]) -> str:
-    """The output folders' wall times, summed."""
+    """The logs' wall times, summed."""
     if not walls:
         return "no runs"
-    return f"{sum(walls.values()):.0f} minutes of wall time ({len(walls)} output folder(s))"
+    return f"{sum(walls.values()):.0f} minutes of wall time (summed over {len(walls)} log runs)"
 
 
 NOTES = """

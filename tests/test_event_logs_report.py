@@ -4,8 +4,10 @@ runs, and the page is written from all of them."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 REPORT = Path(__file__).resolve().parents[1] / "pipelines" / "event_logs_report.py"
@@ -49,7 +51,13 @@ def test_invocations_on_other_logs_add_up_and_a_rerun_replaces(tmp_path: Path) -
     assert "8.0 CPU minutes of training" in text  # 2 logs x 2 folds x 2 candidates x 60 s
     text = report(again, page, runs)  # the same paths measured again: the new figures
     assert "| Helpdesk | 2 | 70.00" in text and "| SEPSIS | 2 | 60.00" in text
-    fold(second, "Helpdesk", 5, 0.5, 0.5)  # the second folder goes on with another log
-    report(second, page, runs)
-    kept = json.loads(runs.read_text())  # one wall time per folder, the latest
-    assert sorted(kept["walls"]) == [p.as_posix() for p in (first, second, again)]
+    kept = json.loads(runs.read_text())  # one wall time per log, the latest measure of it
+    assert sorted(kept["walls"]) == ["rm/Helpdesk", "rm/SEPSIS"]
+    late = time.time() + 3 * 3600  # a log run hours later into the same folder: its own wall
+    fold(second, "BPI12", 0, 0.5, 0.5)
+    for path in (second / "rm" / "BPI12").rglob("*"):
+        os.utime(path, (late, late))
+    text = report(second, page, runs)
+    kept = json.loads(runs.read_text())
+    assert sorted(kept["walls"]) == ["rm/BPI12", "rm/Helpdesk", "rm/SEPSIS"]
+    assert max(kept["walls"].values()) < 60 and "(summed over 3 log runs)" in text
