@@ -117,7 +117,8 @@ ABL_FLAGS_sphere = --no-sphere
 ABL_FLAGS_optimiser = --lr 0.001 --weight-decay 0 --schedule cosine
 ABL_FLAGS_distance = --distance squared
 # the data variants' traces, drawn for the paper protocol's formulas: tleaf's positives (uniform
-# accepted words of 2-12 letters, each paired with a uniform rejected word of its length), or the
+# accepted words of 2-12 letters, each paired with a uniform rejected word of its length; a
+# formula with fewer than K distinct pairs keeps those it has, listed by gen-traces), or the
 # authors' positives with tleaf's half hard negatives; the formula variant: tleaf's tier formulas
 # with the authors' traces (a formula their filters would have dropped, with no simple accepting
 # path or no rejected word of a path's length, gets none: gen-traces lists them and exits 1)
@@ -125,7 +126,7 @@ FORMULAS_tiers-paper = $(FORMULAS_tleaf)
 TRACES_tiers-paper = $(TRACES_paper)
 $(OUT)/paper/%/traces-tleaf-positives.parquet: $(OUT)/paper/%/dfas.parquet
 	$(TIMED) $(TLEAF) gen-traces $< --per-formula $(K) --hard-fraction 0 --split 0.8,0.1,0.1 \
-	    --seed $(DATA_SEED) -q -o $@
+	    --seed $(DATA_SEED) -q -o $@ || test -s $@
 $(OUT)/paper/%/traces-hard-negatives.parquet: $(OUT)/paper/%/dfas.parquet
 	$(TIMED) $(TLEAF) gen-traces $< $(TRACES_paper) --paper-hard 0.5 --split 0.8,0.1,0.1 \
 	    --seed $(DATA_SEED) -q -o $@

@@ -44,8 +44,8 @@ CALL = re.compile(
 # their options)
 VARIANTS = {
     "base": "none (the `paper-code` / authors' cell above, seed 0)",
-    "positives": "data: positives by tleaf's sampler (uniform accepted words of 2-12 letters, "
-    "20 pairs, uniform negatives of their lengths)",
+    "positives": "data: tleaf's sampler (K uniform accepted words of 2-12 letters, each with a "
+    "uniform rejected word of its length)",
     "negatives": "data: half the negatives tleaf's hard ones (`--paper-hard 0.5`)",
     "formulas": "data: tleaf's tier formulas (the authors' traces)",
     "directed": "q: arcs both ways (`--no-directed`)",
@@ -137,11 +137,13 @@ def ablation_section(out: Path, variants: list[str], tiers: list[str], settings:
         return f"{score:.2f} ({triplets:.2f})"
 
     names = [t.capitalize() for t in tiers]
+    command = "make -f pipelines/table1_protocols.mk ablation " + (
+        f"{settings} " if settings else ""
+    )
     lines = [
         ABLATION_START,
         "### What each choice is worth: one change at a time from `paper-code` on the authors' "
         "data (SYNTHETIC, seed 0)",
-        "",
         "Balanced accuracy (%) at the val-chosen MLP epoch (q_m's val triplet accuracy in "
         "brackets); a data variant is scored on its own test traces.",
         "",
@@ -152,14 +154,8 @@ def ablation_section(out: Path, variants: list[str], tiers: list[str], settings:
             for v in variants
         ),
         "",
-        f"Wall time {ablation_seconds(out):.0f} s (one call at a time, `OMP_NUM_THREADS=1`, the "
-        "base and the data it shares with the grid not counted):",
-        "",
-        "```bash",
-        "make -f pipelines/table1_protocols.mk ablation "
-        + (f"{settings} " if settings else "")
-        + "TLEAF=.venv/bin/tleaf",
-        "```",
+        f"Wall time {ablation_seconds(out):.0f} s (one call at a time, `OMP_NUM_THREADS=1`; the "
+        f"base and the data it shares with the grid not counted): `{command}TLEAF=.venv/bin/tleaf`",
         ABLATION_END,
     ]
     return "\n".join(lines) + "\n"
