@@ -47,7 +47,8 @@ VARIANTS = {
     "positives": "data: tleaf's sampler (K uniform accepted words of 2-12 letters, each with a "
     "uniform rejected word of its length)",
     "negatives": "data: half the negatives tleaf's hard ones (`--paper-hard 0.5`)",
-    "formulas": "data: tleaf's tier formulas (the authors' traces)",
+    "formulas": "data: tleaf's tier formulas (the authors' traces; a formula their filters "
+    "would drop has none)",
     "directed": "q: arcs both ways (`--no-directed`)",
     "readout": "q: expected walk of 24 steps from the initial state (`--readout walk`)",
     "sphere": "q: no unit scaling (`--no-sphere`)",
