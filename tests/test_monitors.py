@@ -297,7 +297,7 @@ def test_powerset_alphabets_take_the_general_path():
 def test_the_rest_walk_of_a_large_dfa_is_the_dense_product():
     """Large DFAs (few distinct successors per state) take a gather per successor instead of
     the dense product with the letter counts: the same sums."""
-    from tleaf_cli.logic.monitors import _rest_walk
+    from tleaf_cli.logic.letter_walks import rest_walk
 
     rng = np.random.default_rng(0)
     n, letters = 200, 12
@@ -305,12 +305,12 @@ def test_the_rest_walk_of_a_large_dfa_is_the_dense_product():
     counts = np.zeros((n, n))
     np.add.at(counts, (np.arange(n)[:, None], table), 1.0)
     beta = rng.random((7, 2, n))
-    np.testing.assert_allclose(_rest_walk(counts)(beta), beta @ counts.T, rtol=1e-12)
+    np.testing.assert_allclose(rest_walk(counts)(beta), beta @ counts.T, rtol=1e-12)
 
 
 def test_the_table_walk_is_the_dense_product() -> None:
-    """`_table_walk` reads a DFA's table without building the [n, n] letter counts."""
-    from tleaf_cli.logic.monitors import _rest_walk, _table_walk
+    """`table_walk` reads a DFA's table without building the [n, n] letter counts."""
+    from tleaf_cli.logic.letter_walks import rest_walk, table_walk
 
     rng = np.random.default_rng(1)
     n, letters = 150, 9
@@ -319,8 +319,8 @@ def test_the_table_walk_is_the_dense_product() -> None:
     counts = np.zeros((n, n))
     np.add.at(counts, (np.arange(n)[:, None], table), 1.0)
     beta = rng.random((5, 2, n))
-    np.testing.assert_allclose(_table_walk(table)(beta), beta @ counts.T, rtol=1e-12)
-    np.testing.assert_allclose(_table_walk(table)(beta), _rest_walk(counts)(beta), rtol=1e-12)
+    np.testing.assert_allclose(table_walk(table)(beta), beta @ counts.T, rtol=1e-12)
+    np.testing.assert_allclose(table_walk(table)(beta), rest_walk(counts)(beta), rtol=1e-12)
 
 
 def test_large_dfas_get_their_shares_without_dense_moves(monkeypatch) -> None:

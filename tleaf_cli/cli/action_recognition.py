@@ -40,9 +40,9 @@ def train_task_action_recognition(
     reference: Annotated[
         Path | None,
         typer.Option(
-            help="With --lambdas: a finished λ-0 run of the same settings and data (e.g. the "
-            "--logic-loss none run of the same seed and size, or another loss's "
-            "lambda-choice/lambda-0), taken as the λ-0 candidate instead of training it again."
+            help="With --lambdas: a finished λ-0 run of the same settings and data (the "
+            "--logic-loss none run of the same seed and size, or another loss's λ-0 "
+            "candidate), taken as the λ-0 candidate instead of training it again."
         ),
     ] = None,
     preset: TaskPreset = DEFAULT_TASK_PRESET,

@@ -43,6 +43,7 @@ from typing import NamedTuple
 import numpy as np
 
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.letter_walks import rest_walk, table_walk
 
 STATES = 5  # every monitor padded to this many states (the positional ones need 5)
 # raise whenever `MonitorBank.of_dfa` computes other shares from the same bank and DFA: the
@@ -236,7 +237,7 @@ class MonitorBank:
             for _ in range(self.max_length):
                 at.append(np.bincount(into, weights=at[-1][rows], minlength=n) / a)
             mass = np.stack(at[1:]) @ ends.T  # [lengths, 2]
-            hit = self._hits_one_hot(dfa, plan, ends, _table_walk(dfa.table))
+            hit = self._hits_one_hot(dfa, plan, ends, table_walk(dfa.table))
         else:
             # the DFA alone: P(at u after t uniform letters), for each length's accepted mass
             onehot = np.zeros((a, n, n))
@@ -247,7 +248,7 @@ class MonitorBank:
                 at.append(at[-1] @ step)
             mass = np.stack(at[1:]) @ ends.T  # [lengths, 2]
             if plan is not None:
-                hit = self._hits_one_hot(dfa, plan, ends, _rest_walk(onehot.sum(axis=0)))
+                hit = self._hits_one_hot(dfa, plan, ends, rest_walk(onehot.sum(axis=0)))
             else:
                 hit = self._hits_general(dfa, onehot, ends)
         shares = self._averaged(hit, mass, present)
@@ -286,7 +287,7 @@ class MonitorBank:
     def _hits_one_hot(self, dfa: DFA, plan: _OneHotPlan, ends: np.ndarray, walk) -> np.ndarray:
         """`_hits_general`'s hits over a one-hot alphabet, by a backward pass over the rows of
         `_one_hot_plan`; `walk`: B -> sum_v counts[u, v] B[..., v], where `counts[u, v]` is how
-        many letters take u to v (`_rest_walk`, `_table_walk`).
+        many letters take u to v (`rest_walk`, `table_walk`).
 
         beta_t[r, e, u] = P(a uniform word of t letters read from DFA state u and monitor state
         r ends in the DFA's end e (accepting / rejecting) with the monitor accepting). A monitor
@@ -473,41 +474,6 @@ class _OneHotPlan(NamedTuple):
     second_letter: np.ndarray  # [rows] the letter J
     first_rows: slice  # the rows that I moves elsewhere than R (the others' I term is 0)
     second_rows: slice  # the rows that J moves elsewhere than R
-
-
-def _rest_walk(counts: np.ndarray):
-    """B -> sum_v counts[u, v] B[..., v] for B [rows, 2, n]: one dense product for small DFAs;
-    for large ones, where a state's letters lead to few distinct states, a gather per distinct
-    successor (counts has at most that many nonzeros per row)."""
-    n = len(counts)
-    succ = [np.flatnonzero(r) for r in counts]
-    most = max(len(x) for x in succ)
-    if n <= 16 * most:
-        transposed = np.ascontiguousarray(counts.T)
-        return lambda b: (b.reshape(-1, n) @ transposed).reshape(b.shape)
-    nxt = np.stack([np.pad(x, (0, most - len(x)), constant_values=x[0]) for x in succ], 1)
-    weight = np.take_along_axis(counts, nxt.T, axis=1).T  # [most, n]
-    for k, x in enumerate(succ):
-        weight[len(x) :, k] = 0.0
-    return lambda b: sum(b[..., nxt[k]] * weight[k] for k in range(most))
-
-
-def _table_walk(table: np.ndarray):
-    """`_rest_walk`'s gather form read off a DFA's table [n, letters] (table[u, c]: the state
-    letter c takes u to), without the [n, n] counts: per state its distinct successors in
-    increasing order (padded with the first, weight 0) and how many letters lead to each."""
-    n = len(table)
-    succ = np.sort(table, axis=1)
-    new = np.ones(succ.shape, dtype=bool)
-    new[:, 1:] = succ[:, 1:] != succ[:, :-1]
-    rank = np.cumsum(new, axis=1) - 1  # each letter's successor's place among the distinct
-    most = int(rank[:, -1].max()) + 1
-    nxt = np.repeat(succ[:, :1].T, most, axis=0)  # [most, n]
-    states = np.broadcast_to(np.arange(n)[:, None], succ.shape)
-    nxt[rank[new], states[new]] = succ[new]
-    weight = np.zeros((most, n))
-    np.add.at(weight, (rank.ravel(), states.ravel()), 1.0)
-    return lambda b: sum(b[..., nxt[k]] * weight[k] for k in range(most))
 
 
 def _alphabet_key(truth: np.ndarray) -> tuple:
