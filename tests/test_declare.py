@@ -134,7 +134,10 @@ def test_the_file_reads_back_with_each_rule_named_and_measured() -> None:
 
 def test_holding_shares_on_other_cases() -> None:
     rule = Constraint("response", ("a", "b"))
-    assert holding_shares([rule], [["a", "b"], ["b", "a"], ["c"], ["a"]]) == [0.5]
+    other = Constraint("existence", ("a",))
+    cases = [["a", "b"], ["b", "a"], ["c"], ["a"]]
+    assert holding_shares([rule], cases) == ([0.5], 0.5)
+    assert holding_shares([rule, other], cases) == ([0.5, 0.75], 0.25)  # only ["a", "b"]
 
 
 def test_bad_inputs_are_errors() -> None:

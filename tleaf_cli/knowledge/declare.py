@@ -351,12 +351,17 @@ def _jointly_holding(
     return kept
 
 
-def holding_shares(rules: Iterable[Constraint], cases: Sequence[Sequence[str]]) -> list[float]:
-    """Per rule, the share of `cases` that satisfy it (nan without cases)."""
+def holding_shares(
+    rules: Iterable[Constraint], cases: Sequence[Sequence[str]]
+) -> tuple[list[float], float]:
+    """Per rule, the share of `cases` that satisfy it, and the share that satisfy them all (nan
+    without cases): each rule checked once on each case."""
     rules = list(rules)
     if not cases:
-        return [float("nan")] * len(rules)
-    return [sum(r.holds(c) for c in cases) / len(cases) for r in rules]
+        return [float("nan")] * len(rules), float("nan")
+    holds = [[r.holds(c) for c in cases] for r in rules]
+    every = sum(all(column) for column in zip(*holds, strict=True)) if rules else len(cases)
+    return [sum(row) / len(cases) for row in holds], every / len(cases)
 
 
 def declare_text(mined: Sequence[Measured], header: Iterable[str] = ()) -> str:

@@ -58,12 +58,7 @@ def mine_log(
         min_joint_support=settings.min_joint_support,
         templates=settings.chosen_templates,
     )
-    shares = holding_shares([m.constraint for m in mined], test)
-    joint = (
-        sum(all(m.constraint.holds(c) for m in mined) for c in test) / len(test)
-        if test
-        else float("nan")
-    )
+    shares, joint = holding_shares([m.constraint for m in mined], test)
     named = {a for m in mined for a in m.constraint.activities}
     activity_of = {atom: name for name, atom in cases.activity_atoms.items()}
     header = [
