@@ -104,13 +104,15 @@ endef
 $(foreach p,$(PROTOCOLS),$(eval $(call DATA,$(p))))
 
 # the ablation: each variant's data (a protocol's folder and its traces file) and q options
-VARIANTS ?= base positives negatives formulas directed readout sphere optimiser distance
+VARIANTS ?= base trimmed positives negatives formulas directed readout sphere optimiser \
+    distance
 ABLATION_TIERS ?= $(TIERS)
 ABL_DATA = $(or $(ABL_DATA_$(1)),paper)
 ABL_TRACES = $(or $(ABL_TRACES_$(1)),traces)
 ABL_TRACES_positives = traces-tleaf-positives
 ABL_TRACES_negatives = traces-hard-negatives
 ABL_DATA_formulas = tiers-paper
+ABL_FLAGS_trimmed = --no-dead-state
 ABL_FLAGS_directed = --no-directed
 ABL_FLAGS_readout = --readout walk --walk-from initial --steps 24
 ABL_FLAGS_sphere = --no-sphere

@@ -44,6 +44,8 @@ CALL = re.compile(
 # their options)
 VARIANTS = {
     "base": "none (the `paper-code` / authors' cell above, seed 0)",
+    "trimmed": "q: the dead state and the edges into it left out, as in the authors' spot "
+    "automata (`--no-dead-state`; toward the authors, not tleaf)",
     "positives": "data: tleaf's sampler (K uniform accepted words of 2-12 letters, each with a "
     "uniform rejected word of its length)",
     "negatives": "data: half the negatives tleaf's hard ones (`--paper-hard 0.5`)",

@@ -4,12 +4,17 @@ unit vectors, loss, optimiser settings."""
 from __future__ import annotations
 
 import torch
-from torch_geometric.data import Batch
+from torch_geometric.data import Batch, Data
 
 from tleaf_cli.embed.graphs import dfa_graph
 from tleaf_cli.embed.meta_data import chain_batch
 from tleaf_cli.embed.model import build_model
-from tleaf_cli.embed.paper_encoder import AuthorsEncoder, expected_visits, sampled_visits
+from tleaf_cli.embed.paper_encoder import (
+    AuthorsEncoder,
+    expected_visits,
+    live_nodes,
+    sampled_visits,
+)
 from tleaf_cli.embed.triplets import triplet_loss
 from tleaf_cli.logic.compile import compile_formula
 from tleaf_cli.settings.meta import MetaSettings
@@ -79,3 +84,38 @@ def test_euclidean_triplet_loss_is_torchs():
     assert torch.allclose(triplet_loss(a, p, n, 1.0, "euclidean"), want)
     squared = torch.relu((a - p).pow(2).sum(1) - (a - n).pow(2).sum(1) + 1.0).mean()
     assert torch.allclose(triplet_loss(a, p, n, 1.0), squared)
+
+
+def _trimmed(graph):
+    """The graph as spot prints it: the nodes no accepting state can be reached from, and
+    their arcs, removed (the rest relabelled in order)."""
+    from torch_geometric.utils import subgraph
+
+    keep = live_nodes(graph.edge_index, graph.flags[:, 1] > 0)
+    arcs, _ = subgraph(keep, graph.edge_index, relabel_nodes=True, num_nodes=graph.num_nodes)
+    fields = {k: graph[k][keep] for k in ("node_kind", "flags", "edge_vec")}
+    return Data(**fields, edge_index=arcs, initial=graph.initial, num_nodes=int(keep.sum()))
+
+
+def test_without_the_dead_state_q_reads_the_trimmed_automaton():
+    """`dead_state=False` gives every graph the vector the same encoder gives the graph with
+    its dead nodes removed (node 1 then the second live node); live nodes are DFA.live()."""
+    torch.manual_seed(2)
+    # "a & X(b)": its state 1 (after !a) is dead; "G(a)" has a dead sink; "F(a)" has none
+    texts = ("a & X(b)", "G(a)", "F(a)", "a U b")
+    full = _dfa_batch(*texts)
+    for text, graph in zip(texts, full.to_data_list(), strict=True):
+        dfa = compile_formula(text)
+        states = live_nodes(graph.edge_index, graph.flags[:, 1] > 0)[: dfa.num_states]
+        assert states.tolist() == dfa.live().tolist()
+    assert not compile_formula("a & X(b)").live()[1]
+    trimmed = Batch.from_data_list([_trimmed(g) for g in full.to_data_list()])
+    for walk_from in ("node1", "initial"):
+        encoder = AuthorsEncoder(EDGE_DIM, widths=(16, 8), walk_from=walk_from).eval()
+        kept = encoder(full)
+        encoder.dead_state = False
+        dropped = encoder(full)
+        encoder.dead_state = True
+        assert torch.allclose(dropped, encoder(trimmed), atol=1e-6)
+        assert not torch.allclose(kept[:2], dropped[:2])  # the two with a dead state differ
+        assert torch.allclose(kept[2], dropped[2])  # F(a) has none

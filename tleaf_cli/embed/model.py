@@ -132,6 +132,7 @@ def build_model(settings: MetaSettings, edge_dim: int, atom_table: torch.Tensor)
             paths=settings.paths,
             steps=settings.steps,
             walk_from=settings.walk_from,
+            dead_state=settings.dead_state,
         )
         radius = RadiusClassifier(settings.margin) if settings.radius_weight > 0 else None
         return TripletEmbedder(encoder, encoder, radius, settings.sphere)

@@ -13,7 +13,13 @@ The authors' code (`models/models.py`, `sample_path(..., num_path=10, max_length
 from_start_node=True)`) starts every path at node index 1: their graphs list the states first,
 so node 1 is state 1, as in tleaf's graphs (state 1: the initial state's first successor in
 breadth-first order; on a trace chain, the state after the first letter). The paper's text
-says the walks start at the initial state: `walk_from` picks either. A path follows a uniformly
+says the walks start at the initial state: `walk_from` picks either.
+
+The authors' graphs are spot's automata, which leave out a complete DFA's dead state (the
+rejecting sink no accepted word passes) and every edge into it; tleaf's DFA graphs keep it.
+`dead_state=False` reads the graph as spot prints it: the nodes from which no accepting state
+can be reached lose their arcs (so no message or path reaches them), and node 1 is the second
+live node. A path follows a uniformly
 chosen out-arc and ends early where none leaves; visits are counted with multiplicity.
 
 While training (`module.training`), paths are drawn as the authors draw them, anew at every
@@ -55,6 +61,8 @@ class AuthorsEncoder(nn.Module):
         paths: paths per graph.
         steps: a path has at most steps + 1 nodes.
         walk_from: `node1` (the authors' code) or `initial` (the paper's text).
+        dead_state: keep the nodes no accepting state can be reached from (tleaf's graphs);
+            off: left out, as in the authors' spot automata.
     """
 
     monitor_bank = None  # q_m's trainer asks every encoder for its monitors
@@ -69,6 +77,7 @@ class AuthorsEncoder(nn.Module):
         paths: int = 10,
         steps: int = 4,
         walk_from: str = "node1",
+        dead_state: bool = True,
     ) -> None:
         super().__init__()
         if readout not in PAPER_READOUTS:
@@ -82,22 +91,39 @@ class AuthorsEncoder(nn.Module):
         self.paths = paths
         self.steps = steps
         self.walk_from = walk_from
+        self.dead_state = dead_state
 
-    def start_nodes(self, batch) -> torch.Tensor:
-        """[graphs]: where each graph's paths start (node 1, or the initial state)."""
-        first = batch.ptr[:-1]
+    def start_nodes(self, batch, live: torch.Tensor | None = None) -> torch.Tensor:
+        """[graphs]: where each graph's paths start (node 1, or the initial state). With
+        `live` ([N] bool), node 1 counts the live nodes only: the second live node (the only
+        one where there is one; node 1 where there is none)."""
+        first, last = batch.ptr[:-1], batch.ptr[1:] - 1
         if self.walk_from == "initial":
             return first + batch.initial
-        return torch.minimum(first + 1, batch.ptr[1:] - 1)
+        node1 = torch.minimum(first + 1, last)
+        if live is None:
+            return node1
+        ids = live.nonzero()[:, 0]
+        graph_of = batch.batch[ids]
+        graphs = torch.arange(len(first), device=ids.device)
+        begin = torch.searchsorted(graph_of, graphs)
+        end = torch.searchsorted(graph_of, graphs, right=True) - 1
+        has_live = end >= begin
+        pick = torch.minimum(begin + 1, end).clamp(min=0, max=max(len(ids) - 1, 0))
+        return torch.where(has_live, ids[pick] if len(ids) else node1, node1)
 
     def forward(self, batch) -> torch.Tensor:
         kinds = nn.functional.one_hot(batch.node_kind, KINDS).float()
         x = torch.cat([kinds, batch.flags, batch.edge_vec], dim=1)
         arcs, n = batch.edge_index, x.shape[0]
+        live = None
+        if not self.dead_state:
+            live = live_nodes(arcs, batch.flags[:, 1] > 0)
+            arcs = arcs[:, live[arcs[0]] & live[arcs[1]]]
         adjacency = gcn_adjacency(arcs if self.directed else to_undirected(arcs, num_nodes=n), n)
         for conv in self.convs:
             x = torch.relu(conv(x, adjacency))
-        start = self.start_nodes(batch)
+        start = self.start_nodes(batch, live)
         if self.readout == "paths" and self.training:
             visits = sampled_visits(arcs, start, n, self.paths, self.steps)
         else:
@@ -106,6 +132,19 @@ class AuthorsEncoder(nn.Module):
         total = torch.zeros(graphs, device=x.device).index_add_(0, batch.batch, visits)
         weights = visits / total.clamp(min=1e-12)[batch.batch]
         return global_add_pool(weights.unsqueeze(1) * x, batch.batch, size=graphs)
+
+
+def live_nodes(arcs: torch.Tensor, accepting: torch.Tensor) -> torch.Tensor:
+    """[N] bool: the nodes from which an accepting node can be reached along `arcs` (a
+    fixpoint: a node is live when an arc leads from it to a live node)."""
+    src, dst = arcs
+    live = accepting.clone()
+    while True:
+        grown = live.clone()
+        grown[src[live[dst]]] = True
+        if torch.equal(grown, live):
+            return live
+        live = grown
 
 
 def sampled_visits(

@@ -113,6 +113,12 @@ class MetaSettings(Presets):
         "text), or node index 1 (the authors' code: state 1; a trace's second state).",
         choices=WALK_STARTS,
     )
+    dead_state: bool = setting(
+        True,
+        "--encoder authors: keep a DFA's dead state (the rejecting sink no accepted word "
+        "passes) and the edges into it in q's graph; off: the trimmed automaton, as the "
+        "authors' spot prints it (node 1 then counts the live states only).",
+    )
     bins: int = setting(
         5, "accept/runs readouts: a run is cut in this many parts, one projection each.", min=1
     )
