@@ -177,7 +177,9 @@ $(foreach l,$(DF_LOGS),$(foreach m,none $(LOSSES),$(foreach f,strong weak,\
 
 $(REPORT): $(RM_EVALS) $(DF_EVALS) pipelines/event_logs_report.py
 	@mkdir -p $(@D)
-	$(PYTHON) pipelines/event_logs_report.py $(OUT) -o $@ $(PUBLISHED) --runs $(RUNS)
+	$(PYTHON) pipelines/event_logs_report.py $(OUT) -o $@ $(PUBLISHED) --runs $(RUNS) \
+	    --logs "$(addprefix rm/,$(RM_LOGS)) $(addprefix df/,$(DF_LOGS))" \
+	    --settings 'LAMBDAS=$(LAMBDAS) TLEAF_LAMBDAS=$(TLEAF_LAMBDAS) LOSSES="$(LOSSES)" SEED=$(SEED)'
 
 clean:
 	rm -rf $(OUT)

@@ -1,6 +1,7 @@
 """docs/results/event_logs.md from pipelines/event_logs.mk's runs and the peers' published figures.
 
     python pipelines/event_logs_report.py OUT -o REPORT.md [--published DIR] [--runs FILE]
+        [--logs "rm/<log> df/<log> ..." --settings "LAMBDAS=... LOSSES=..."]
 
 OUT: the pipeline's folder (rm/<log>/fold<k>/..., df/<log>/...). DIR: the peers' published
 figures (accuracy_raw_results.csv: Rama-Maneiro et al.'s per-fold accuracies;
@@ -12,7 +13,9 @@ FILE: a record of runs kept beside the report (JSON: each metrics.json of OUT by
 OUT, the fields the report reads, and each OUT folder's wall time). The runs of OUT are
 added to it (replacing the same paths), and the report is written from all of it: the whole
 pipeline takes hours, and runs measured by separate invocations (some logs now, others later,
-each `make ... RM_LOGS=... DF_LOGS=...` on the same code) add up to one page.
+each `make ... RM_LOGS=... DF_LOGS=...` on the same code) add up to one page. `--logs` names
+the log folders this invocation ran and `--settings` the pipeline settings it ran them with: the
+record keeps them per log, and the page's last table gives each log the command that measured it.
 """
 
 from __future__ import annotations
@@ -51,13 +54,19 @@ def wall_minutes(folder: Path) -> float | None:
     return (max(stamps) - min(stamps)) / 60 if stamps else None
 
 
-def kept_runs(out: Path, record: Path | None) -> tuple[Runs, dict[str, float]]:
-    """The runs of `out` added to the `record` file (rewritten, atomically), and the wall
-    minutes of every log folder (`rm/<log>`, `df/<log>`) that measured some: per log, not per
-    OUT, so that invocations into one OUT hours apart do not count the hours between them."""
+def kept_runs(
+    out: Path, record: Path | None, logs: list[str] = (), settings: str = ""
+) -> tuple[Runs, dict[str, float], dict[str, str]]:
+    """The runs of `out` added to the `record` file (rewritten, atomically), the wall minutes
+    of every log folder (`rm/<log>`, `df/<log>`) that measured some (per log, not per OUT, so
+    that invocations into one OUT hours apart do not count the hours between them), and the
+    settings each log was run with (`settings` for the folders in `logs`)."""
     kept = {"runs": {}, "walls": {}}
     if record is not None and record.is_file():
         kept = json.loads(record.read_text())
+    kept.setdefault("settings", {})
+    for log in logs:
+        kept["settings"][log] = settings
     fresh = runs_of(out)
     kept["runs"].update(fresh)
     logs = {"/".join(Path(name).parts[:2]) for name in fresh}
@@ -70,7 +79,7 @@ def kept_runs(out: Path, record: Path | None) -> tuple[Runs, dict[str, float]]:
             json.dump(kept, f, indent=1, sort_keys=True)
         os.chmod(f.name, 0o644)
         os.replace(f.name, record)
-    return kept["runs"], kept["walls"]
+    return kept["runs"], kept["walls"], kept["settings"]
 
 
 def folders(runs: Runs, part: str) -> list[str]:
@@ -257,6 +266,26 @@ def wall(walls: dict[str, float]) -> str:
     return f"{sum(walls.values()):.0f} minutes of wall time (summed over {len(walls)} log runs)"
 
 
+def runs_table(runs: Runs, walls: dict[str, float], settings: dict[str, str]) -> list[str]:
+    """Per log folder: the command that measured it (settings the record does not hold: '?'),
+    its wall time and its training's CPU time."""
+    lines = [
+        "| log | protocol | command: `make -f pipelines/event_logs.mk DATA=PATH ...` | wall "
+        "(min) | training (CPU min) |",
+        "|---|---|---|---|---|",
+    ]
+    for log in sorted(walls):
+        part, name = log.split("/", 1)
+        logs = f"RM_LOGS={name} DF_LOGS=" if part == "rm" else f"RM_LOGS= DF_LOGS={name}"
+        how = settings.get(log)
+        command = f"`{logs} {how}`" if how is not None else f"`{logs}` (settings not recorded)"
+        seconds = sum(m["train_seconds"] for k, m in runs.items()
+                      if k.startswith(log + "/") and "lambda-choice" in k)  # fmt: skip
+        protocol = "Rama-Maneiro (5 folds)" if part == "rm" else "Di Francescomarino"
+        lines.append(f"| {name} | {protocol} | {command} | {walls[log]:.0f} | {seconds / 60:.1f} |")
+    return lines
+
+
 NOTES = """
 ## How to read it
 
@@ -284,8 +313,10 @@ def main() -> None:
     parser.add_argument("-o", "--report", type=Path, required=True)
     parser.add_argument("--published", type=Path, default=None)
     parser.add_argument("--runs", type=Path, default=None, help="the record of runs to add to")
+    parser.add_argument("--logs", default="", help="the log folders this invocation ran")
+    parser.add_argument("--settings", default="", help="the settings it ran them with")
     args = parser.parse_args()
-    runs, walls = kept_runs(args.out, args.runs)
+    runs, walls, settings = kept_runs(args.out, args.runs, args.logs.split(), args.settings)
     rm, rm_goals = rm_table(runs, published_accuracy(args.published))
     df, df_goals = df_table(runs, published_suffix(args.published))
     text = "\n".join(
@@ -293,7 +324,8 @@ def main() -> None:
             "# Results: next-activity and suffix prediction on real event logs",
             "",
             "Measured by `make -f pipelines/event_logs.mk DATA=PATH -j2` (docs/event_logs.md: "
-            f"the data, the protocols) on 2 CPU cores: {wall(walls)}, {cost(runs)}.",
+            f"the data, the protocols) on 2 CPU cores, one log at a time (each log's command: "
+            f"the last table): {wall(walls)}, {cost(runs)}.",
             "",
             "## Next-activity accuracy, Rama-Maneiro et al.'s protocol (5-fold means ± sd, %)",
             "",
@@ -307,6 +339,13 @@ def main() -> None:
             "",
             *df_goals,
             NOTES,
+            "## Runs behind the rows",
+            "",
+            "Each log as its invocation ran it (one log at a time, `-j2` on 2 cores unless the "
+            "cores were shared; wall: the log folder's first artifact to its last):",
+            "",
+            *runs_table(runs, walls, settings),
+            "",
         ]
     )
     args.report.write_text(text)

@@ -28,9 +28,10 @@ def fold(out: Path, log: str, k: int, none: float, exact: float) -> None:
         (run / "metrics.json").write_text(json.dumps(metrics))
 
 
-def report(out: Path, page: Path, runs: Path) -> str:
+def report(out: Path, page: Path, runs: Path, *invocation: str) -> str:
     done = subprocess.run(
-        [sys.executable, str(REPORT), str(out), "-o", str(page), "--runs", str(runs)],
+        [sys.executable, str(REPORT), str(out), "-o", str(page), "--runs", str(runs),
+         *invocation],
         capture_output=True, text=True,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
@@ -46,9 +47,13 @@ def test_invocations_on_other_logs_add_up_and_a_rerun_replaces(tmp_path: Path) -
         fold(again, "Helpdesk", k, 0.70, 0.71)
     text = report(first, page, runs)
     assert "| Helpdesk | 2 |" in text and "SEPSIS" not in text
-    text = report(second, page, runs)  # the first invocation's log stays on the page
+    text = report(second, page, runs, "--logs", "rm/SEPSIS", "--settings", "LAMBDAS=1")
+    # the first invocation's log stays on the page; each log's command is the one that ran it
     assert "| Helpdesk | 2 | 80.00" in text and "| SEPSIS | 2 | 60.00" in text
     assert "8.0 CPU minutes of training" in text  # 2 logs x 2 folds x 2 candidates x 60 s
+    assert "| SEPSIS | Rama-Maneiro (5 folds) | `RM_LOGS=SEPSIS DF_LOGS= LAMBDAS=1` |" in text
+    assert "| Helpdesk | Rama-Maneiro (5 folds) | `RM_LOGS=Helpdesk DF_LOGS=` (settings not" in text
+    assert text.rstrip().endswith("| 4.0 |")  # SEPSIS's 2 folds x 2 candidates x 60 s
     text = report(again, page, runs)  # the same paths measured again: the new figures
     assert "| Helpdesk | 2 | 70.00" in text and "| SEPSIS | 2 | 60.00" in text
     kept = json.loads(runs.read_text())  # one wall time per log, the latest measure of it
