@@ -13,14 +13,14 @@ The authors' code (`models/models.py`, `sample_path(..., num_path=10, max_length
 from_start_node=True)`) starts every path at node index 1: their graphs list the states first,
 so node 1 is state 1, as in tleaf's graphs (state 1: the initial state's first successor in
 breadth-first order; on a trace chain, the state after the first letter). The paper's text
-says the walks start at the initial state: `walk_from` picks either.
+says the walks start at the initial state: `walk_from` picks either. A path follows a uniformly
+chosen out-arc and ends early where none leaves; visits are counted with multiplicity.
 
 The authors' graphs are spot's automata, which leave out a complete DFA's dead state (the
 rejecting sink no accepted word passes) and every edge into it; tleaf's DFA graphs keep it.
 `dead_state=False` reads the graph as spot prints it: the nodes from which no accepting state
 can be reached lose their arcs (so no message or path reaches them), and node 1 is the second
-live node. A path follows a uniformly
-chosen out-arc and ends early where none leaves; visits are counted with multiplicity.
+live node.
 
 While training (`module.training`), paths are drawn as the authors draw them, anew at every
 call; otherwise the readout is their expectation (the expected visits of each node divided by
