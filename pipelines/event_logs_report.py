@@ -274,7 +274,7 @@ def runs_table(runs: Runs, walls: dict[str, float], settings: dict[str, str]) ->
         "(min) | training (CPU min) |",
         "|---|---|---|---|---|",
     ]
-    for log in sorted(walls):
+    for log in sorted(walls, key=str.lower):
         part, name = log.split("/", 1)
         logs = f"RM_LOGS={name} DF_LOGS=" if part == "rm" else f"RM_LOGS= DF_LOGS={name}"
         how = settings.get(log)
