@@ -48,8 +48,9 @@ ifndef DATA
 $(error DATA=PATH is required: the downloaded logs, laid out as docs/event_logs.md says)
 endif
 OUT ?= out/event_logs
-RM_LOGS ?= Helpdesk BPI_Challenge_2012_W_Complete bpi_challenge_2013_incidents \
+RM_ALL := Helpdesk BPI_Challenge_2012_W_Complete bpi_challenge_2013_incidents \
     BPI_Challenge_2013_closed_problems SEPSIS env_permit
+RM_LOGS ?= $(RM_ALL)
 DF_LOGS ?= helpdesk bpi_12_w bpi_13_incidents env_permit bpi_11
 FOLDS ?= 0 1 2 3 4
 NFOLDS := 5
@@ -179,6 +180,7 @@ $(REPORT): $(RM_EVALS) $(DF_EVALS) pipelines/event_logs_report.py
 	@mkdir -p $(@D)
 	$(PYTHON) pipelines/event_logs_report.py $(OUT) -o $@ $(PUBLISHED) --runs $(RUNS) \
 	    --logs "$(addprefix rm/,$(RM_LOGS)) $(addprefix df/,$(DF_LOGS))" \
+	    --rm-all "$(RM_ALL)" \
 	    --settings 'LAMBDAS=$(LAMBDAS) TLEAF_LAMBDAS=$(TLEAF_LAMBDAS) LOSSES="$(LOSSES)" SEED=$(SEED)'
 
 clean:

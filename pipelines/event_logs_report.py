@@ -84,7 +84,7 @@ def kept_runs(
 
 def folders(runs: Runs, part: str) -> list[str]:
     """The logs `runs` holds in `part` (rm or df)."""
-    return sorted({k.split("/")[1] for k in runs if k.startswith(part + "/")})
+    return sorted({k.split("/")[1] for k in runs if k.startswith(part + "/")}, key=str.lower)
 
 
 def similarity(row: dict | None, way: str) -> str:
@@ -132,8 +132,11 @@ def published_suffix(folder: Path | None) -> dict[tuple[str, str, str, int], flo
         }
 
 
-def rm_table(runs: Runs, peers: dict[str, dict[str, float]]) -> tuple[list[str], list[str]]:
-    """Rama-Maneiro et al.'s protocol: the table's lines and the goals' lines.
+def rm_table(
+    runs: Runs, peers: dict[str, dict[str, float]], expected: list[str] = ()
+) -> tuple[list[str], list[str]]:
+    """Rama-Maneiro et al.'s protocol: the table's lines and the goals' lines; a log of
+    `expected` (the pipeline's logs) with no run in the record gets a row that says so.
 
     The knowledge model is declared before the runs: the exact loss's run (λ chosen on val
     among the candidates and 0) predicting under the mined rules. The other columns are shown,
@@ -180,6 +183,15 @@ def rm_table(runs: Runs, peers: dict[str, dict[str, float]]) -> tuple[list[str],
             f"{mean_sd(rows['none_rules'])} | **{mean_sd(rows['exact_rules'])}** | "
             f"{wins} of {done} | {'—' if tax is None else f'{tax:.2f}'} | "
             f"{'—' if best is None else f'{best[1]:.2f} ({best[0]})'} |"
+        )
+    measured = {log.lower() for log in folders(runs, "rm")}
+    for log in [log for log in expected if log.lower() not in measured]:  # say it is missing
+        theirs = peers.get(log.lower(), {"—": float("nan")})
+        best = max(theirs.items(), key=lambda kv: kv[1])
+        tax = f"{theirs['Tax']:.2f}" if "Tax" in theirs else "—"
+        lines.append(
+            f"| {log} | 0 (not in the record: `RM_LOGS={log}`) | — | — | — | — | — | — | "
+            f"{tax} | {best[1]:.2f} ({best[0]}) |"
         )
     goals = [
         f"- exact under mined rules at or above Tax et al.: {beat_tax} of {run} logs run "
@@ -315,9 +327,10 @@ def main() -> None:
     parser.add_argument("--runs", type=Path, default=None, help="the record of runs to add to")
     parser.add_argument("--logs", default="", help="the log folders this invocation ran")
     parser.add_argument("--settings", default="", help="the settings it ran them with")
+    parser.add_argument("--rm-all", default="", help="every log of the pipeline's 5-fold table")
     args = parser.parse_args()
     runs, walls, settings = kept_runs(args.out, args.runs, args.logs.split(), args.settings)
-    rm, rm_goals = rm_table(runs, published_accuracy(args.published))
+    rm, rm_goals = rm_table(runs, published_accuracy(args.published), args.rm_all.split())
     df, df_goals = df_table(runs, published_suffix(args.published))
     text = "\n".join(
         [

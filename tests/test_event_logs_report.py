@@ -54,8 +54,11 @@ def test_invocations_on_other_logs_add_up_and_a_rerun_replaces(tmp_path: Path) -
     assert "| SEPSIS | Rama-Maneiro (5 folds) | `RM_LOGS=SEPSIS DF_LOGS= LAMBDAS=1` |" in text
     assert "| Helpdesk | Rama-Maneiro (5 folds) | `RM_LOGS=Helpdesk DF_LOGS=` (settings not" in text
     assert text.rstrip().endswith("| 4.0 |")  # SEPSIS's 2 folds x 2 candidates x 60 s
-    text = report(again, page, runs)  # the same paths measured again: the new figures
+    text = report(again, page, runs, "--rm-all", "Helpdesk env_permit")
+    # the same paths measured again: the new figures; a pipeline log not run says so
     assert "| Helpdesk | 2 | 70.00" in text and "| SEPSIS | 2 | 60.00" in text
+    assert "| env_permit | 0 (not in the record: `RM_LOGS=env_permit`) |" in text
+    assert "| Helpdesk | 0" not in text and "| SEPSIS | 0" not in text
     kept = json.loads(runs.read_text())  # one wall time per log, the latest measure of it
     assert sorted(kept["walls"]) == ["rm/Helpdesk", "rm/SEPSIS"]
     late = time.time() + 3 * 3600  # a log run hours later into the same folder: its own wall
