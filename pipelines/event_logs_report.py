@@ -305,7 +305,7 @@ NOTES = """
   logic loss under the Declare rules mined from that fold's training split; λ is chosen on the
   fold's validation cases among the candidates and **0**, and the λ-0 run is the no-knowledge
   reference (same seed). The tleaf loss's runs read a q trained on those mined rules alone
-  (40 synthetic traces per rule, 10 for the df rows measured so far; a minute per log or fold),
+  (40 synthetic traces per rule, 10 for env_permit's df rows; a minute per log or fold),
   λ chosen the same way.
 - "Under mined rules": each prediction is the most probable next activity
   (or end) that keeps the mined rules satisfiable. The knowledge model (bold) was declared before
