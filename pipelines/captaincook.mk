@@ -14,7 +14,8 @@
 #      when its node and recipe are; what the rules are worth in recordings) -> the results page.
 #   make -f pipelines/captaincook.mk [TLEAF=tleaf] [SMALL=1] [OUT=out/captaincook]
 #        [SIZES="10 20 40 80 213"] [SEEDS="0 1 2 3 4"] [LOSSES="none exact tleaf"]
-#        [LAMBDAS_exact="0.1 1"] [LAMBDAS_tleaf="0.002 0.02"] [NOISE=2] -j2
+#        [LAMBDAS_exact="0.1 1"] [LAMBDAS_tleaf="0.002 0.02"] [NOISE=2] [SIZES_tleaf="10 20 40"] -j2
+#   `make ... curve-page`: the curve alone, the page's Table I sections kept as they are.
 # Table I on real traces (docs/procedures.md): recipe-formulas (one formula per recipe, the
 #   conjunction of its rules) -> compile-dfa --one-hot -> gen-traces --split (synthetic traces;
 #   the split holds recipes out) -> train-edge -> train-meta per preset (T1_PRESETS) ->
@@ -110,14 +111,16 @@ Q_META := --epochs 10 --max-minutes 3
 endif
 
 SPLITS := $(DATA)/data_splits/recordings_data_split_combined.json
-RUNS := $(foreach l,none $(filter-out none,$(LOSSES)),$(foreach n,$(SIZES),$(foreach s,$(SEEDS),\
-	$(OUT)/runs/$(l)-n$(n)-seed$(s)/metrics.json)))
+# SIZES_<loss>: the sizes a loss runs at (default SIZES; `none` needs every size a logic loss has)
+sizes_of = $(or $(SIZES_$(1)),$(SIZES))
+RUNS := $(foreach l,none $(filter-out none,$(LOSSES)),$(foreach n,$(call sizes_of,$(l)),\
+	$(foreach s,$(SEEDS),$(OUT)/runs/$(l)-n$(n)-seed$(s)/metrics.json)))
 ARGS_none = --logic-loss none
 ARGS_exact = --logic-loss exact
 ARGS_tleaf = --logic-loss tleaf --embedder $(OUT)/q/meta
 DEPS_tleaf = $(OUT)/q/meta/metrics.json
 
-.PHONY: all table1-page
+.PHONY: all table1-page curve-page
 all: $(PAGE)
 
 $(OUT)/started:
@@ -166,8 +169,8 @@ $(OUT)/runs/$(1)-n$(2)-seed$(3)/metrics.json: $(OUT)/activities.parquet $(OUT)/k
 	    --batch-size $(BATCH) $(TASK) --decode constrained --decode-top-k $(DECODE_TOP_K) \
 	    -o $$(@D) -q
 endef
-$(foreach l,none $(filter-out none,$(LOSSES)),$(foreach n,$(SIZES),$(foreach s,$(SEEDS),\
-	$(eval $(call RUN,$(l),$(n),$(s))))))
+$(foreach l,none $(filter-out none,$(LOSSES)),$(foreach n,$(call sizes_of,$(l)),\
+	$(foreach s,$(SEEDS),$(eval $(call RUN,$(l),$(n),$(s))))))
 
 $(OUT)/eval/step_recognition.md: $(RUNS) $(OUT)/checks/checks.parquet
 	$(TLEAF) eval step-recognition $(RUNS:/metrics.json=) --checks $(OUT)/checks/checks.parquet \
@@ -213,31 +216,46 @@ table1-page: $(T1)/section.md
 	$(PYTHON) pipelines/captaincook_table1.py $(T1) -o $(T1)/section.md \
 	    --command '$(T1_COMMAND) table1-page' --page $(PAGE)
 
-$(PAGE): $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md $(OUT)/checks/checks.parquet \
-	    $(T1)/section.md
+# the page up to its Table I sections: the step-recognition tables, the command, the rule check
+# and the learning curve
+SIZES_SET = $(strip $(foreach l,$(LOSSES),$(if $(SIZES_$(l)),SIZES_$(l)=\"$(SIZES_$(l))\")))
+SIZES_ARGS = $(if $(SIZES_SET), $(SIZES_SET))
+define CURVE_PART
+{ echo "# CaptainCook4D: real recordings, their recipes' rules, and step recognition"; \
+  echo; \
+  echo "Steps recognised along the real recordings (orders, durations, splits and rule"; \
+  echo "violations real; features drawn per step: docs/procedures.md)."; \
+  echo; \
+  cat $(OUT)/eval/step_recognition.md; \
+  echo; \
+  echo "Command: \`make -f pipelines/captaincook.mk$(if $(filter 1,$(SMALL)), SMALL=1)" \
+       "SIZES=\"$(SIZES)\" SEEDS=\"$(SEEDS)\" LOSSES=\"$(LOSSES)\"$(SIZES_ARGS)" \
+       "LAMBDAS_exact=\"$(LAMBDAS_exact)\"" \
+       "LAMBDAS_tleaf=\"$(LAMBDAS_tleaf)\" NOISE=$(NOISE)$(1)\`;" \
+       "wall time $$(( $$(stat -c %Y $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md \
+       | sort -n | tail -1) - $$(cat $(OUT)/started) )) s on $$(getconf _NPROCESSORS_ONLN)" \
+       "cores (from the first stage to the last evaluation, in $(OUT))."; \
+  echo; \
+  echo "## The rules as a detector of the recordings with errors (exact check)"; \
+  echo; \
+  sed -e 's/^## /### /' $(OUT)/checks/report.md; \
+  echo; \
+  echo "## Learning curve (step accuracy against training recordings)"; \
+  echo; \
+  sed -e '1{/^# /d;}' -e 's/^## /### /' $(OUT)/curve/curve.md; \
+  echo; \
+}
+endef
+CURVE_DEPS := $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md $(OUT)/checks/checks.parquet
+
+$(PAGE): $(CURVE_DEPS) $(T1)/section.md
 	@mkdir -p $(@D)
-	{ echo "# CaptainCook4D: real recordings, their recipes' rules, and step recognition"; \
-	  echo; \
-	  echo "Steps recognised along the real recordings (orders, durations, splits and rule"; \
-	  echo "violations real; features drawn per step: docs/procedures.md)."; \
-	  echo; \
-	  cat $(OUT)/eval/step_recognition.md; \
-	  echo; \
-	  echo "Command: \`make -f pipelines/captaincook.mk$(if $(filter 1,$(SMALL)), SMALL=1)" \
-	       "SIZES=\"$(SIZES)\" SEEDS=\"$(SEEDS)\" LOSSES=\"$(LOSSES)\"" \
-	       "LAMBDAS_exact=\"$(LAMBDAS_exact)\" LAMBDAS_tleaf=\"$(LAMBDAS_tleaf)\" NOISE=$(NOISE)\`;" \
-	       "wall time $$(( $$(stat -c %Y $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md \
-	       | sort -n | tail -1) - $$(cat $(OUT)/started) )) s on $$(getconf _NPROCESSORS_ONLN)" \
-	       "cores (from the first stage to the last evaluation, in $(OUT))."; \
-	  echo; \
-	  echo "## The rules as a detector of the recordings with errors (exact check)"; \
-	  echo; \
-	  sed -e 's/^## /### /' $(OUT)/checks/report.md; \
-	  echo; \
-	  echo "## Learning curve (step accuracy against training recordings)"; \
-	  echo; \
-	  sed -e '1{/^# /d;}' -e 's/^## /### /' $(OUT)/curve/curve.md; \
-	  echo; \
-	  cat $(T1)/section.md; \
-	} > $@.tmp
+	{ $(call CURVE_PART); cat $(T1)/section.md; } > $@.tmp
 	mv $@.tmp $@
+
+# the curve alone (no Table I chain): the page's curve part rewritten, its Table I sections kept
+curve-page: $(CURVE_DEPS)
+	@mkdir -p $(dir $(PAGE))
+	{ $(call CURVE_PART, curve-page); \
+	  if [ -f $(PAGE) ]; then sed -n '/^<!-- captaincook-table1/,$$p' $(PAGE); fi; } > $(PAGE).tmp
+	mv $(PAGE).tmp $(PAGE)
