@@ -14,7 +14,7 @@
 #      when its node and recipe are; what the rules are worth in recordings) -> the results page.
 #   make -f pipelines/captaincook.mk [TLEAF=tleaf] [SMALL=1] [OUT=out/captaincook]
 #        [SIZES="10 20 40 80 213"] [SEEDS="0 1 2 3 4"] [LOSSES="none exact tleaf"]
-#        [LAMBDAS_exact="0.1 1"] [LAMBDAS_tleaf="0.002 0.02"] [NOISE=2] [SIZES_tleaf="10 20 40"] -j2
+#        [LAMBDAS_exact="0.1 1"] [LAMBDAS_tleaf="0.002 0.02"] [NOISE=2] [SIZES_tleaf="10 20 40"] [SEEDS_tleaf="0 1 2"] -j2
 #   `make ... curve-page`: the curve alone, the page's Table I sections kept as they are.
 # Table I on real traces (docs/procedures.md): recipe-formulas (one formula per recipe, the
 #   conjunction of its rules) -> compile-dfa --one-hot -> gen-traces --split (synthetic traces;
@@ -111,10 +111,12 @@ Q_META := --epochs 10 --max-minutes 3
 endif
 
 SPLITS := $(DATA)/data_splits/recordings_data_split_combined.json
-# SIZES_<loss>: the sizes a loss runs at (default SIZES; `none` needs every size a logic loss has)
+# SIZES_<loss>, SEEDS_<loss>: the sizes and seeds a loss runs at (default SIZES, SEEDS; `none`
+# needs every size and seed a logic loss has)
 sizes_of = $(or $(SIZES_$(1)),$(SIZES))
+seeds_of = $(or $(SEEDS_$(1)),$(SEEDS))
 RUNS := $(foreach l,none $(filter-out none,$(LOSSES)),$(foreach n,$(call sizes_of,$(l)),\
-	$(foreach s,$(SEEDS),$(OUT)/runs/$(l)-n$(n)-seed$(s)/metrics.json)))
+	$(foreach s,$(call seeds_of,$(l)),$(OUT)/runs/$(l)-n$(n)-seed$(s)/metrics.json)))
 ARGS_none = --logic-loss none
 ARGS_exact = --logic-loss exact
 ARGS_tleaf = --logic-loss tleaf --embedder $(OUT)/q/meta
@@ -170,7 +172,7 @@ $(OUT)/runs/$(1)-n$(2)-seed$(3)/metrics.json: $(OUT)/activities.parquet $(OUT)/k
 	    -o $$(@D) -q
 endef
 $(foreach l,none $(filter-out none,$(LOSSES)),$(foreach n,$(call sizes_of,$(l)),\
-	$(foreach s,$(SEEDS),$(eval $(call RUN,$(l),$(n),$(s))))))
+	$(foreach s,$(call seeds_of,$(l)),$(eval $(call RUN,$(l),$(n),$(s))))))
 
 $(OUT)/eval/step_recognition.md: $(RUNS) $(OUT)/checks/checks.parquet
 	$(TLEAF) eval step-recognition $(RUNS:/metrics.json=) --checks $(OUT)/checks/checks.parquet \
@@ -218,7 +220,8 @@ table1-page: $(T1)/section.md
 
 # the page up to its Table I sections: the step-recognition tables, the command, the rule check
 # and the learning curve
-SIZES_SET = $(strip $(foreach l,$(LOSSES),$(if $(SIZES_$(l)),SIZES_$(l)=\"$(SIZES_$(l))\")))
+SIZES_SET = $(strip $(foreach l,$(LOSSES),$(if $(SIZES_$(l)),SIZES_$(l)=\"$(SIZES_$(l))\") \
+	$(if $(SEEDS_$(l)),SEEDS_$(l)=\"$(SEEDS_$(l))\")))
 SIZES_ARGS = $(if $(SIZES_SET), $(SIZES_SET))
 define CURVE_PART
 { echo "# CaptainCook4D: real recordings, their recipes' rules, and step recognition"; \
