@@ -45,12 +45,12 @@ def test_the_captaincook_pipeline_runs_on_the_shipped_files(tmp_path: Path) -> N
     assert make_small("captaincook.mk", out, "-q").returncode == 0  # nothing left to do
     # curve-page rewrites the curve part with the runs asked for (tleaf's at its own sizes) and
     # keeps the page's Table I section as it was
-    table1 = page[page.index("<!-- captaincook-table1"):]
+    table1 = page[page.index("<!-- captaincook-table1") :]
     (out / "eval" / "step_recognition.md").unlink()
     again = make_small("captaincook.mk", out, "curve-page", "LOSSES=none exact")
     assert again.returncode == 0, again.stderr[-2000:]
     page = (out / "captaincook4d.md").read_text()
-    assert page.endswith(table1) and "curve-page`" in page and "LOSSES=\"none exact\"" in page
+    assert page.endswith(table1) and "curve-page`" in page and 'LOSSES="none exact"' in page
     assert not any(line.startswith("| tleaf |") for line in page.splitlines())
 
 
