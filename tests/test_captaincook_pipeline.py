@@ -43,7 +43,7 @@ def test_the_captaincook_pipeline_runs_on_the_shipped_files(tmp_path: Path) -> N
     config = json.loads((out / "runs" / "tleaf-n8-seed0" / "config.json").read_text())
     assert config["settings"]["logic_loss"] == "tleaf" and (out / "q" / "meta").is_dir()
     assert make_small("captaincook.mk", out, "-q").returncode == 0  # nothing left to do
-    # curve-page rewrites the curve part with the runs asked for (tleaf's at its own sizes) and
+    # curve-page rewrites the curve part with the losses asked for (here without tleaf) and
     # keeps the page's Table I section as it was
     table1 = page[page.index("<!-- captaincook-table1") :]
     (out / "eval" / "step_recognition.md").unlink()
