@@ -179,5 +179,5 @@ def test_the_table1_protocols_pipeline_runs_both_ways_on_a_tiny_set(tmp_path: Pa
     assert config["settings"]["encoder"] == "authors"  # the rest of paper-code kept
     section = (out / "table1_protocols.md").read_text()
     rows = section.split("<!-- table1-ablation -->")[1].splitlines()
-    assert sum(line.startswith("| ") for line in rows) == 10  # header and 9 variants
+    assert sum(line.startswith("| ") for line in rows) == 11  # header and 10 variants
     assert not any(line.startswith("| ") and "| – |" in line for line in rows)
