@@ -220,9 +220,9 @@ table1-page: $(T1)/section.md
 
 # the page up to its Table I sections: the step-recognition tables, the command, the rule check
 # and the learning curve
-SIZES_SET = $(strip $(foreach l,$(LOSSES),$(if $(SIZES_$(l)),SIZES_$(l)=\"$(SIZES_$(l))\") \
+PER_LOSS = $(strip $(foreach l,$(LOSSES),$(if $(SIZES_$(l)),SIZES_$(l)=\"$(SIZES_$(l))\") \
 	$(if $(SEEDS_$(l)),SEEDS_$(l)=\"$(SEEDS_$(l))\")))
-SIZES_ARGS = $(if $(SIZES_SET), $(SIZES_SET))
+PER_LOSS_ARGS = $(if $(PER_LOSS), $(PER_LOSS))
 define CURVE_PART
 { echo "# CaptainCook4D: real recordings, their recipes' rules, and step recognition"; \
   echo; \
@@ -232,7 +232,7 @@ define CURVE_PART
   cat $(OUT)/eval/step_recognition.md; \
   echo; \
   echo "Command: \`make -f pipelines/captaincook.mk$(if $(filter 1,$(SMALL)), SMALL=1)" \
-       "SIZES=\"$(SIZES)\" SEEDS=\"$(SEEDS)\" LOSSES=\"$(LOSSES)\"$(SIZES_ARGS)" \
+       "SIZES=\"$(SIZES)\" SEEDS=\"$(SEEDS)\" LOSSES=\"$(LOSSES)\"$(PER_LOSS_ARGS)" \
        "LAMBDAS_exact=\"$(LAMBDAS_exact)\"" \
        "LAMBDAS_tleaf=\"$(LAMBDAS_tleaf)\" NOISE=$(NOISE)$(1)\`;" \
        "wall time $$(( $$(stat -c %Y $(OUT)/eval/step_recognition.md $(OUT)/curve/curve.md \
