@@ -103,6 +103,7 @@ $(foreach r,$(RUNS),$(eval $(call RUN,$(firstword $(call run_parts,$(r))),$(last
 $(OUT)/report/report.md: $(RUNS)
 	$(TLEAF) eval cooking $(dir $^) -o $(@D) -q
 
-.SECONDARY:
+# no .SECONDARY: every rule here is explicit, and with .SECONDARY a finished report would hide
+# runs added later (a missing secondary prerequisite does not make its parent out of date)
 clean:
 	rm -rf $(OUT)

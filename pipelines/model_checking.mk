@@ -108,6 +108,9 @@ $(OUT)/$(1)/seed$(2)/eval-$(3)/report.json: $(OUT)/$(1)/seed$(2)/meta-$(3)/metri
 endef
 $(foreach t,$(TIERS),$(foreach s,$(SEEDS),$(foreach e,$(ROWS),$(eval $(call RUN,$(t),$(s),$(e))))))
 
-.SECONDARY:
+# the pattern rules' files are kept (.PRECIOUS), not every target made secondary: with
+# .SECONDARY a finished report would hide seeds or rows added later
+.PRECIOUS: $(OUT)/%/formulas.ltl $(OUT)/%/dfas.parquet $(OUT)/%/traces.parquet \
+    $(OUT)/%/edge/metrics.json
 clean:
 	rm -rf $(OUT)

@@ -100,6 +100,10 @@ $(OUT)/$(1)/%/traces.parquet: $(OUT)/$(1)/%/dfas.parquet
 	    $(if $(filter tiers-paper,$(1)),|| test -s $$@)
 $(OUT)/$(1)/%/edge/metrics.json: $(OUT)/$(1)/%/dfas.parquet
 	$(TIMED) $(TLEAF) train-edge $$< -o $$(@D) $(EDGE) --device $(DEVICE) --seed 0 -q
+# kept (.PRECIOUS names a pattern rule's own target pattern), not every target made secondary:
+# with .SECONDARY a finished report would hide seeds added later
+.PRECIOUS: $(OUT)/$(1)/%/formulas.ltl $(OUT)/$(1)/%/dfas.parquet $(OUT)/$(1)/%/traces.parquet \
+    $(OUT)/$(1)/%/edge/metrics.json
 endef
 $(foreach p,$(PROTOCOLS),$(eval $(call DATA,$(p))))
 
@@ -168,6 +172,5 @@ endef
 $(foreach p,$(PROTOCOLS),$(foreach t,$(TIERS),$(foreach s,$(SEEDS),$(foreach e,$(PRESETS),\
 	$(eval $(call RUN,$(p),$(t),$(s),$(e)))))))
 
-.SECONDARY:
 clean:
 	rm -rf $(OUT)

@@ -161,6 +161,8 @@ def test_small_pipeline_end_to_end(tmp_path: Path) -> None:
         assert report["embedder"] == embedder and report["label"] == "low"
     # A second make has nothing to do: only what changed is re-run.
     assert make_small("model_checking.mk", tmp_path / "mc", "-q").returncode == 0
+    # ...and a seed added to a finished grid is run (make -q exits 1: out of date).
+    assert make_small("model_checking.mk", tmp_path / "mc", "-q", "SEEDS=0 1").returncode == 1
 
 
 def test_tsne_figure_shows_a_test_formula_for_each_embedder(chain, chain_cli, meta_model, tmp_path):
