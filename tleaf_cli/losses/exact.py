@@ -14,12 +14,19 @@ need float64 and a floor (1e-300, −log = 690.8) to stay finite.
 
 The rows of a batch run together without padding: their states are laid end to end in one
 vector and their (state, letter) arcs in one list, so a batch with one large rule set and many
-small ones costs the arcs it has, not rows × the largest set's arcs.
+small ones costs the arcs it has, not rows × the largest set's arcs. Two reductions keep the
+arcs few without changing P(w ⊨ φ) (float rounding aside): arcs into a dead state (no accepting
+state reachable from it) are left out, since nothing they carry reaches F; and letters that
+lead every state to the same place are one **letter class**, whose arc reads the class's
+log-probability (the log-sum-exp of its letters', computed for every step before the walk).
+On rules mined from a real event log (11 parts of up to 505 states over 3–251 letters) that
+is 76,728 arcs instead of 262,250.
 """
 
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 import torch
@@ -37,16 +44,20 @@ def exact_loss(
     if not n:
         return letters.new_zeros(0)
     arcs = _arcs([packed.rule_sets[j] for j in rows.tolist()], width)
-    source, letter, target, row_of, accepting, initial = (
+    classes = int(arcs[-1].max()) + 1
+    source, letter_class, target, row_of, accepting, initial, member, class_of = (
         torch.as_tensor(a, device=letters.device) for a in arcs
     )
     states = len(row_of)
     alpha = letters.new_full((states,), NEG).index_fill(0, initial, 0.0)
     steps = int(lengths.max())
     running = torch.arange(steps, device=letters.device)[:, None] < lengths[row_of]  # [T, states]
-    # every step's arc letters in one gather [T, arcs], unbound once: indexing step t in the
-    # loop would give a full-size gradient each
-    on_arcs = letters[:, :steps].transpose(0, 1).flatten(1)[:, letter]
+    # every step's class log-probabilities [T, classes] (a log-sum-exp over each class's
+    # letters), then every step's arc terms in one gather [T, arcs], unbound once: indexing
+    # step t in the loop would give a full-size gradient each
+    on_letters = letters[:, :steps].transpose(0, 1).flatten(1).index_select(1, member)
+    on_classes = _log_sum_by(on_letters, class_of, classes)
+    on_arcs = on_classes.index_select(1, letter_class)
     # the scatters start from these (out of place: each step's result is a new tensor), and
     # gathers are index_select: the same values in fewer operators each way than indexing
     lowest, zeros = letters.new_full((states,), NEG), letters.new_zeros(states)
@@ -62,30 +73,70 @@ def exact_loss(
     return -(top + total.log())
 
 
+def _log_sum_by(values: torch.Tensor, group: torch.Tensor, groups: int) -> torch.Tensor:
+    """[T, groups]: the log-sum-exp of the columns of `values` [T, M] in each group (`group`
+    [M], every group non-empty); a one-column group is its column exactly."""
+    index = group.expand_as(values)
+    top = values.new_full((values.shape[0], groups), NEG)
+    top = top.scatter_reduce(1, index, values.detach(), "amax")
+    spread = (values - top.gather(1, index)).exp()
+    return top + values.new_zeros(top.shape).scatter_add(1, index, spread).log()
+
+
 def _arcs(rule_sets: list[RuleSet], width: int) -> tuple[np.ndarray, ...]:
-    """The rows' DFAs end to end: each arc's source state, letter (flat index into a step's
-    [rows, width] letters) and target state; each state's row and acceptance; the rows'
-    initial states. States of row i are numbered from the sum of the earlier rows' states."""
+    """The rows' DFAs end to end: each arc's source state, letter class and target state;
+    each state's row and acceptance; the rows' initial states; each class member's letter
+    (flat index into a step's [rows, width] letters) and class. States and classes of row i
+    are numbered from the sum of the earlier rows'."""
     parts = [_arcs_of(r) for r in rule_sets]
-    sizes = np.array([len(p[3]) for p in parts], dtype=np.int64)
+    sizes = np.array([len(p.accepting) for p in parts], dtype=np.int64)
     offset = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    arcs = np.array([len(p[0]) for p in parts], dtype=np.int64)
+    classes = np.array([int(p.class_of.max()) + 1 for p in parts], dtype=np.int64)
+    class_offset = np.concatenate([[0], np.cumsum(classes)[:-1]])
+    arcs = np.array([len(p.source) for p in parts], dtype=np.int64)
+    letters = np.array([len(p.class_of) for p in parts], dtype=np.int64)
     state_shift = np.repeat(offset, arcs)
-    letter_shift = np.repeat(np.arange(len(parts), dtype=np.int64) * width, arcs)
     return (
-        np.concatenate([p[0] for p in parts]) + state_shift,
-        np.concatenate([p[1] for p in parts]) + letter_shift,
-        np.concatenate([p[2] for p in parts]) + state_shift,
+        np.concatenate([p.source for p in parts]) + state_shift,
+        np.concatenate([p.letter_class for p in parts]) + np.repeat(class_offset, arcs),
+        np.concatenate([p.target for p in parts]) + state_shift,
         np.repeat(np.arange(len(parts), dtype=np.int64), sizes),
-        np.concatenate([p[3] for p in parts]),
-        offset + np.array([p[4] for p in parts], dtype=np.int64),
+        np.concatenate([p.accepting for p in parts]),
+        offset + np.array([p.initial for p in parts], dtype=np.int64),
+        np.concatenate([np.arange(k) for k in letters])
+        + np.repeat(np.arange(len(parts)) * width, letters),
+        np.concatenate([p.class_of for p in parts]) + np.repeat(class_offset, letters),
     )
 
 
+class _DFAArcs(NamedTuple):
+    """One DFA's arcs for the forward algorithm: (source, letter class, target) for every state
+    and class whose target is live; its accepting states and initial state; each letter's
+    class (the classes numbered in order of their first letter)."""
+
+    source: np.ndarray
+    letter_class: np.ndarray
+    target: np.ndarray
+    accepting: np.ndarray
+    initial: int
+    class_of: np.ndarray
+
+
 @lru_cache(maxsize=4096)
-def _arcs_of(rule_set: RuleSet) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-    """One DFA's arcs (source, letter, target) for every (state, letter), its accepting states
-    and initial state; built once per rule set."""
-    table = rule_set.dfa.table.astype(np.int64)  # [S, L]
-    source, letter = np.indices(table.shape).reshape(2, -1)
-    return source, letter, table.ravel(), rule_set.dfa.accepting.copy(), rule_set.dfa.initial
+def _arcs_of(rule_set: RuleSet) -> _DFAArcs:
+    """`_DFAArcs` of one rule set's DFA; built once per rule set."""
+    dfa = rule_set.dfa
+    table = dfa.table.astype(np.int64)  # [S, L]
+    live = dfa.live()
+    # letters alike: the same target from every state, a dead target counted as one
+    seen = np.where(live[table], table, -1).T
+    _, first, class_of = np.unique(seen, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # classes numbered by their first letter
+    class_of = np.argsort(order)[class_of.ravel()]
+    representative = np.sort(first)
+    source, letter_class = np.indices((len(table), len(representative))).reshape(2, -1)
+    target = table[source, representative[letter_class]]
+    keep = live[target]
+    return _DFAArcs(
+        source[keep], letter_class[keep], target[keep], dfa.accepting.copy(), dfa.initial, class_of
+    )
