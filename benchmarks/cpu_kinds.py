@@ -28,8 +28,9 @@ backwards, each of the ways one layer's products can be written:
 * `gcn_layer`: the layer as q_m runs it, forwards and backwards (what the parts add to).
 
 Then each kind trains q_e and q_m (`speed.py`'s commands, `--epochs` epochs, the mean of the
-epochs after the first). Prints the CPU, then two markdown tables with each kind's figure and
-its ratio to `native`.
+epochs after the first). The kinds take turns `--rounds` times; each figure is the median over
+them. Prints the CPU, then two markdown tables with each kind's figure and its ratio to
+`native`.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -259,6 +261,11 @@ def epochs_in_kind(kind: str, data: Path, epochs: int) -> dict[str, float]:
         os.environ.update(saved)
 
 
+def _medians(answers: list[dict[str, float]]) -> dict[str, float]:
+    """Each figure's median over the rounds."""
+    return {key: statistics.median(a[key] for a in answers) for key in answers[0]}
+
+
 def table(rows: dict[str, dict[str, float]], kinds: list[str], unit: str) -> str:
     """A markdown table: one row per figure, each kind's value and its ratio to the first."""
     head = f"| {unit} | " + " | ".join(kinds)
@@ -281,6 +288,7 @@ def main() -> None:
     parser.add_argument("--batches", type=int, default=8, help="q_m batches whose layers are timed")
     parser.add_argument("--repeat", type=int, default=5, help="rounds over the layers (median)")
     parser.add_argument("--epochs", type=int, default=3, help="epochs of q_e and q_m (0: none)")
+    parser.add_argument("--rounds", type=int, default=3, help="turns of the kinds (median)")
     parser.add_argument("--kinds", nargs="+", default=list(KINDS), choices=list(KINDS))
     parser.add_argument("--time-ways", nargs=2, metavar=("CALLS", "PER_BATCH"), help="internal")
     args = parser.parse_args()
@@ -294,15 +302,21 @@ def main() -> None:
     speed.prepare(data, ROOT, args.formulas)
     calls = args.out.resolve() / "cpu-kinds-calls.pt"
     per_batch = capture(data, args.batches, calls)
-    products, epochs = {}, {}
+    seen: dict[str, list[dict]] = {kind: [] for kind in args.kinds}
+    runs: dict[str, list[dict]] = {kind: [] for kind in args.kinds}
     for kind in args.kinds:
-        answer = in_kind(kind, "--time-ways", str(calls), str(per_batch), "--repeat",
-                         str(args.repeat))  # fmt: skip
-        print(kind, json.dumps(answer), "MKL:", mkl_path(kind), flush=True)
-        products[kind] = answer["ms_per_batch"]
-    for kind in args.kinds if args.epochs else ():
-        epochs[kind] = epochs_in_kind(kind, data, args.epochs)
-        print(kind, json.dumps(epochs[kind]), flush=True)
+        print(kind, "MKL:", mkl_path(kind), flush=True)
+    for _ in range(args.rounds):  # the kinds take turns: a drift of the host's speed hits both
+        for kind in args.kinds:
+            answer = in_kind(kind, "--time-ways", str(calls), str(per_batch), "--repeat",
+                             str(args.repeat))  # fmt: skip
+            print(kind, json.dumps(answer), flush=True)
+            seen[kind].append(answer["ms_per_batch"])
+        for kind in args.kinds if args.epochs else ():
+            runs[kind].append(epochs_in_kind(kind, data, args.epochs))
+            print(kind, json.dumps(runs[kind][-1]), flush=True)
+    products = {kind: _medians(seen[kind]) for kind in args.kinds}
+    epochs = {kind: _medians(runs[kind]) for kind in args.kinds if runs[kind]}
     print(table(products, args.kinds, "ms per q_m batch (its GCN layers)"))
     if epochs:
         print(table(epochs, args.kinds, "seconds per epoch"))
