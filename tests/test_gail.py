@@ -373,7 +373,9 @@ def test_small_pipeline_end_to_end(small_pipeline: Path) -> None:
     config = json.loads((small_pipeline / "runs/tleaf-seed0/config.json").read_text())
     assert config["data"].startswith("synthetic")
     # a seed added to the finished runs is run (make -q exits 1: out of date)
-    more = make_small("cooking.mk", small_pipeline, "-q", "LOSSES=none tleaf checker", "SEEDS=0 1 2")
+    more = make_small(
+        "cooking.mk", small_pipeline, "-q", "LOSSES=none tleaf checker", "SEEDS=0 1 2"
+    )
     assert more.returncode == 1, more.stdout[-2000:]
 
 
