@@ -50,8 +50,8 @@ DEMOS := --episodes 4 --seed 0
 K := 10
 LAMBDA ?= 0.01
 EDGE := --epochs 3
-# q: the paper's (the preset the committed tleaf rows were measured with; the best preset is
-# not measured on this task)
+# q: the paper's (the preset docs/results/cooking.md's tleaf rows were measured with; the best
+# preset is not measured on this task)
 META := --preset paper --epochs 10 --max-minutes 3
 TASK := --steps 150000 --eval-every 4096 --eval-episodes 8 --held-out 8
 endif

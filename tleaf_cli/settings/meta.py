@@ -224,9 +224,9 @@ class MetaSettings(Presets):
     PRESET_HELP: ClassVar[dict[str, str]] = {
         "best": "the Table I pipeline's q: directed messages, the runs readout in 5 parts, "
         "temporal monitors and their naive-Bayes evidence, one radius, cosine schedule, 6 epochs",
-        "paper": "tleaf's reading of the 2021 paper's q (the committed Table I rows): GCN over "
-        "arcs taken both ways, walk readout, triplet loss alone, constant learning rate, 30 "
-        "epochs, early stop after 5",
+        "paper": "tleaf's reading of the 2021 paper's q (its Table I rows on tleaf's tiers): GCN "
+        "over arcs taken both ways, walk readout, triplet loss alone, constant learning rate, "
+        "30 epochs, early stop after 5",
         "paper-code": "the authors' code's q: GCN 2048-512-256-200 along the arcs, ReLU after "
         "every layer, mean over 10 random paths of 5 nodes from node 1, unit vectors, "
         "Euclidean triplet loss, Adam 0.01 with weight decay 5e-4, 256 triplets a step, 200 "
