@@ -68,14 +68,14 @@ def exact_loss(
         step = top + zeros.scatter_add(0, target, spread).clamp(min=1.0).log()  # reached: >= 1
         alpha = torch.where(running_t, step, alpha)
     final = torch.where(accepting, alpha, letters.new_tensor(NEG))
-    top = letters.new_full((n,), NEG).scatter_reduce(0, row_of, final.detach(), "amax")
-    total = letters.new_zeros(n).scatter_add(0, row_of, (final - top[row_of]).exp())
-    return -(top + total.log())
+    return -_log_sum_by(final.unsqueeze(0), row_of, n).squeeze(0)
 
 
 def _log_sum_by(values: torch.Tensor, group: torch.Tensor, groups: int) -> torch.Tensor:
     """[T, groups]: the log-sum-exp of the columns of `values` [T, M] in each group (`group`
-    [M], every group non-empty); a one-column group is its column exactly."""
+    [M], every group non-empty); a one-column group is its column exactly. Each group's
+    largest value is taken out first (detached: it cancels in the gradient), so the sum of
+    exponentials is at least 1."""
     index = group.expand_as(values)
     top = values.new_full((values.shape[0], groups), NEG)
     top = top.scatter_reduce(1, index, values.detach(), "amax")
