@@ -307,6 +307,49 @@ def test_gcn_layer_is_a_layer_per_direction_summed_with_gradients():
             assert torch.allclose(a, b, atol=1e-5, rtol=1e-5), directed
 
 
+@pytest.mark.parametrize("directed", [True, False])
+def test_gcn_layer_over_distinct_inputs_is_the_layer_over_every_node(directed):
+    """x given once per distinct row with each node's index: the layer's output and every
+    gradient (weights, biases, the distinct rows) are those of the layer over x[index]."""
+    batch = Batch.from_data_list(dfa_graphs())
+    n = int(batch.num_nodes)
+    model = encoder(directed)
+    convs = [model.convs[0]] + ([model.back[0]] if directed else [])
+    weights, biases = tuple(c.lin.weight for c in convs), tuple(c.bias for c in convs)
+    joint = joint_adjacency(batch.edge_index, n, directed)
+    rows = torch.randn(7, convs[0].in_channels, requires_grad=True)
+    index = torch.randint(0, 7, (n,))
+    got = gcn_layer(rows, joint, weights, biases, index)
+    want = gcn_layer(rows[index], joint, weights, biases)
+    assert torch.allclose(got, want, atol=1e-6)
+    scale = torch.randn_like(got)
+    inputs = (rows, *weights, *biases)
+    for a, b in zip(
+        torch.autograd.grad((got * scale).sum(), inputs),
+        torch.autograd.grad((want * scale).sum(), inputs),
+        strict=True,
+    ):
+        assert torch.allclose(a, b, atol=1e-5, rtol=1e-5)
+
+
+def test_gcn_layer_of_a_frozen_q_gives_the_inputs_their_gradient():
+    """Weights that ask for no gradient (q frozen under the tleaf loss) get none, and the
+    inputs' gradient is the one a trainable layer gives them."""
+    batch = Batch.from_data_list(dfa_graphs())
+    n = int(batch.num_nodes)
+    conv = encoder(False).convs[0]
+    joint = joint_adjacency(batch.edge_index, n, False)
+    x = torch.randn(n, conv.in_channels, requires_grad=True)
+    scale = torch.randn(n, conv.out_channels)
+    trainable = gcn_layer(x, joint, (conv.lin.weight,), (conv.bias,))
+    (want,) = torch.autograd.grad((trainable * scale).sum(), (x,))
+    weight, bias = conv.lin.weight.detach(), conv.bias.detach()
+    frozen = gcn_layer(x, joint, (weight,), (bias,))
+    (got,) = torch.autograd.grad((frozen * scale).sum(), (x,))
+    assert torch.equal(frozen, trainable)
+    assert torch.allclose(got, want, atol=1e-6)
+
+
 def test_csr_product_ignores_what_its_output_held():
     batch = Batch.from_data_list(dfa_graphs())
     n = int(batch.num_nodes)
@@ -322,7 +365,7 @@ def test_joint_store_batch_is_the_graph_store_batch():
     formulas, traces = [4, 0, 2], [5, 1, 1, 3, 0]  # repeats and any order
     joint = store.select(formulas, traces)
     old = plain_batch(plain, chain_of, letters, monitor, formulas, traces)
-    assert torch.equal(joint.x, model.trace.node_inputs(old))
+    assert torch.equal(joint.node_inputs(), model.trace.node_inputs(old))
     for key in ("adjacency", "pool"):
         for got, want in zip(getattr(joint, key), old[key], strict=True):
             assert got.crow_indices().dtype == torch.int32

@@ -354,20 +354,22 @@ class AutomatonEncoder(nn.Module):
             parts.append(self.monitor_features(batch))
         return self.head(torch.cat(parts, dim=1))
 
-    def _layers(self, x: torch.Tensor, adjacency) -> torch.Tensor:
-        """The GCN layers over node states `x` and the batch's joint adjacency."""
+    def _layers(
+        self, x: torch.Tensor, adjacency, index: torch.Tensor | None = None
+    ) -> torch.Tensor:
+        """The GCN layers over node states `x` and the batch's joint adjacency; with `index`,
+        x holds distinct input rows and node i's is x[index[i]] (`gcn_layer`)."""
         for k, conv in enumerate(self.convs):
             convs = (conv,) if self.back is None else (conv, self.back[k])
-            x = gcn_layer(
-                x, adjacency, tuple(c.lin.weight for c in convs), tuple(c.bias for c in convs)
-            )
+            weights, biases = tuple(c.lin.weight for c in convs), tuple(c.bias for c in convs)
+            x = gcn_layer(x, adjacency, weights, biases, index if k == 0 else None)
         return x
 
     def _forward_joint(self, batch: JointBatch) -> torch.Tensor:
         """`forward` of a `JointStore` batch (run readouts, no probes)."""
         if self.readout not in RUN_READOUTS or self.probes is not None:
             raise SettingError("readout", "a JointStore batch needs a run readout and no probes")
-        x = self._layers(batch.x, batch.adjacency)
+        x = self._layers(batch.x, batch.adjacency, batch.x_index)
         parts = [sparse_product(batch.pool, x).reshape(batch.graphs, -1)]
         if self.monitor_bank is not None:  # carried as the head reads them, or cut here
             monitor = batch.monitor

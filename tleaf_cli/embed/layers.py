@@ -70,30 +70,52 @@ class _GCNLayer(torch.autograd.Function):
     (`graphs.joint_adjacency`), W the directions' weights stacked, b their biases summed: one
     dense product, one sparse product with the bias, an in-place ReLU; the backward written
     out (the ReLU's mask, Âᵀ · G, the two weight products), so a layer is a few operators
-    each way instead of an autograd node per step."""
+    each way instead of an autograd node per step. With `index`, node i's input is
+    x[index[i]] (x holds the distinct inputs): the dense product runs on the distinct rows and
+    is gathered, and the weights' gradient sums each row's nodes first. Gradients nobody
+    asked for (a frozen q's weights, constant inputs) are not computed."""
 
     @staticmethod
-    def forward(ctx, x, matrix, transposed, *weights_and_biases):
+    def forward(ctx, x, index, matrix, transposed, *weights_and_biases):
         ways = len(weights_and_biases) // 2
         weights, biases = weights_and_biases[:ways], weights_and_biases[ways:]
         weight = weights[0] if ways == 1 else torch.cat(weights)
         bias = biases[0] if ways == 1 else sum(biases[1:], biases[0])
-        states = torch.mm(x, weight.transpose(0, 1)).view(-1, bias.shape[0])
-        out = torch.addmm(bias, matrix, states).relu_()
-        ctx.save_for_backward(x, weight, out)
+        states = torch.mm(x, weight.transpose(0, 1))
+        if index is not None:
+            states = states.index_select(0, index)
+        out = torch.addmm(bias, matrix, states.view(-1, bias.shape[0])).relu_()
+        ctx.save_for_backward(x, index, weight, out)
         ctx.transposed, ctx.ways = transposed, ways
         return out
 
     @staticmethod
     def backward(ctx, grad):
-        x, weight, out = ctx.saved_tensors
+        x, index, weight, out = ctx.saved_tensors
+        ways = ctx.ways
+        wants_weights = any(ctx.needs_input_grad[4 : 4 + ways])
+        wants_biases = any(ctx.needs_input_grad[4 + ways :])
         grad = torch.ops.aten.threshold_backward(grad, out, 0)  # where the ReLU passed
-        grad_bias = grad.sum(0)
-        grad_states = csr_product(ctx.transposed, grad).view(out.shape[0], -1)
-        grad_x = torch.mm(grad_states, weight) if ctx.needs_input_grad[0] else None
-        grad_weight = torch.mm(grad_states.transpose(0, 1), x)
-        grad_weights = grad_weight.view(ctx.ways, -1, x.shape[1]).unbind(0)
-        return grad_x, None, None, *grad_weights, *([grad_bias] * ctx.ways)
+        grad_bias = grad.sum(0) if wants_biases else None
+        grad_x = grad_weights = None
+        if ctx.needs_input_grad[0] or wants_weights:
+            grad_states = csr_product(ctx.transposed, grad).view(out.shape[0], -1)
+            if index is not None:  # each distinct input's nodes summed
+                rows = grad_states.new_zeros(x.shape[0], grad_states.shape[1])
+                grad_states = rows.index_add_(0, index, grad_states)
+            if ctx.needs_input_grad[0]:
+                grad_x = torch.mm(grad_states, weight)
+            if wants_weights:
+                grad_weight = torch.mm(grad_states.transpose(0, 1), x)
+                grad_weights = grad_weight.view(ways, -1, x.shape[1]).unbind(0)
+        return (
+            grad_x,
+            None,
+            None,
+            None,
+            *(grad_weights or [None] * ways),
+            *([grad_bias] * ways),
+        )
 
 
 def gcn_layer(
@@ -101,8 +123,11 @@ def gcn_layer(
     adjacency: Adjacency,
     weights: tuple[torch.Tensor, ...],
     biases: tuple[torch.Tensor, ...],
+    index: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """ReLU(Σ_d Â_d X W_dᵀ + b_d) over a joint adjacency of len(weights) directions
     (`graphs.joint_adjacency`: direction d's Â at columns ways · u + d), in one autograd node
-    (`_GCNLayer`): what one `NormalisedGCNConv` per direction, their sum and a ReLU give."""
-    return _GCNLayer.apply(x, adjacency.matrix, adjacency.transposed, *weights, *biases)
+    (`_GCNLayer`): what one `NormalisedGCNConv` per direction, their sum and a ReLU give.
+    With `index` [n], x holds distinct input rows and node i reads x[index[i]] (a batch whose
+    nodes repeat few inputs: q_m's first layer over many graphs)."""
+    return _GCNLayer.apply(x, index, adjacency.matrix, adjacency.transposed, *weights, *biases)
