@@ -41,9 +41,19 @@ LOSSES = ("none", "exact", "tleaf", "exact labels", "tleaf labels")
 def tleaf(tree: Path, *args: str) -> None:
     """`tleaf args` with the package of `tree`, one torch thread. Run from `tree` (`python -c`
     puts the working directory first on sys.path, before PYTHONPATH)."""
-    env = {**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"}
-    code = "from tleaf_cli.cli import main; main()"
-    subprocess.run([sys.executable, "-c", code, *args, "-q"], check=True, env=env, cwd=tree)
+    subprocess.run(
+        [sys.executable, "-c", "from tleaf_cli.cli import main; main()", *args, "-q"],
+        check=True,
+        env=tree_env(tree),
+        cwd=tree,
+    )
+
+
+def tree_env(tree: Path) -> dict[str, str]:
+    """The environment for `tree`'s commands: its package first on PYTHONPATH (before what the
+    caller put there, e.g. wheels unpacked on a device machine), one torch thread."""
+    path = os.pathsep.join(p for p in (str(tree), os.environ.get("PYTHONPATH", "")) if p)
+    return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
 
 
 def epoch_seconds(run: Path) -> float:
@@ -123,7 +133,7 @@ def prepare(data: Path, tree: Path, formulas: int) -> None:
                 str(ar / "traces.parquet"),
                 "-q",
             ],
-            env={**os.environ, "PYTHONPATH": str(tree), "OMP_NUM_THREADS": "1"},
+            env=tree_env(tree),
             cwd=tree,
         )
         tleaf(
@@ -208,9 +218,15 @@ def measure(
 
 
 def table(results: dict[tuple[str, str], dict[str, float]], devices: list[str]) -> str:
+    trees = list(dict.fromkeys(t for t, _ in results))
+    # with both devices: each tree's GPU speed-up over one CPU thread of the same machine
+    gpu = [t for t in trees if (t, "cpu") in results and (t, "cuda") in results]
     rows = [
-        "| trainer | " + " | ".join(f"{t} {d}" for t, d in results) + " | baseline / this |",
-        "|---|" + "---|" * (len(results) + 1),
+        "| trainer | "
+        + " | ".join(f"{t} {d}" for t, d in results)
+        + " | baseline / this |"
+        + "".join(f" {t}: cpu / cuda |" for t in gpu),
+        "|---|" + "---|" * (len(results) + 1 + len(gpu)),
     ]
     for key in next(iter(results.values())):
         cells = [f"{r[key]:.3f}" for r in results.values()]
@@ -219,7 +235,11 @@ def table(results: dict[tuple[str, str], dict[str, float]], devices: list[str]) 
             for d in devices
             if ("baseline", d) in results and ("this", d) in results
         ]
-        rows.append(f"| {key} | " + " | ".join(cells) + f" | {', '.join(ratios)} |")
+        speedups = [f"{results[(t, 'cpu')][key] / results[(t, 'cuda')][key]:.1f}x" for t in gpu]
+        rows.append(
+            f"| {key} | " + " | ".join(cells) + f" | {', '.join(ratios)} |"
+            + "".join(f" {x} |" for x in speedups)
+        )  # fmt: skip
     if "lstm none" not in next(iter(results.values())):  # --embedders-only
         return "\n".join(rows)
     rows.append("")
