@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import shutil
 import statistics
@@ -36,6 +37,7 @@ Q = ["--max-length", "20", "--pull", "0.02", "--monitor-ranges", "1", "--no-sphe
 # the action recogniser's losses; "labels": each video's rule set from its labels, fixed for the
 # run, so the loss's own cost without building rule sets for new predictions every batch
 LOSSES = ("none", "exact", "tleaf", "exact labels", "tleaf labels")
+NA = float("nan")  # a run that failed: "n/a" in the tables
 
 
 def tleaf(tree: Path, *args: str) -> None:
@@ -193,28 +195,37 @@ def measure(
             run = runs / f"{model}-{name.replace(' ', '-')}"
             q = ["--embedder", str(ar / "meta")] if loss == "tleaf" else []
             q += ["--formula-from", source] if source else []
-            tleaf(
-                tree,
-                "train-task",
-                "action-recognition",
-                str(ar / "activities.parquet"),
-                "--kb",
-                str(ar / "kb.ltl"),
-                "--model",
-                model,
-                "--logic-loss",
-                loss,
-                *q,
-                "--epochs",
-                str(2 * epochs),
-                "--patience",
-                str(2 * epochs),
-                "-o",
-                str(run),
-                *common,
-            )
+            try:
+                tleaf(
+                    tree,
+                    "train-task",
+                    "action-recognition",
+                    str(ar / "activities.parquet"),
+                    "--kb",
+                    str(ar / "kb.ltl"),
+                    "--model",
+                    model,
+                    "--logic-loss",
+                    loss,
+                    *q,
+                    "--epochs",
+                    str(2 * epochs),
+                    "--patience",
+                    str(2 * epochs),
+                    "-o",
+                    str(run),
+                    *common,
+                )
+            except subprocess.CalledProcessError:  # e.g. an older tree cannot read this q
+                out[f"{model} {name}"] = NA
+                continue
             out[f"{model} {name}"] = epoch_seconds(run)
     return out
+
+
+def shown(value: float, spec: str, unit: str = "") -> str:
+    """A figure as the tables print it; n/a for a failed run's NaN."""
+    return "n/a" if math.isnan(value) else f"{value:{spec}}{unit}"
 
 
 def table(results: dict[tuple[str, str], dict[str, float]], devices: list[str]) -> str:
@@ -229,13 +240,15 @@ def table(results: dict[tuple[str, str], dict[str, float]], devices: list[str]) 
         "|---|" + "---|" * (len(results) + 1 + len(gpu)),
     ]
     for key in next(iter(results.values())):
-        cells = [f"{r[key]:.3f}" for r in results.values()]
+        cells = [shown(r[key], ".3f") for r in results.values()]
         ratios = [
-            f"{results[('baseline', d)][key] / results[('this', d)][key]:.2f}x ({d})"
+            shown(results[("baseline", d)][key] / results[("this", d)][key], ".2f", f"x ({d})")
             for d in devices
             if ("baseline", d) in results and ("this", d) in results
         ]
-        speedups = [f"{results[(t, 'cpu')][key] / results[(t, 'cuda')][key]:.1f}x" for t in gpu]
+        speedups = [
+            shown(results[(t, "cpu")][key] / results[(t, "cuda")][key], ".1f", "x") for t in gpu
+        ]
         rows.append(
             f"| {key} | " + " | ".join(cells) + f" | {', '.join(ratios)} |"
             + "".join(f" {x} |" for x in speedups)
@@ -254,7 +267,9 @@ def table(results: dict[tuple[str, str], dict[str, float]], devices: list[str]) 
     rows.append("|---|" + "---|" * 2 * len(losses))
     for (tree, device), r in results.items():
         ratios = [
-            f"{r[f'{m} {loss}'] / r[f'{m} none']:.2f}x" for m in ("lstm", "tcn") for loss in losses
+            shown(r[f"{m} {loss}"] / r[f"{m} none"], ".2f", "x")
+            for m in ("lstm", "tcn")
+            for loss in losses
         ]
         rows.append(f"| {tree}, {device} | " + " | ".join(ratios) + " |")
     return "\n".join(rows)
