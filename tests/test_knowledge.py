@@ -422,3 +422,26 @@ def test_a_rule_sets_dfa_is_the_pairwise_product_of_its_rules() -> None:
         several += _group_count([d.atoms for d in dfas]) > 1
         unsatisfiable += not rule_set.satisfiable
     assert several > 60 and unsatisfiable > 5, (several, unsatisfiable)  # both kinds were tried
+
+
+def test_a_groups_product_kept_for_its_automata_is_right_over_other_atoms() -> None:
+    """A group's product is kept per (automata, atom layout) (`rule_set._GROUPS`): the same
+    rules over other atoms, in the same or another order among the group's atoms, come out as
+    the pairwise product of their own DFAs, the first layout from the kept table."""
+    import functools
+
+    from tleaf_cli.logic.compile import compile_formula
+    from tleaf_cli.logic.dfa import DFA
+    from tleaf_cli.rule_set import _GROUPS, RuleSet
+
+    rules = ["G({x} -> F {y})", "!{y} U {x}", "G({y} -> X !{z})"]
+    vocabulary = ["a", "b", "c", "d", "e", "f", "g", "h", "i"]
+    names = [("a", "b", "c"), ("d", "e", "f"), ("i", "h", "g"), ("g", "i", "h")]
+    for x, y, z in names:
+        formulas = [r.format(x=x, y=y, z=z) for r in rules]
+        before = len(_GROUPS)
+        rule_set = RuleSet(formulas, vocabulary)
+        dfas = [compile_formula(f, "one-hot") for f in formulas]
+        assert rule_set.dfa == functools.reduce(DFA.product, dfas).minimize_nonempty(), (x, y, z)
+        if (x, y, z) == ("d", "e", "f"):  # the layout of a, b, c: a copy of the kept table
+            assert len(_GROUPS) == before

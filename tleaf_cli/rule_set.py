@@ -42,6 +42,7 @@ from tleaf_cli.logic.conjunction import conjoin_nonempty
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import atoms as formula_atoms
 from tleaf_cli.logic.formulas import parse
+from tleaf_cli.logic.kept import Kept
 
 _COMPILED: dict[tuple[str, float], DFA] = {}  # (formula text, timeout) -> one-hot DFA
 
@@ -302,12 +303,31 @@ def _connected(formulas: Sequence[str], timeout: float) -> list[frozenset[str]]:
 
 @functools.lru_cache(maxsize=8192)
 def _group(formulas: frozenset[str], timeout: float) -> DFA:
-    """The minimal DFA of the conjunction of compiled `formulas` (the empty word included)."""
-    ordered = sorted(formulas)
-    dfa = _COMPILED[(ordered[0], timeout)]
-    for formula in ordered[1:]:
-        dfa = dfa.product(_COMPILED[(formula, timeout)], canonical=False)
-    return dfa.minimize()
+    """The minimal DFA of the conjunction of compiled `formulas` (the empty word included).
+    Its table depends on the formulas' automata and on where each one's atoms sit among the
+    group's, not on the atoms' names: kept under that key (`_GROUPS`), so the same rules over
+    another ingredient are a copy, not a chain of products."""
+    dfas = [_COMPILED[(formula, timeout)] for formula in sorted(formulas)]
+    if len(dfas) == 1:
+        return dfas[0].minimize()
+    union = sorted(set().union(*(d.atoms for d in dfas)))
+    where = {a: k for k, a in enumerate(union)}
+    key = (tuple(d.structure for d in dfas), tuple(tuple(where[a] for a in d.atoms) for d in dfas))
+    kept = _GROUPS.get(key)
+    if kept is None:
+        dfa = dfas[0]
+        for other in dfas[1:]:
+            dfa = dfa.product(other, canonical=False)
+        dfa = dfa.minimize()
+        _GROUPS.keep(key, (dfa.table, dfa.initial, dfa.accepting))
+        return dfa
+    table, initial, accepting = kept
+    alphabet = Alphabet(tuple(union), dfas[0].alphabet.kind)
+    return DFA(alphabet, table.copy(), initial, accepting.copy())
+
+
+# `_group`'s products per (automata, atom layout); a DFA's arrays are never changed in place
+_GROUPS = Kept(8192)
 
 
 @functools.lru_cache(maxsize=16)

@@ -28,6 +28,7 @@ from tleaf_cli.embed.proposition_encoder import PropositionEncoder
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.kept import Kept
 from tleaf_cli.logic.monitors import MonitorBank
 
 Key = tuple[tuple[str, ...], tuple[tuple[int, ...], ...]]
@@ -84,7 +85,7 @@ def _named(key: Key) -> tuple:
 # positions, never read the atoms' names): a loss's fresh rule sets often repeat an automaton
 # over other atoms. At most GRAPHS_KEPT, the oldest dropped first.
 GRAPHS_KEPT = 1024
-_GRAPHS: dict[tuple, tuple[Data, list]] = {}
+_GRAPHS = Kept(GRAPHS_KEPT)  # per automaton: its graph and guards
 
 
 def guard_keys(dfa: DFA) -> list[Key]:
@@ -98,16 +99,14 @@ def _dfa_graph(dfa: DFA) -> tuple[Data, list]:
     adds (edge vectors, monitor shares) stay its own."""
     key = dfa.structure
     if key not in _GRAPHS:
-        if len(_GRAPHS) >= GRAPHS_KEPT:
-            _GRAPHS.pop(next(iter(_GRAPHS)))
-        _GRAPHS[key] = dfa_graph(dfa)
+        _GRAPHS.keep(key, dfa_graph(dfa))
     graph, guards = _GRAPHS[key]
     return copy.copy(graph), guards
 
 
 # the fields of `dfa_graph`'s graphs that `dfa_batch` lays end to end (edge_index aside)
 GRAPH_FIELDS = ("node_kind", "flags", "guard", "share", "rejecting", "horizon", "initial")
-_ARRAYS: dict[tuple, tuple[dict[str, np.ndarray], list]] = {}
+_ARRAYS = Kept(GRAPHS_KEPT)  # per automaton: its graph as arrays, and guards
 
 
 def _dfa_arrays(dfa: DFA) -> tuple[dict[str, np.ndarray], list]:
@@ -115,11 +114,9 @@ def _dfa_arrays(dfa: DFA) -> tuple[dict[str, np.ndarray], list]:
     (at most GRAPHS_KEPT, the oldest dropped first)."""
     key = dfa.structure
     if key not in _ARRAYS:
-        if len(_ARRAYS) >= GRAPHS_KEPT:
-            _ARRAYS.pop(next(iter(_ARRAYS)))
         graph, guards = _dfa_graph(dfa)
         arrays = {field: graph[field].numpy() for field in (*GRAPH_FIELDS, "edge_index")}
-        _ARRAYS[key] = (arrays, guards)
+        _ARRAYS.keep(key, (arrays, guards))
     return _ARRAYS[key]
 
 

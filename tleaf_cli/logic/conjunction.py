@@ -15,6 +15,7 @@ import numpy as np
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA, SMALL_TABLE
+from tleaf_cli.logic.kept import Kept
 from tleaf_cli.logic.small_tables import minimize_table, nonempty_table
 
 # Conjunctions kept by `conjoin_nonempty`, per automata and letter layout (the oldest dropped).
@@ -66,15 +67,13 @@ def conjoin_nonempty(dfas: Sequence[DFA]) -> DFA:
             return reduce(lambda a, b: a.product(b, canonical=False), dfas).minimize_nonempty()
         rows, initial, accepting = nonempty_table(*minimize_table(*small))
         kept = (np.array(rows, dtype=np.int32), initial, np.array(accepting, dtype=bool))
-        if len(_CONJUNCTIONS) >= CONJUNCTIONS_KEPT:
-            _CONJUNCTIONS.pop(next(iter(_CONJUNCTIONS)))  # the oldest
-        _CONJUNCTIONS[key] = kept
+        _CONJUNCTIONS.keep(key, kept)
     table, initial, accepting = kept
     return DFA(alphabet, table.copy(), initial, accepting.copy())
 
 
 # conjoin_nonempty's small conjunctions: (structures, letter layout) -> table, initial, accepting
-_CONJUNCTIONS: dict[tuple, tuple[np.ndarray, int, np.ndarray]] = {}
+_CONJUNCTIONS = Kept(CONJUNCTIONS_KEPT)
 
 
 def _disjoint_product_small(

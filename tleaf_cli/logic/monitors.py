@@ -43,6 +43,7 @@ from typing import NamedTuple
 import numpy as np
 
 from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.kept import Kept
 from tleaf_cli.logic.letter_walks import rest_walk, table_walk
 
 STATES = 5  # every monitor padded to this many states (the positional ones need 5)
@@ -158,7 +159,7 @@ class MonitorBank:
         self._classes: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}  # per alphabet
         self._layouts: dict[tuple, _Layout] = {}  # per alphabet
         self._plans: dict[tuple, _OneHotPlan | None] = {}  # per one-hot alphabet
-        self._shares: dict[tuple, np.ndarray] = {}  # `of_dfa` per automaton, SHARES_KEPT at most
+        self._shares = Kept(SHARES_KEPT)  # `of_dfa` per automaton
 
     @property
     def width(self) -> int:
@@ -252,9 +253,7 @@ class MonitorBank:
             else:
                 hit = self._hits_general(dfa, onehot, ends)
         shares = self._averaged(hit, mass, present)
-        if len(self._shares) >= SHARES_KEPT:
-            self._shares.pop(next(iter(self._shares)))  # the oldest
-        self._shares[key] = shares
+        self._shares.keep(key, shares)
         return shares.copy()
 
     def _hits_general(self, dfa: DFA, onehot: np.ndarray, ends: np.ndarray) -> np.ndarray:

@@ -25,12 +25,13 @@ is 76,728 arcs instead of 262,250.
 
 from __future__ import annotations
 
-from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
 import torch
 
+from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.logic.kept import Kept
 from tleaf_cli.losses.packed import NEG, PackedRuleSets
 from tleaf_cli.rule_set import RuleSet
 
@@ -55,9 +56,12 @@ def exact_loss(
     # every step's class log-probabilities [T, classes] (a log-sum-exp over each class's
     # letters), then every step's arc terms in one gather [T, arcs], unbound once: indexing
     # step t in the loop would give a full-size gradient each
-    on_letters = letters[:, :steps].transpose(0, 1).flatten(1).index_select(1, member)
-    on_classes = _log_sum_by(on_letters, class_of, classes)
-    on_arcs = on_classes.index_select(1, letter_class)
+    on_letters = letters[:, :steps].transpose(0, 1).flatten(1)
+    if classes == len(member):  # every letter its own class (small DFAs): its arcs read it
+        on_arcs = on_letters.index_select(1, member.index_select(0, letter_class))
+    else:
+        on_classes = _log_sum_by(on_letters.index_select(1, member), class_of, classes)
+        on_arcs = on_classes.index_select(1, letter_class)
     # the scatters start from these (out of place: each step's result is a new tensor), and
     # gathers are index_select: the same values in fewer operators each way than indexing
     lowest, zeros = letters.new_full((states,), NEG), letters.new_zeros(states)
@@ -122,10 +126,19 @@ class _DFAArcs(NamedTuple):
     class_of: np.ndarray
 
 
-@lru_cache(maxsize=4096)
 def _arcs_of(rule_set: RuleSet) -> _DFAArcs:
-    """`_DFAArcs` of one rule set's DFA; built once per rule set."""
-    dfa = rule_set.dfa
+    """`_DFAArcs` of one rule set's DFA; built once per automaton (they never read the atoms'
+    names: a trainer's rule sets from predictions repeat automata over other ingredients)."""
+    key = rule_set.dfa.structure
+    arcs = _ARCS.get(key)
+    return arcs if arcs is not None else _ARCS.keep(key, _dfa_arcs(rule_set.dfa))
+
+
+_ARCS = Kept(4096)  # `_dfa_arcs` per automaton (`DFA.structure`)
+
+
+def _dfa_arcs(dfa: DFA) -> _DFAArcs:
+    """`_DFAArcs` of a DFA."""
     table = dfa.table.astype(np.int64)  # [S, L]
     live = dfa.live()
     # letters alike: the same target from every state, a dead target counted as one
