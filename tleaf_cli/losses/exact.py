@@ -142,11 +142,13 @@ def _dfa_arcs(dfa: DFA) -> _DFAArcs:
     table = dfa.table.astype(np.int64)  # [S, L]
     live = dfa.live()
     # letters alike: the same target from every state, a dead target counted as one
-    seen = np.where(live[table], table, -1).T
-    _, first, class_of = np.unique(seen, axis=0, return_index=True, return_inverse=True)
-    order = np.argsort(first)  # classes numbered by their first letter
-    class_of = np.argsort(order)[class_of.ravel()]
-    representative = np.sort(first)
+    seen = np.ascontiguousarray(np.where(live[table], table, -1).T)
+    classes: dict[bytes, int] = {}  # a letter's targets -> its class, numbered in letter order
+    class_of = np.fromiter(
+        (classes.setdefault(row, len(classes)) for row in map(bytes, seen)), np.int64, len(seen)
+    )
+    representative = np.zeros(len(classes), dtype=np.int64)  # each class's first letter
+    representative[class_of[::-1]] = np.arange(len(seen) - 1, -1, -1)
     source, letter_class = np.indices((len(table), len(representative))).reshape(2, -1)
     target = table[source, representative[letter_class]]
     keep = live[target]
