@@ -225,3 +225,29 @@ def test_conjoin_nonempty_rejects_shared_atoms_and_powersets() -> None:
         conjoin_nonempty([compile_formula("F a")])
     with pytest.raises(InputError, match="at least one"):
         conjoin_nonempty([])
+
+
+@pytest.mark.parametrize("mode", ["and", "or", "xor"])
+def test_small_products_on_lists_equal_the_array_products(mode, monkeypatch) -> None:
+    """`DFA.product` below SMALL_TABLE entries walks lists (`small_tables.product_table`): the
+    same minimal DFA as the array walk, on random formulas over overlapping atoms, on both
+    alphabets."""
+    from tleaf_cli.logic import dfa as dfa_module
+
+    rng = random.Random(11)
+    pairs = []
+    for _ in range(40):
+        kind = rng.choice(["one-hot", "powerset"])
+        atoms = [["a", "b"], ["b", "c"], ["a", "c"], ["c"]]
+        left, right = rng.sample(atoms, 2)
+        pairs.append(
+            tuple(
+                compile_formula(random_formula(rng, side, rng.randint(2 * len(side), 7)), kind)
+                for side in (left, right)
+            )
+        )
+    small = [a.product(b, mode) for a, b in pairs]
+    monkeypatch.setattr(dfa_module, "SMALL_TABLE", 0)  # every product through arrays
+    arrays = [a.product(b, mode) for a, b in pairs]
+    assert small == arrays
+    assert any(d.num_states > 2 for d in small)  # not only trivial products

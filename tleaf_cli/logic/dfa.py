@@ -19,7 +19,7 @@ import numpy as np
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.guards import Guard, cnf_holds, row_guards
-from tleaf_cli.logic.small_tables import minimize_table, renumber_table
+from tleaf_cli.logic.small_tables import minimize_table, product_table, renumber_table
 
 # Tables of at most this many entries (states x letters) are minimised in plain Python.
 SMALL_TABLE = 4096
@@ -121,6 +121,16 @@ class DFA:
         ta = self.table[:, self.alphabet.lift(union)]
         tb = other.table[:, other.alphabet.lift(union)]
         nb = other.num_states
+        if self.num_states * nb * union.size <= SMALL_TABLE:  # lists: numpy's per-call cost
+            rows, accepting = product_table(
+                ta.tolist(),
+                tb.tolist(),
+                (self.initial, other.initial),
+                self.accepting.tolist(),
+                other.accepting.tolist(),
+                combine,
+            )
+            return DFA(union, np.array(rows, dtype=np.int32), 0, accepting).minimize(canonical)
         ids = np.full(self.num_states * nb, -1, dtype=np.int64)
         start = self.initial * nb + other.initial
         ids[start] = 0

@@ -1,9 +1,10 @@
-"""Minimisation and renumbering of small DFA tables as plain Python lists.
+"""Products, minimisation and renumbering of small DFA tables as plain Python lists.
 
 Most rules have a handful of states: on such tables numpy's per-call cost dominates, so
-`DFA.minimize` and `conjunction.conjoin_nonempty` run these list versions below
+`DFA.product`, `DFA.minimize` and `conjunction.conjoin_nonempty` run these list versions below
 `dfa.SMALL_TABLE` entries. Each gives the same canonical result as its array counterpart in
-`dfa.py` (breadth-first numbering, successors in letter order); tests/test_dfa.py compares them.
+`dfa.py` (breadth-first numbering, successors in letter order; a product once minimised);
+tests/test_dfa.py compares them.
 """
 
 from __future__ import annotations
@@ -82,3 +83,29 @@ def renumber_table(
                 number[t] = len(order)
                 order.append(t)
     return [[number[t] for t in table[s]] for s in order], 0, [accepting[s] for s in order]
+
+
+def product_table(
+    left: list[list[int]],
+    right: list[list[int]],
+    initials: tuple[int, int],
+    accepting: list[bool],
+    other_accepting: list[bool],
+    combine,
+) -> tuple[list[list[int]], list[bool]]:
+    """`DFA.product` on lists, before minimisation: the reachable pairs of states of two tables
+    over the same letters (each already lifted to the union alphabet), numbered in order of
+    discovery from the initial pair (state 0), and each pair's acceptance by `combine`."""
+    ids = {initials: 0}
+    pairs = [initials]
+    rows = []
+    for a, b in pairs:  # grows while it is walked: breadth-first
+        row = []
+        for pair in zip(left[a], right[b], strict=True):
+            i = ids.get(pair)
+            if i is None:
+                i = ids[pair] = len(pairs)
+                pairs.append(pair)
+            row.append(i)
+        rows.append(row)
+    return rows, [bool(combine(accepting[a], other_accepting[b])) for a, b in pairs]
