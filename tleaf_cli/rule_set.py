@@ -319,15 +319,14 @@ def _group(formulas: frozenset[str], timeout: float) -> DFA:
         for other in dfas[1:]:
             dfa = dfa.product(other, canonical=False)
         dfa = dfa.minimize()
-        _GROUPS.keep(key, (dfa.table, dfa.initial, dfa.accepting))
+        _GROUPS.keep(key, (dfa.table.copy(), dfa.initial, dfa.accepting.copy()))
         return dfa
     table, initial, accepting = kept
     alphabet = Alphabet(tuple(union), dfas[0].alphabet.kind)
     return DFA(alphabet, table.copy(), initial, accepting.copy())
 
 
-# `_group`'s products per (automata, atom layout); a DFA's arrays are never changed in place
-_GROUPS = Kept(8192)
+_GROUPS = Kept(8192)  # `_group`'s products per (automata, atom layout): table, initial, accepting
 
 
 @functools.lru_cache(maxsize=16)

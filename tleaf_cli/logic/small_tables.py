@@ -9,6 +9,8 @@ tests/test_dfa.py compares them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 
 def minimize_table(
     table: list[list[int]], initial: int, accepting: list[bool]
@@ -91,7 +93,7 @@ def product_table(
     initials: tuple[int, int],
     accepting: list[bool],
     other_accepting: list[bool],
-    combine,
+    combine: Callable[[bool, bool], object],
 ) -> tuple[list[list[int]], list[bool]]:
     """`DFA.product` on lists, before minimisation: the reachable pairs of states of two tables
     over the same letters (each already lifted to the union alphabet), numbered in order of
