@@ -197,24 +197,7 @@ def measure(
             q += ["--formula-from", source] if source else []
             try:
                 tleaf(
-                    tree,
-                    "train-task",
-                    "action-recognition",
-                    str(ar / "activities.parquet"),
-                    "--kb",
-                    str(ar / "kb.ltl"),
-                    "--model",
-                    model,
-                    "--logic-loss",
-                    loss,
-                    *q,
-                    "--epochs",
-                    str(2 * epochs),
-                    "--patience",
-                    str(2 * epochs),
-                    "-o",
-                    str(run),
-                    *common,
+                    tree, *recogniser_args(ar, model, loss, 2 * epochs), *q, "-o", str(run), *common
                 )
             except subprocess.CalledProcessError:  # e.g. an older tree cannot read this q
                 out[f"{model} {name}"] = NA
@@ -226,6 +209,26 @@ def measure(
 def shown(value: float, spec: str, unit: str = "") -> str:
     """A figure as the tables print it; n/a for a failed run's NaN."""
     return "n/a" if math.isnan(value) else f"{value:{spec}}{unit}"
+
+
+def recogniser_args(ar: Path, model: str, loss: str, epochs: int) -> list[str]:
+    """`tleaf train-task action-recognition` on the prepared activities for `epochs` epochs
+    (no early stop): the recogniser runs of this benchmark and of op_count.py."""
+    return [
+        "train-task",
+        "action-recognition",
+        str(ar / "activities.parquet"),
+        "--kb",
+        str(ar / "kb.ltl"),
+        "--model",
+        model,
+        "--logic-loss",
+        loss,
+        "--epochs",
+        str(epochs),
+        "--patience",
+        str(epochs),
+    ]
 
 
 def table(results: dict[tuple[str, str], dict[str, float]], devices: list[str]) -> str:
