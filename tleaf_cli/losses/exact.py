@@ -56,12 +56,9 @@ def exact_loss(
     # every step's class log-probabilities [T, classes] (a log-sum-exp over each class's
     # letters), then every step's arc terms in one gather [T, arcs], unbound once: indexing
     # step t in the loop would give a full-size gradient each
-    on_letters = letters[:, :steps].transpose(0, 1).flatten(1)
-    if classes == len(member):  # every letter its own class (small DFAs): its arcs read it
-        on_arcs = on_letters.index_select(1, member.index_select(0, letter_class))
-    else:
-        on_classes = _log_sum_by(on_letters.index_select(1, member), class_of, classes)
-        on_arcs = on_classes.index_select(1, letter_class)
+    on_letters = letters[:, :steps].transpose(0, 1).flatten(1).index_select(1, member)
+    on_classes = _log_sum_by(on_letters, class_of, classes)
+    on_arcs = on_classes.index_select(1, letter_class)
     # the scatters start from these (out of place: each step's result is a new tensor), and
     # gathers are index_select: the same values in fewer operators each way than indexing
     lowest, zeros = letters.new_full((states,), NEG), letters.new_zeros(states)
