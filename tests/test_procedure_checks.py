@@ -170,7 +170,7 @@ def test_cli_writes_metrics_report_and_checks(files: tuple[Path, Path], tmp_path
     result = CliRunner().invoke(app, ["check-recordings", *map(str, files), "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert "5 of 6 recordings checked against 2 rules" in result.output
-    assert "precision 0.667, recall 0.667" in result.output
+    assert "precision 66.7 %, recall 66.7 %" in result.output
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["detection"]["all"]["tp"] == 2 and metrics["version"]
     assert [i["path"] for i in metrics["inputs"]] == [str(files[0]), str(files[1])]
@@ -223,3 +223,28 @@ def test_bad_inputs_are_refused(files: tuple[Path, Path], tmp_path: Path) -> Non
     )
     assert result.exit_code == 2 and "is also an input" in result.output
     assert not out.exists()
+
+
+def test_rules_naming_steps_no_recording_has_are_counted_and_named(
+    files: tuple[Path, Path], tmp_path: Path
+) -> None:
+    """Another recipe's rules under this recipe's name hold vacuously: said, not hidden."""
+    kb = tmp_path / "coffee_as_tea.ltl"
+    kb.write_text(
+        "tea.before.grind.brew: (!brew U grind) | G !brew\n"
+        "tea.before.boil.grind: (!grind U boil) | G !grind\n"
+    )
+    out = tmp_path / "checks"
+    result = CliRunner().invoke(app, ["check-recordings", str(files[0]), str(kb), "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["rules_naming_unseen_steps"] == {
+        "count": 2,
+        "examples": ["tea.before.grind.brew (brew, grind)", "tea.before.boil.grind (grind)"],
+    }
+    text = result.output.replace("\n", " ")
+    assert "2 rules name steps no recording of their recipe has" in text, result.output
+    assert "tea.before.grind.brew" in text
+    # no recording breaks a rule: precision is undefined, shown alike in summary and table
+    assert metrics["detection"]["all"]["precision"] is None
+    assert "precision —" in text and "0.000" not in text

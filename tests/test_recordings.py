@@ -157,3 +157,43 @@ def test_cli_summary_counts_splits_and_skips(folder: Path, tmp_path: Path) -> No
     assert result.exit_code == 0, result.output
     assert "2 recordings (2 with errors; none 1, train 1)" in result.output
     assert "1 steps without times" in result.output and out.exists()
+
+
+def _read_recordings_cli(folder: Path, out: Path, *args: str):
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    return CliRunner().invoke(app, ["read-recordings", str(folder), *args, "-o", str(out)])
+
+
+@pytest.mark.parametrize("missing", ["error_annotations.json", "activity_idx_step_idx.json"])
+def test_a_missing_annotation_file_is_warned_of_and_counted(
+    folder: Path, tmp_path: Path, missing: str
+) -> None:
+    (folder / missing).unlink()
+    out = tmp_path / "r.parquet"
+    result = _read_recordings_cli(folder, out)
+    assert result.exit_code == 0, result.output
+    text = result.output.replace("\n", "")
+    assert f"warning: 1 annotation file missing: {missing}" in text, result.output
+    assert read_provenance(out).params["missing_files"] == [missing]
+
+
+def test_a_recording_of_an_unknown_activity_id_is_skipped_and_counted(
+    folder: Path, tmp_path: Path
+) -> None:
+    steps = dict(STEPS)
+    steps["9_1"] = {**STEPS["1_1"], "recording_id": "9_1", "activity_id": 9}
+    steps["x_1"] = {**STEPS["1_1"], "recording_id": "x_1", "activity_id": "one"}
+    (folder / "complete_step_annotations.json").write_text(json.dumps(steps))
+    out = tmp_path / "r.parquet"
+    result = _read_recordings_cli(folder, out)
+    assert result.exit_code == 0, result.output
+    prov = read_provenance(out)
+    assert prov.params["skipped"]["recordings with an unknown activity_id"] == 2
+    assert prov.params["skipped_examples"]["recordings with an unknown activity_id"] == [
+        "9_1 (activity_id 9)",
+        "x_1 (activity_id 'one')",
+    ]
+    assert "2 recordings (2 with errors" in result.output

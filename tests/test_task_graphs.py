@@ -174,3 +174,47 @@ def test_cli_writes_compilable_rules_and_refuses_a_cycle(tmp_path: Path) -> None
     result = runner.invoke(app, ["task-graph", str(bad), "-o", str(tmp_path / "bad.ltl")])
     assert result.exit_code == 2 and "a cycle: a -> b -> a" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "bad.ltl").exists()
+
+
+@pytest.mark.parametrize(
+    ("line", "message"),
+    [
+        ("a -> b -> c", "line 2: one edge a line"),
+        ("a,b,c", "line 2: one edge a line"),
+    ],
+)
+def test_a_chain_on_one_line_is_refused_naming_the_line(
+    tmp_path: Path, line: str, message: str
+) -> None:
+    path = write_json(tmp_path, f"x -> a\n{line}\n", "g.txt")
+    with pytest.raises(InputError, match=message):
+        read_task_graph(path)
+
+
+def test_an_arrow_edge_may_name_steps_with_commas(tmp_path: Path) -> None:
+    graph = read_task_graph(write_json(tmp_path, "Cut, then rinse -> cook\n", "g.txt"))
+    assert graph.edges == [("Cut, then rinse", "cook")]
+
+
+@pytest.mark.parametrize(
+    ("content", "name"),
+    [({"steps": {"1": "A-a"}, "edges": []}, "g.json"), ("# nothing\n", "g.txt")],
+)
+def test_a_graph_without_edges_exits_2_the_same_way(tmp_path: Path, content, name: str) -> None:
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    path = write_json(tmp_path, content, name)
+    out = tmp_path / "kb.ltl"
+    result = CliRunner().invoke(app, ["task-graph", str(path), "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert f"{path}: no edges (one 'a -> b' or 'a,b' a line" in result.output.replace("\n", "")
+    assert not out.exists()
+
+
+def test_graph_rules_of_something_not_a_graph_is_a_tleaf_error() -> None:
+    from tleaf_cli.errors import TleafError
+
+    with pytest.raises(TleafError, match="graph"):
+        graph_rules("x")  # type: ignore[arg-type]
