@@ -10,7 +10,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from tleaf_cli.data.formula_files import parse_ltl_text
-from tleaf_cli.errors import InputError
+from tleaf_cli.errors import ArgumentError, InputError, SettingError
 from tleaf_cli.knowledge.declare import (
     TEMPLATES,
     Constraint,
@@ -145,11 +145,51 @@ def test_bad_inputs_are_errors() -> None:
         mine_declare([])
     with pytest.raises(InputError, match="at least one event"):
         mine_declare([["a"], []])
-    with pytest.raises(InputError, match="unknown Declare template 'respond'"):
+    with pytest.raises(ArgumentError, match="templates: unknown Declare template 'respond'"):
         mine_declare([["a"]], templates=["respond"])
-    with pytest.raises(InputError, match="min_joint_support are shares"):
+    with pytest.raises(ArgumentError, match=r"min_joint_support: .* 0 to 1, not 1\.5"):
         mine_declare([["a"]], min_joint_support=1.5)
     assert set(TEMPLATES) >= {"existence", "succession", "not_coexistence"}
+
+
+@pytest.mark.parametrize(
+    ("call", "argument", "expected"),
+    [
+        (lambda: mine_declare("abc"), "cases", "sequence of cases"),
+        (lambda: mine_declare(["abc"]), r"cases\[0\]", "the string 'abc'"),
+        (lambda: mine_declare([["a", 3]]), r"cases\[0\]\[1\]", "must be an activity"),
+        (lambda: mine_declare([["a"]], templates="init"), "templates", "the string 'init'"),
+        (lambda: mine_declare([["a"]], templates=("init", "init")), "templates", "'init' twice"),
+        (lambda: mine_declare([["a"]], min_activated=float("nan")), "min_activated", "int"),
+        (lambda: mine_declare([["a"]], min_activated=-1), "min_activated", "at least 0"),
+        (lambda: mine_declare([["a"]], min_support=float("nan")), "min_support", "not nan"),
+        (lambda: mine_declare([["a"]], min_confidence="high"), "min_confidence", "number"),
+        (lambda: mine_declare([["a"]], activities="ab"), "activities", "the string 'ab'"),
+        (lambda: holding_shares([], "ab"), "cases", "sequence of cases"),
+    ],
+)
+def test_wrong_arguments_are_refused_by_name(call, argument, expected) -> None:
+    """A call that would mine from the letters of a string, measure a template twice or drop
+    every relational rule on a NaN threshold raises an ArgumentError naming the argument."""
+    with pytest.raises(ArgumentError, match=rf"^{argument}: .*{expected}"):
+        call()
+
+
+def test_a_template_named_twice_is_refused_before_any_work(tmp_path, chain_cli) -> None:
+    """`--templates init,init,end` would write `init.x` twice, a file no later stage reads."""
+    from tleaf_cli.settings.declare import DeclareSettings, templates
+
+    with pytest.raises(SettingError, match=r"templates: .*'init' twice"):
+        templates("init,init,end")
+    with pytest.raises(SettingError, match=r"templates: .*'init' twice"):
+        DeclareSettings(templates=("init", "init")).check()
+    with pytest.raises(SettingError, match=r"templates: .*the string 'init'"):
+        DeclareSettings(templates="init").check()  # type: ignore[arg-type]
+    cases = _cases_artifact(tmp_path)
+    out = tmp_path / "kb.ltl"
+    bad = chain_cli("mine-declare", cases, "-o", out, "--templates", "init,init,end")
+    assert bad.exit_code == 2 and "--templates" in bad.output and "twice" in bad.output
+    assert not out.exists()
 
 
 # ---- a log's knowledge, and the commands
@@ -202,6 +242,26 @@ def test_mine_log_writes_the_rules_and_their_test_support(tmp_path) -> None:
     names = {m.constraint.name for m in jointly.rules}
     assert "exactly_once.assign" not in names and "init.open_ticket" in names  # 18 of 20 < 0.95
     assert jointly.test_joint == 1.0
+
+
+def test_no_rule_mined_says_why_and_counts_the_test_cases(tmp_path) -> None:
+    """With no rule mined the summary says so, which thresholds stopped the candidates, and the
+    test cases there are (not "no test cases")."""
+    from tleaf_cli.knowledge.log_knowledge import mine_log
+    from tleaf_cli.settings.declare import DeclareSettings
+
+    cases = _cases_artifact(tmp_path)
+    strict = DeclareSettings(min_activated=25, templates=("response", "chain_response"))
+    found = mine_log(cases, tmp_path / "kb.ltl", strict)
+    assert found.rules == [] and found.test_cases == 10
+    text = found.summary()
+    assert text.startswith("no rule mined from 20 train cases, 4 activities: ")
+    assert "at least 25 activating cases" in text and "10 test cases" in text
+    assert "no test cases" not in text
+    assert "--" not in text  # the library never names a flag
+    found = mine_log(cases, tmp_path / "kb.ltl", DeclareSettings(min_activated=1))
+    assert found.summary().startswith(f"{len(found.rules)} rules from 20 train cases, 4 activities")
+    assert "on the 10 test cases each holds on" in found.summary()
 
 
 def test_mine_declare_command(tmp_path, chain_cli) -> None:

@@ -43,8 +43,13 @@ so a decoder asked for a continuation that satisfies them all finds none for mos
 support (ties in template and activity order) and one is kept only while the kept rules' conjunction
 still holds on that share of the cases (greedy: not the largest such set, a simple one).
 
-`write_declare` writes the rules as a `.ltl` formula file (docs/formulas.md): one named rule a
-line, `template.a[.b]: formula`, its measured support and confidence in a comment on its line.
+`declare_text` gives the rules as the text of a `.ltl` formula file (docs/formulas.md): one
+named rule a line, `template.a[.b]: formula`, its measured support and confidence in a comment
+on its line; `holding_shares` measures mined rules on other cases (a test split). Writing the
+file, with its header, is `log_knowledge.mine_log`'s.
+
+Every public function checks its arguments first (`mining_arguments`): ArgumentError or
+ArgumentTypeError naming the argument, never a rule set mined from a wrong value.
 """
 
 from __future__ import annotations
@@ -54,6 +59,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge import mining_arguments as check
 
 UNARY = ("existence", "absence", "exactly_once", "init", "end")
 BINARY = (
@@ -188,14 +194,6 @@ def _first_last(case: Sequence[str]) -> tuple[dict[str, int], dict[str, int]]:
     return first, last
 
 
-def _check_templates(templates: Iterable[str]) -> tuple[str, ...]:
-    chosen = tuple(templates)
-    unknown = [t for t in chosen if t not in TEMPLATES]
-    if unknown:
-        raise InputError(f"unknown Declare template '{unknown[0]}' (known: {', '.join(TEMPLATES)})")
-    return chosen
-
-
 def measure_declare(
     cases: Sequence[Sequence[str]],
     templates: Iterable[str] = TEMPLATES,
@@ -204,7 +202,10 @@ def measure_declare(
     """Every constraint of `templates` over `activities` (default: those in `cases`, sorted)
     measured on `cases`: one pass over the cases, each looking only at the pairs of activities
     it contains (a pair a case lacks is settled by the per-activity counts)."""
-    templates = _check_templates(templates)
+    cases = check.cases(cases)
+    templates = check.templates(templates, TEMPLATES)
+    if activities is not None:
+        activities = check.names(activities, "activities", "activities (str)")
     if not cases:
         raise InputError("no cases to mine constraints from")
     if any(len(c) == 0 for c in cases):
@@ -302,6 +303,22 @@ def _redundant(kept: set[Constraint]) -> set[Constraint]:
     return out
 
 
+def passing(
+    measured: Sequence[Measured], min_support: float, min_confidence: float, min_activated: int
+) -> tuple[list[Measured], list[Measured], list[Measured]]:
+    """The constraints of `measured` that pass the thresholds in turn: support; support and
+    confidence; and (relational) at least `min_activated` activating cases too, which are the
+    rules `mine_declare` keeps before it drops redundant ones. Says why few or none were mined."""
+    supported = [m for m in measured if m.support >= min_support]
+    confident = [m for m in supported if m.confidence >= min_confidence]
+    activated = [
+        m
+        for m in confident
+        if m.constraint.template in UNARY or m.activated >= max(min_activated, 1)
+    ]
+    return supported, confident, activated
+
+
 def mine_declare(
     cases: Sequence[Sequence[str]],
     *,
@@ -314,19 +331,14 @@ def mine_declare(
 ) -> list[Measured]:
     """The Declare constraints that `cases` support (module docstring), in template order, then
     activity order; redundant ones dropped, then (`min_joint_support` > 0) those that would take
-    the conjunction's support below it."""
-    if not all(0 <= x <= 1 for x in (min_support, min_confidence, min_joint_support)):
-        raise InputError(
-            "min_support, min_confidence and min_joint_support are shares between 0 and 1"
-        )
+    the conjunction's support below it. ArgumentError / ArgumentTypeError naming the argument
+    for a value that is not what the signature says (a NaN share, templates as one string)."""
+    check.share(min_support, "min_support")
+    check.share(min_confidence, "min_confidence")
+    check.share(min_joint_support, "min_joint_support")
+    check.count(min_activated, "min_activated", 0)
     measured = measure_declare(cases, templates, activities)
-    kept = [
-        m
-        for m in measured
-        if m.support >= min_support
-        and m.confidence >= min_confidence
-        and (m.constraint.template in UNARY or m.activated >= max(min_activated, 1))
-    ]
+    kept = passing(measured, min_support, min_confidence, min_activated)[-1]
     drop = _redundant({m.constraint for m in kept})
     kept = [m for m in kept if m.constraint not in drop]
     if min_joint_support > 0:
@@ -357,6 +369,7 @@ def holding_shares(
     """Per rule, the share of `cases` that satisfy it, and the share that satisfy them all (nan
     without cases): each rule checked once on each case."""
     rules = list(rules)
+    cases = check.cases(cases)
     if not cases:
         return [float("nan")] * len(rules), float("nan")
     holds = [[r.holds(c) for c in cases] for r in rules]

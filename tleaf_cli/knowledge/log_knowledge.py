@@ -17,7 +17,14 @@ from pathlib import Path
 from tleaf_cli.data.artifacts import read_text_file, write_text_atomic
 from tleaf_cli.data.event_logs import iter_sequences, read_cases
 from tleaf_cli.errors import InputError
-from tleaf_cli.knowledge.declare import Measured, declare_text, holding_shares, mine_declare
+from tleaf_cli.knowledge.declare import (
+    Measured,
+    declare_text,
+    holding_shares,
+    measure_declare,
+    mine_declare,
+    passing,
+)
 from tleaf_cli.knowledge.peer_formulas import PeerFormula, peer_ltl_text, read_peer_formulas
 from tleaf_cli.settings.declare import DeclareSettings
 
@@ -37,6 +44,23 @@ class MinedLog:
     train_cases: int
     test_cases: int
     activities: int  # distinct activities in the train split
+    why_none: str = ""  # with no rule mined: which thresholds stopped the candidates
+
+    def summary(self) -> str:
+        """One line on what was mined and how it carries to the test split; with no rule, why
+        (the thresholds each stage of candidates failed) and how many test cases there are."""
+        mined = f"{self.train_cases} train cases, {self.activities} activities"
+        test = f"{self.test_cases} test cases" if self.test_cases else "no test cases"
+        if not self.rules:
+            return f"no rule mined from {mined}: {self.why_none}; {test}"
+        shares = self.test_support
+        if not self.test_cases:
+            return f"{len(self.rules)} rules from {mined}; {test}"
+        return (
+            f"{len(self.rules)} rules from {mined}; on the {test} each holds on "
+            f"{min(shares):.1%} to {max(shares):.1%} (mean {sum(shares) / len(shares):.1%}), "
+            f"all of them on {self.test_joint:.1%}"
+        )
 
 
 def mine_log(
@@ -82,7 +106,25 @@ def mine_log(
     write_text_atomic(out, text)
     write_text_atomic(support_table_path(out), "\n".join(rows) + "\n")
     activities = len({a for case in train for a in case})
-    return MinedLog(mined, shares, joint, len(train), len(test), activities)
+    why = "" if mined else _why_none(train, settings)
+    return MinedLog(mined, shares, joint, len(train), len(test), activities, why)
+
+
+def _why_none(train: list[tuple[str, ...]], settings: DeclareSettings) -> str:
+    """Why `settings` mined no rule from `train`: how many candidates passed each threshold."""
+    measured = measure_declare(train, settings.chosen_templates)
+    supported, confident, activated = passing(
+        measured, settings.min_support, settings.min_confidence, settings.min_activated
+    )
+    said = (
+        f"of {len(measured)} candidate rules, {len(supported)} hold on at least "
+        f"{settings.min_support:g} of the train cases, {len(confident)} of those with "
+        f"confidence at least {settings.min_confidence:g}, {len(activated)} of those (if "
+        f"relational) with at least {settings.min_activated} activating cases"
+    )
+    if activated:  # every one left out for the joint support
+        said += f", and none keeps the rules' joint support at {settings.min_joint_support:g}"
+    return said
 
 
 def _shown(value: object) -> str:

@@ -26,7 +26,7 @@ DECLARE_TEMPLATES = (
 
 
 def templates(text: str) -> tuple[str, ...]:
-    """Template names as written on the command line ("init,end,response")."""
+    """Template names as written on the command line ("init,end,response"), each once."""
     names = tuple(x.strip() for x in text.split(",") if x.strip())
     unknown = [x for x in names if x not in DECLARE_TEMPLATES]
     if not names or unknown:
@@ -34,7 +34,15 @@ def templates(text: str) -> tuple[str, ...]:
             "templates",
             f"takes names among {', '.join(DECLARE_TEMPLATES)} separated by commas, not '{text}'",
         )
+    _check_once(names)
     return names
+
+
+def _check_once(names: tuple[str, ...]) -> None:
+    """SettingError for a template named twice: it would be mined, and written, twice."""
+    twice = next((t for i, t in enumerate(names) if t in names[:i]), None)
+    if twice is not None:
+        raise SettingError("templates", f"names '{twice}' twice; name each template once")
 
 
 @dataclass(frozen=True)
@@ -74,8 +82,20 @@ class DeclareSettings:
         return self.templates or DECLARE_TEMPLATES
 
     def check(self) -> None:
-        """SettingError for a share above 1 (the command line checks the lower bounds)."""
+        """SettingError for a share above 1 (the command line checks the lower bounds), or
+        templates that are not a tuple of distinct known names."""
         check_values(self)
+        chosen = self.templates
+        if chosen is not None:
+            if not (
+                isinstance(chosen, tuple) and chosen and all(t in DECLARE_TEMPLATES for t in chosen)
+            ):
+                raise SettingError(
+                    "templates",
+                    f"is a tuple of names among {', '.join(DECLARE_TEMPLATES)}, not "
+                    + (f"the string {chosen!r}" if isinstance(chosen, str) else repr(chosen)),
+                )
+            _check_once(chosen)
         for name in ("min_support", "min_confidence", "min_joint_support"):
             if getattr(self, name) > 1:
                 raise SettingError(
