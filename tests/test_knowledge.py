@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from tleaf_cli.cli import app
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.dfa_table import read_dfas
-from tleaf_cli.errors import InputError
+from tleaf_cli.errors import ArgumentError, InputError
 from tleaf_cli.knowledge.base import (
     KnowledgeBase,
     Rule,
@@ -168,6 +168,28 @@ def test_mining_finds_planted_rules_and_respects_min_support() -> None:
 def test_mining_ignores_unseen_actions_and_ingredients() -> None:
     kb = mine_knowledge_base([[("cut", "onion")]], (["cut", "fry"], ["onion", "milk"]), 1)
     assert [r.name for r in kb] == []  # fry and milk never seen: no evidence about them
+
+
+@pytest.mark.parametrize(
+    ("sequences", "vocabulary", "min_support", "argument", "expected"),
+    [
+        ([["cut_onion"]], VOCAB, 1, r"sequences\[0\]\[0\]", "pair, not the string 'cut_onion'"),
+        ([[("cut", "onion", "x")]], VOCAB, 1, r"sequences\[0\]\[0\]", "pair"),
+        ("cut", VOCAB, 1, "sequences", "the string 'cut'"),
+        ([[("cut", "onion")]], VOCAB, float("nan"), "min_support", "int .*nan"),
+        ([[("cut", "onion")]], VOCAB, 0, "min_support", "at least 1, not 0"),
+        ([[("cut", "onion")]], ("cut", "onion"), 1, "vocabulary", "the string 'cut'"),
+        ([[("cut", "onion")]], (["cut"],), 1, "vocabulary", r"\(actions, ingredients\)"),
+    ],
+)
+def test_mining_refuses_wrong_arguments_by_name(
+    sequences, vocabulary, min_support, argument, expected
+) -> None:
+    """Atom strings instead of (action, ingredient) pairs, a NaN support (which no count
+    reaches: no ordering mined, silently) or a vocabulary of letters: an ArgumentError naming
+    the argument."""
+    with pytest.raises(ArgumentError, match=rf"^{argument}: .*{expected}"):
+        mine_knowledge_base(sequences, vocabulary, min_support)
 
 
 def test_mining_recovers_the_generating_knowledge_base(tmp_path: Path) -> None:

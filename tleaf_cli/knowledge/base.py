@@ -22,9 +22,11 @@ from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
+from tleaf_cli.arguments import given
 from tleaf_cli.data.artifacts import write_text_atomic
 from tleaf_cli.data.formula_files import check_names, read_formulas
-from tleaf_cli.errors import InputError
+from tleaf_cli.errors import ArgumentTypeError, InputError
+from tleaf_cli.knowledge import mining_arguments as check
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 
 RuleKind = Literal["affordance", "ordering"]
@@ -201,17 +203,33 @@ def mine_knowledge_base(
     same ingredient, "a before b" (first a before first b, what the formula says) when at least
     `min_support` sequences contain both, a first, and none contains both with b first.
     Rules come in vocabulary order: affordances, then orderings by ingredient, a, b.
+    ArgumentError / ArgumentTypeError naming the argument for a value of another shape (atom
+    strings instead of pairs, a support that is not an int ≥ 1); InputError for a pair outside
+    the vocabulary.
     """
-    if min_support < 1:
-        raise InputError("min_support must be at least 1")
-    actions, ingredients = list(vocabulary[0]), list(vocabulary[1])
+    check.count(min_support, "min_support", 1)
+    actions, ingredients = _vocabulary(vocabulary)
+    if isinstance(sequences, str | bytes) or not isinstance(sequences, Iterable):
+        raise ArgumentTypeError(
+            "sequences", f"must be sequences of (action, ingredient) pairs, not {given(sequences)}"
+        )
     a_rank = {a: k for k, a in enumerate(actions)}
     i_rank = {i: k for k, i in enumerate(ingredients)}
     seen_pairs: set[tuple[str, str]] = set()
     before: Counter[tuple[str, str, str]] = Counter()  # (ingredient, a, b): sequences, a first
-    for sequence in sequences:
+    for s, sequence in enumerate(sequences):
         first: dict[tuple[str, str], int] = {}
-        for t, (a, i) in enumerate(sequence):
+        if isinstance(sequence, str | bytes) or not isinstance(sequence, Iterable):
+            raise ArgumentTypeError(
+                f"sequences[{s}]", f"must be a sequence of pairs, not {given(sequence)}"
+            )
+        for t, pair in enumerate(sequence):
+            if type(pair) not in (tuple, list) or len(pair) != 2:
+                raise ArgumentTypeError(
+                    f"sequences[{s}][{t}]",
+                    f"must be an (action, ingredient) pair, not {given(pair)}",
+                )
+            a, i = pair
             if a not in a_rank or i not in i_rank:
                 raise InputError(f"pair ({a}, {i}) is outside the vocabulary")
             first.setdefault((i, a), t)
@@ -236,3 +254,14 @@ def mine_knowledge_base(
     orderings.sort(key=lambda k: (i_rank[k[0]], a_rank[k[1]], a_rank[k[2]]))
     rules += [ordering_rule(i, a, b) for i, a, b in orderings]
     return KnowledgeBase(tuple(rules))
+
+
+def _vocabulary(value: object) -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """`mine_knowledge_base`'s vocabulary: (actions, ingredients), two collections of names."""
+    if isinstance(value, str | bytes) or not isinstance(value, Sequence) or len(value) != 2:
+        raise ArgumentTypeError(
+            "vocabulary", f"must be (actions, ingredients), two lists of names, not {given(value)}"
+        )
+    actions = check.names(value[0], "vocabulary", "action names (str) first")
+    ingredients = check.names(value[1], "vocabulary", "ingredient names (str) second")
+    return actions, ingredients
