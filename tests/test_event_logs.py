@@ -1,4 +1,4 @@
-"""Event logs in: XES and CSV logs (written here) read into a cases artifact, every bad input a
+"""Event logs in: XES and CSV logs (written here) read into `Cases` and a cases artifact, every bad input a
 counted skip or one clear error with nothing written, and read-log's exit codes."""
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def test_an_xes_log_round_trips_in_time_order(tmp_path: Path, name: str) -> None
     log = _write(tmp_path / name, GOOD)
     out = tmp_path / "cases.parquet"
     report = read_log(log)
-    assert report.reordered == 1 and report.skipped == {}
+    assert report.params["reordered_cases"] == 1 and report.skips.skipped == {}
     write_cases(report, out, LogSettings())
     cases = read_cases(out)
     by_id = {c.case_id: c for c in cases.cases}
@@ -116,9 +116,9 @@ def test_lifecycle_keeps_complete_events_unless_all(tmp_path: Path) -> None:
         ),
     )
     report = read_log(log)
-    assert report.cases[0][1] == ["A", "B"] and report.skipped == {LIFECYCLE: 1}
-    assert read_log(log, LogSettings(lifecycle="all")).cases[0][1] == ["A", "A", "B"]
-    assert read_log(log, LogSettings(lifecycle="start")).cases[0][1] == ["A", "B"]
+    assert report.cases[0].activities == ("A", "B") and report.skips.skipped == {LIFECYCLE: 1}
+    assert read_log(log, LogSettings(lifecycle="all")).cases[0].activities == ("A", "A", "B")
+    assert read_log(log, LogSettings(lifecycle="start")).cases[0].activities == ("A", "B")
 
 
 def test_a_log_whose_lifecycle_holds_a_status_keeps_every_event(tmp_path: Path) -> None:
@@ -136,11 +136,11 @@ def test_a_log_whose_lifecycle_holds_a_status_keeps_every_event(tmp_path: Path) 
         ),
     )
     report = read_log(log)
-    assert [a for _, a, _ in report.cases] == [["A", "B"], ["A"]] and report.skipped == {}
+    assert [c.activities for c in report] == [("A", "B"), ("A",)] and report.skips.skipped == {}
     with_complete = log.read_text().replace('value="Queued"', 'value="complete"')
     report = read_log(_write(tmp_path / "m.xes", with_complete))
-    assert [a for _, a, _ in report.cases] == [["A"]]
-    assert report.skipped == {LIFECYCLE: 2, EMPTY_CASE: 1}
+    assert [c.activities for c in report] == [("A",)]
+    assert report.skips.skipped == {LIFECYCLE: 2, EMPTY_CASE: 1}
 
 
 def test_bad_events_and_empty_cases_are_skipped_counted_and_named(tmp_path: Path) -> None:
@@ -153,19 +153,24 @@ def test_bad_events_and_empty_cases_are_skipped_counted_and_named(tmp_path: Path
         ),
     )
     report = read_log(log)
-    assert [c for c, _, _ in report.cases] == ["c1", "c2"]
-    assert report.skipped == {EMPTY_CASE: 1, NO_ACTIVITY: 1, NO_TIMESTAMP: 1, BAD_TIMESTAMP: 1}
-    assert report.examples[NO_ACTIVITY][0].startswith("case c1, line ")
-    assert "case c2" in report.examples[BAD_TIMESTAMP][0]
-    assert "'yesterday'" in report.examples[BAD_TIMESTAMP][0]
-    assert "case empty" in report.skip_text()
+    assert [c.case_id for c in report] == ["c1", "c2"]
+    assert report.skips.skipped == {
+        EMPTY_CASE: 1,
+        NO_ACTIVITY: 1,
+        NO_TIMESTAMP: 1,
+        BAD_TIMESTAMP: 1,
+    }
+    assert report.skips.examples[NO_ACTIVITY][0].startswith("case c1, line ")
+    assert "case c2" in report.skips.examples[BAD_TIMESTAMP][0]
+    assert "'yesterday'" in report.skips.examples[BAD_TIMESTAMP][0]
+    assert "case empty" in report.skips.text()
 
 
 def test_a_case_whose_every_event_is_skipped_counts_as_empty(tmp_path: Path) -> None:
     log = _write(tmp_path / "l.csv", "CaseID,ActivityID,CompleteTimestamp\n1,a,\n2,b,2020-01-01\n")
     report = read_log(log)
-    assert report.skipped == {NO_TIMESTAMP: 1, EMPTY_CASE: 1}
-    assert report.examples[NO_TIMESTAMP] == ["case 1, line 2"]
+    assert report.skips.skipped == {NO_TIMESTAMP: 1, EMPTY_CASE: 1}
+    assert report.skips.examples[NO_TIMESTAMP] == ["case 1, line 2"]
 
 
 @pytest.mark.parametrize("name", ["log.csv", "log.csv.gz"])
@@ -180,22 +185,24 @@ def test_a_csv_log_with_benchmark_headers_is_read_and_says_its_columns(
         "\n"
     )
     report = read_log(_write(tmp_path / name, text))
-    assert report.keys == {
+    assert report.params["keys"] == {
         "case": "CaseID",
         "activity": "ActivityID",
         "timestamp": "CompleteTimestamp",
     }
-    assert report.cases[0][0] == "7" and report.cases[0][1] == ["1", "2"]
-    assert report.reordered == 1 and report.events == 3
+    assert report.cases[0].case_id == "7" and report.cases[0].activities == ("1", "2")
+    assert report.params["reordered_cases"] == 1 and report.events == 3
 
 
 def test_csv_columns_given_by_name_and_pm4py_defaults(tmp_path: Path) -> None:
     pm4py = "case:concept:name,concept:name,time:timestamp\nx,A,2020-01-01T00:00:00+01:00\n"
-    assert read_log(_write(tmp_path / "p.csv", pm4py)).cases[0][0] == "x"
+    assert read_log(_write(tmp_path / "p.csv", pm4py)).cases[0].case_id == "x"
     own = _write(tmp_path / "o.csv", "ticket;step;when\n")
     own.write_text("ticket,step,when\nt1,open,2020-01-01\n")
     settings = LogSettings(case_key="ticket", activity_key="step", timestamp_key="when")
-    assert read_log(own, settings).cases == [("t1", ["open"], [1577836800000000])]
+    assert [(c.case_id, c.activities, c.timestamps) for c in read_log(own, settings)] == [
+        ("t1", ("open",), (datetime(2020, 1, 1, tzinfo=UTC),))
+    ]
     with pytest.raises(InputError, match="no case column: none of case:concept:name"):
         read_log(own)
     with pytest.raises(InputError, match="no column 'nope' for the activity"):
@@ -215,15 +222,16 @@ def test_xes_traces_sharing_a_case_id_stay_apart_renamed_and_counted(tmp_path: P
         ),
     )
     report = read_log(log)
-    assert report.cases == [
-        ("c1", ["A"], [1577836800000000]),
-        ("c1#2", ["B"], [1577923200000000]),
-        ("c1#3", ["C"], [1578009600000000]),
-        ("c1#4", ["D"], [1578096000000000]),
-        ("c2", ["E"], [1578182400000000]),
+    day = [datetime(2020, 1, d, tzinfo=UTC) for d in range(1, 6)]
+    assert [(c.case_id, c.activities, c.timestamps) for c in report] == [
+        ("c1", ("A",), (day[0],)),
+        ("c1#2", ("B",), (day[1],)),
+        ("c1#3", ("C",), (day[2],)),
+        ("c1#4", ("D",), (day[3],)),
+        ("c2", ("E",), (day[4],)),
     ]
-    assert report.duplicates == ["c1", "c1"]
-    assert "duplicate case ids (kept apart as <id>#2, ...): 2 (c1, c1)" in report.skip_text()
+    assert report.params["duplicate_case_ids"] == {"count": 2, "examples": ["c1", "c1"]}
+    assert "duplicate case ids (kept apart as <id>#2, ...): 2 (c1, c1)" in report.skips.text()
     out = tmp_path / "cases.parquet"
     result = tleaf("read-log", log, "-o", out)
     assert result.exit_code == 0 and "duplicate case ids" in result.output, result.output
@@ -247,18 +255,19 @@ def test_csv_rows_of_a_case_spread_over_the_file_are_merged_and_counted(tmp_path
     )
     log = _write(tmp_path / "spread.csv", text)
     report = read_log(log)
-    assert [(c, a) for c, a, _ in report.cases] == [
-        ("a", ["1", "2", "3"]),
-        ("b", ["1", "2", "3"]),
-        ("c", ["1"]),
+    assert [(c.case_id, c.activities) for c in report] == [
+        ("a", ("1", "2", "3")),
+        ("b", ("1", "2", "3")),
+        ("c", ("1",)),
     ]
-    assert report.spread == 2 and report.duplicates == []
-    assert "cases merged from rows spread over the file: 2" in report.skip_text()
+    assert report.params["spread_cases"] == 2
+    assert report.params["duplicate_case_ids"]["count"] == 0
+    assert "cases merged from rows spread over the file: 2" in report.skips.text()
     out = tmp_path / "cases.parquet"
     write_cases(report, out, LogSettings())
     assert read_provenance(out).params["spread_cases"] == 2
     contiguous = _write(tmp_path / "ok.csv", text.replace("a,3,", "b,0,").replace("c,1", "b,9"))
-    assert read_log(contiguous).spread == 0
+    assert read_log(contiguous).params["spread_cases"] == 0
 
 
 def test_split_order_file_takes_the_first_cases_for_training(tmp_path: Path) -> None:

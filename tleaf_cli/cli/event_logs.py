@@ -32,11 +32,11 @@ def read_log(
     Cases without events, events without activity or timestamp, and unreadable timestamps are
     skipped and counted (the first few named); events out of time order are sorted. XES traces
     that repeat a case id are kept apart as <id>#2, ... and counted; CSV rows of one case spread
-    over the file are merged and counted. A malformed XML file or a truncated .gz exits 2 with
-    nothing written.
+    over the file are merged and counted. A malformed XML file, a truncated .gz, a NUL in a case
+    id or activity, or a CSV row with more fields than its header exits 2 naming the file and
+    line, with nothing written.
     """
-    from tleaf_cli.data.event_logs import write_cases
-    from tleaf_cli.data.log_readers import read_log as read
+    from tleaf_cli.data.log_readers import LogReader
 
     targets([log], [out])
     if values["split_order"] == "file":
@@ -45,12 +45,14 @@ def read_log(
         )
     settings = LogSettings(**values)
     settings.check()
-    report = read(log, settings)
-    atoms = write_cases(report, out, settings)
-    keys = ", ".join(f"{k}: {v}" for k, v in report.keys.items())
+    reader = LogReader(log, settings)
+    with ui.progress(f"reading {log.name} (bytes)", quiet) as tick:
+        cases = reader.read(tick)
+    reader.write(cases, out)
+    keys = ", ".join(f"{k}: {v}" for k, v in cases.params["keys"].items())
     ui.summary(
-        f"{out}: {len(report.cases)} cases, {report.events} events, {len(atoms)} activities "
-        f"({keys}); skipped or repaired: {report.skip_text()}",
+        f"{out}: {len(cases)} cases, {cases.events} events, {len(cases.activity_atoms)} "
+        f"activities ({keys}); skipped or repaired: {cases.skips.text()}",
         quiet,
     )
 

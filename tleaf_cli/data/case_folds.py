@@ -15,7 +15,7 @@ Two protocols (docs/event_logs.md#protocols):
   one case can fall on both sides; here validation is whole cases.)
 
 `split_anew` writes the result as a new cases artifact through the artifact's one writer
-(`event_logs.write_case_rows`): the same cases, activities, timestamps and activity -> atom map,
+(`event_logs.write_case_table`): the same cases, activities, timestamps and activity -> atom map,
 only `split` changed; its provenance holds the protocol's settings and the source artifact's own
 parameters, its inputs the source's path and SHA-256.
 """
@@ -25,12 +25,12 @@ from __future__ import annotations
 import os
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import asdict
+from dataclasses import asdict, replace
 
 import numpy as np
 
 from tleaf_cli.data.artifacts import check_targets, describe_inputs
-from tleaf_cli.data.event_logs import read_cases, write_case_rows
+from tleaf_cli.data.event_logs import read_cases, write_case_table
 from tleaf_cli.errors import SettingError
 from tleaf_cli.settings.event_logs import FoldSettings
 
@@ -105,8 +105,8 @@ def split_anew(
     split_of = splits_for(ids, settings)
     if "train" not in split_of.values():
         raise SettingError("val", f"leaves no train case of the {len(ids)} in {cases_path}")
-    rows = [(case.case_id, case.activities, case.timestamps) for case in source.cases]
+    rows = [replace(case, split=split_of[case.case_id]) for case in source.cases]
     params = {**asdict(settings), "source": source.params}
     inputs = describe_inputs([cases_path])
-    write_case_rows(rows, split_of, source.activity_atoms, out, params, inputs)
+    write_case_table(rows, source.activity_atoms, out, params, inputs)
     return Counter(split_of[c] for c in ids)

@@ -1,9 +1,11 @@
 """Event logs read: XES or CSV files into cases, events in time order, with what was skipped.
 
 An event log (the process-mining field's data: pm4py, ProM, the BPI Challenges) is a set of
-cases (traces), each a sequence of events with an activity and a timestamp. `read_log` reads
-`.xes`, `.xes.gz`, `.csv` or `.csv.gz` into a `LogReport`; `event_logs.write_cases` writes it as
-the `cases` artifact (docs/event_logs.md).
+cases (traces), each a sequence of events with an activity and a timestamp. `LogReader` (the
+dataset reader interface of data/case_readers.py; `read_log` in one call) reads `.xes`,
+`.xes.gz`, `.csv` or `.csv.gz` into `Cases` (data/cases.py), split by its settings, with what it
+skipped in their `SkipReport`; `event_logs.write_cases` writes them as the `cases` artifact
+(docs/event_logs.md).
 
 XES is read by a streaming parser (expat, the parser under ElementTree's iterparse, fed straight
 from the gzip stream): memory holds the cases' activities and times, never the XML tree, and a
@@ -13,8 +15,9 @@ dependency for reading three attributes.
 Bad input: a case with no events is skipped and counted; events out of time order are sorted
 (stably: file order breaks ties) and their cases counted; an event without activity or timestamp,
 or with a timestamp that is no ISO 8601 date, is skipped and counted with the first few places
-(case id and line) kept for the report; a malformed XML file or a truncated .gz is an InputError
-naming the file and, where known, the line.
+(case id and line) kept for the report. An InputError naming the file and, where known, the line:
+a malformed XML file, a truncated .gz, a case id or activity holding a NUL character, a CSV row
+with more fields than its header.
 
 One case id twice: in XES two `<trace>` elements with one id are two cases (as pm4py keeps them),
 the later ones renamed `<id>#2`, `#3`, ... and counted as duplicate case ids, the first few named;
@@ -26,14 +29,20 @@ from __future__ import annotations
 
 import csv
 import gzip
+import io
 import itertools
 import os
 import zlib
-from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
+from typing import IO
 from xml.parsers import expat
 
+from tleaf_cli.data.activity_names import activity_atoms
+from tleaf_cli.data.case_readers import Progress
+from tleaf_cli.data.cases import Case, Cases
+from tleaf_cli.data.event_logs import split_cases, write_cases
+from tleaf_cli.data.skip_report import EXAMPLES, SkipReport
 from tleaf_cli.errors import InputError
 from tleaf_cli.settings.event_logs import (
     ACTIVITY_COLUMNS,
@@ -49,10 +58,10 @@ LOG_SUFFIXES = (".xes", ".xes.gz", ".csv", ".csv.gz")
 LIFECYCLE_KEY = "lifecycle:transition"
 AUTO = "auto"  # the lifecycle setting's default: 'complete' events where the log has any
 COMPLETE = "complete"
-EXAMPLES = 5  # places kept per kind of skip, for the report
-_EPOCH = datetime(1970, 1, 1, tzinfo=UTC)
+CHUNK = 1 << 20  # bytes of XML fed to the parser at a time
+ROWS_PER_TICK = 4096  # CSV rows between two progress reports
 
-# What a skip or a repair is counted as (LogReport.skipped's keys).
+# What a skip is counted as (SkipReport.skipped's keys).
 NO_ACTIVITY = "events without activity"
 NO_TIMESTAMP = "events without timestamp"
 BAD_TIMESTAMP = "events with an unreadable timestamp"
@@ -62,50 +71,47 @@ LIFECYCLE = "events of another lifecycle transition"
 DUPLICATE_SUFFIX = "#"  # XES: the second trace named c1 is case c1#2
 
 
-@dataclass
-class LogReport:
-    """What reading a log found: its cases (file order, events sorted by time) and what was
-    skipped (kind -> count, and the first few places: 'case 17, line 230')."""
+class LogReader:
+    """An XES or CSV event log as `Cases` (a `CaseReader`): `read` the log, `write` the `cases`
+    artifact with the settings' split."""
 
-    path: str
-    keys: dict[str, str]  # case / activity / timestamp -> the attribute or column read
-    cases: list[tuple[str, list[str], list[int]]]  # case id, activities, µs since 1970 UTC
-    skipped: dict[str, int] = field(default_factory=dict)
-    examples: dict[str, list[str]] = field(default_factory=dict)
-    reordered: int = 0  # cases whose events were not in time order in the file (sorted)
-    duplicates: list[str] = field(default_factory=list)  # XES: ids of traces met again (renamed)
-    spread: int = 0  # CSV: cases whose rows are not contiguous in the file (merged)
+    def __init__(self, path: str | os.PathLike, settings: LogSettings | None = None) -> None:
+        self.path = Path(path)
+        self.settings = settings or LogSettings()
 
-    @property
-    def events(self) -> int:
-        return sum(len(a) for _, a, _ in self.cases)
+    def read(self, progress: Progress | None = None) -> Cases:
+        """The log's cases, split by the settings; InputError if it is unusable as a whole."""
+        settings = self.settings
+        settings.check()
+        kind = log_format(self.path)
+        if not self.path.is_file():
+            raise InputError(f"{self.path}: no such file")
+        reader = _read_xes if kind == "xes" else _read_csv
+        tick = progress or (lambda done, total: None)
+        try:
+            cases = reader(self.path, settings, tick)
+        except (EOFError, zlib.error, gzip.BadGzipFile) as e:
+            raise InputError(f"{self.path}: truncated or damaged gzip file ({e})") from None
+        except UnicodeDecodeError as e:
+            raise InputError(
+                f"{self.path}: not UTF-8 text ({e.reason} at byte {e.start})"
+            ) from None
+        if not cases.cases:
+            raise InputError(f"{self.path}: no case with events ({cases.skips.text()} skipped)")
+        size = self.path.stat().st_size
+        tick(size, size)
+        return cases
 
-    def skip(self, kind: str, where: str) -> None:
-        self.skipped[kind] = self.skipped.get(kind, 0) + 1
-        places = self.examples.setdefault(kind, [])
-        if len(places) < EXAMPLES:
-            places.append(where)
-
-    def skip_text(self) -> str:
-        """What was skipped or repaired, in one phrase: 'cases sorted by time: 2, events without
-        timestamp: 3 (case 7, line 12; ...)', or 'none'."""
-        parts = [f"cases sorted by time: {self.reordered}"] if self.reordered else []
-        if self.duplicates:
-            more = ", ..." if len(self.duplicates) > EXAMPLES else ""
-            parts.append(
-                f"duplicate case ids (kept apart as <id>{DUPLICATE_SUFFIX}2, ...): "
-                f"{len(self.duplicates)} ({', '.join(self.duplicates[:EXAMPLES])}{more})"
-            )
-        if self.spread:
-            parts.append(f"cases merged from rows spread over the file: {self.spread}")
-        for kind, count in self.skipped.items():
-            places = self.examples.get(kind, [])
-            more = "; ..." if count > len(places) else ""
-            parts.append(f"{kind}: {count}" + (f" ({'; '.join(places)}{more})" if places else ""))
-        return ", ".join(parts) or "none"
+    def write(self, cases: Cases, out: str | os.PathLike) -> None:
+        """The `cases` artifact of `cases`, split by the settings (event_logs.write_cases)."""
+        write_cases(cases, out, self.settings)
 
 
-# ---- reading
+def read_log(
+    path: str | os.PathLike, settings: LogSettings | None = None, progress: Progress | None = None
+) -> Cases:
+    """Read an XES or CSV event log into cases (`LogReader.read`)."""
+    return LogReader(path, settings).read(progress)
 
 
 def log_format(path: str | os.PathLike) -> str:
@@ -117,84 +123,82 @@ def log_format(path: str | os.PathLike) -> str:
     raise InputError(f"{path}: not an event log (expected {', '.join(LOG_SUFFIXES)})")
 
 
-def read_log(path: str | os.PathLike, settings: LogSettings | None = None) -> LogReport:
-    """Read an XES or CSV event log into cases; InputError if it is unusable as a whole."""
-    settings = settings or LogSettings()
-    settings.check()
-    kind = log_format(path)
-    if not Path(path).is_file():
-        raise InputError(f"{path}: no such file")
-    reader = _read_xes if kind == "xes" else _read_csv
-    try:
-        report = reader(Path(path), settings)
-    except (EOFError, zlib.error, gzip.BadGzipFile) as e:
-        raise InputError(f"{path}: truncated or damaged gzip file ({e})") from None
-    except UnicodeDecodeError as e:
-        raise InputError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
-    if not report.cases:
-        raise InputError(f"{path}: no case with events ({report.skip_text()} skipped)")
-    return report
+class _Counted:
+    """A binary file read through, with how far: `tell()` of the file itself (for a .gz, the
+    compressed bytes read), so progress is told against the file's size."""
+
+    def __init__(self, path: Path, tick: Progress) -> None:
+        self.raw = open(path, "rb")  # noqa: SIM115 (closed by close())
+        self.size = path.stat().st_size
+        self.tick = tick
+        gz = path.name.lower().endswith(".gz")
+        self.stream: IO[bytes] = gzip.GzipFile(fileobj=self.raw) if gz else self.raw
+
+    def report(self) -> None:
+        self.tick(min(self.raw.tell(), self.size), self.size)
+
+    def close(self) -> None:
+        self.stream.close()
+        self.raw.close()
 
 
-def _open(path: Path, mode: str):
-    gz = path.name.lower().endswith(".gz")
-    if mode == "rb":
-        return gzip.open(path, "rb") if gz else open(path, "rb")
-    return (gzip.open if gz else open)(path, "rt", encoding="utf-8-sig", newline="")
-
-
-def _micros(text: str) -> int | None:
-    """µs since 1970 UTC of an ISO 8601 timestamp (no zone: UTC), or None if it is none."""
+def _utc(text: str) -> datetime | None:
+    """An ISO 8601 timestamp as a UTC datetime (no zone: UTC), or None if it is none."""
     try:
         stamp = datetime.fromisoformat(text.strip())
     except ValueError:
         return None
-    if stamp.tzinfo is None:
-        stamp = stamp.replace(tzinfo=UTC)
-    delta = stamp - _EPOCH
-    return (delta.days * 86_400 + delta.seconds) * 1_000_000 + delta.microseconds
+    return stamp.replace(tzinfo=UTC) if stamp.tzinfo is None else stamp.astimezone(UTC)
 
 
 class _Builder:
-    """Collects events per case (first-appearance order) and skips into a LogReport."""
+    """Collects events per case (first-appearance order) and skips, into Cases."""
 
-    def __init__(self, path: Path, keys: dict[str, str], lifecycle: str) -> None:
-        self.report = LogReport(str(path), keys, [])
+    def __init__(self, path: Path, keys: dict[str, str], settings: LogSettings) -> None:
+        self.path = path
+        self.keys = keys
+        self.settings = settings
+        self.skips = SkipReport()
         # None: keep every event; AUTO: decided in `finish`; else the transition kept
-        self.lifecycle = None if lifecycle == "all" else lifecycle.lower()
+        self.lifecycle = None if settings.lifecycle == "all" else settings.lifecycle.lower()
         self.any_complete = False  # some event's transition is 'complete' (AUTO)
-        # case -> activities, µs times, and whether each event has a transition but not 'complete'
-        self.events: dict[str, tuple[list[str], list[int], list[bool]]] = {}
+        # case -> activities, times, and whether each event has a transition but not 'complete'
+        self.events: dict[str, tuple[list[str], list[datetime], list[bool]]] = {}
         self.seen: dict[str, str] = {}  # every case id met -> where it was first met
         self.names: dict[str, str] = {}  # each activity name once, shared by its events
+        self.duplicates: list[str] = []  # XES: ids of traces met again (renamed)
+        self.spread = 0  # CSV: cases whose rows are not contiguous in the file (merged)
 
     def event(
         self, case: str | None, activity: str | None, stamp: str | None, life: str | None, at: str
     ) -> None:
-        report = self.report
+        for what, name in (("case id", case), ("activity", activity)):
+            if name and "\x00" in name:
+                raise InputError(f"{self.path}: {at}: a NUL character in the {what} {name!r}")
+        skips = self.skips
         phase = None if life is None else life.strip().lower()
         if self.lifecycle not in (None, AUTO) and phase is not None and phase != self.lifecycle:
-            report.skipped[LIFECYCLE] = report.skipped.get(LIFECYCLE, 0) + 1
+            skips.skip(LIFECYCLE)
             return
         self.any_complete |= phase == COMPLETE
         if not case:
-            report.skip(NO_CASE_ID, at)
+            skips.skip(NO_CASE_ID, at)
             return
         self.seen.setdefault(case, at)
         where = f"case {case}, {at}"
         if not activity:
-            report.skip(NO_ACTIVITY, where)
+            skips.skip(NO_ACTIVITY, where)
             return
         if not stamp:
-            report.skip(NO_TIMESTAMP, where)
+            skips.skip(NO_TIMESTAMP, where)
             return
-        micros = _micros(stamp)
-        if micros is None:
-            report.skip(BAD_TIMESTAMP, f"{where}: '{stamp[:40]}'")
+        time = _utc(stamp)
+        if time is None:
+            skips.skip(BAD_TIMESTAMP, f"{where}: '{stamp[:40]}'")
             return
         activities, times, other = self.events.setdefault(case, ([], [], []))
         activities.append(self.names.setdefault(activity, activity))  # one str per name
-        times.append(micros)
+        times.append(time)
         other.append(phase is not None and phase != COMPLETE)
 
     def case(self, case: str | None, at: str) -> None:
@@ -208,18 +212,18 @@ class _Builder:
         merging two traces would interleave two runs of the process)."""
         if case not in self.seen:
             return case
-        self.report.duplicates.append(case)
+        self.duplicates.append(case)
         n = 2
         while f"{case}{DUPLICATE_SUFFIX}{n}" in self.seen:
             n += 1
         return f"{case}{DUPLICATE_SUFFIX}{n}"
 
-    def finish(self) -> LogReport:
-        report = self.report
+    def finish(self) -> Cases:
+        skips = self.skips
         if self.lifecycle == AUTO and self.any_complete:  # a log with lifecycle: complete only
             for case, (activities, times, other) in list(self.events.items()):
                 if any(other):
-                    report.skipped[LIFECYCLE] = report.skipped.get(LIFECYCLE, 0) + sum(other)
+                    skips.skip(LIFECYCLE, count=sum(other))
                     keep = [i for i, o in enumerate(other) if not o]
                     activities[:] = [activities[i] for i in keep]
                     times[:] = [times[i] for i in keep]
@@ -227,24 +231,56 @@ class _Builder:
                         del self.events[case]
         for case, at in self.seen.items():
             if case not in self.events:  # no event, or none kept
-                report.skip(EMPTY_CASE, f"case {case}, {at}")
+                skips.skip(EMPTY_CASE, f"case {case}, {at}")
+        rows, reordered = [], 0
         for case, (activities, times, _) in self.events.items():
             if any(b < a for a, b in itertools.pairwise(times)):
-                report.reordered += 1
+                reordered += 1
                 order = sorted(range(len(times)), key=times.__getitem__)  # stable
                 activities = [activities[i] for i in order]
                 times = [times[i] for i in order]
-            report.cases.append((case, activities, times))
-        return report
+            rows.append((case, tuple(activities), tuple(times)))
+        self._repairs(reordered)
+        atoms = activity_atoms(a for _, acts, _ in rows for a in acts)
+        s = self.settings
+        split_of = split_cases([c for c, _, _ in rows], s.split, s.split_order, s.seed)
+        cases = [
+            Case(c, acts, tuple(atoms[a] for a in acts), times, split_of[c])
+            for c, acts, times in rows
+        ]
+        params = {
+            "keys": self.keys,
+            "reordered_cases": reordered,
+            "duplicate_case_ids": {
+                "count": len(self.duplicates),
+                "examples": self.duplicates[:EXAMPLES],
+            },
+            "spread_cases": self.spread,
+        }
+        return Cases(cases, atoms, str(self.path), params, skips, [self.path])
+
+    def _repairs(self, reordered: int) -> None:
+        """What was repaired, as the phrases that lead the skip report's text."""
+        repairs = self.skips.repairs
+        if reordered:
+            repairs.append(f"cases sorted by time: {reordered}")
+        if self.duplicates:
+            more = ", ..." if len(self.duplicates) > EXAMPLES else ""
+            repairs.append(
+                f"duplicate case ids (kept apart as <id>{DUPLICATE_SUFFIX}2, ...): "
+                f"{len(self.duplicates)} ({', '.join(self.duplicates[:EXAMPLES])}{more})"
+            )
+        if self.spread:
+            repairs.append(f"cases merged from rows spread over the file: {self.spread}")
 
 
-def _read_xes(path: Path, settings: LogSettings) -> LogReport:
+def _read_xes(path: Path, settings: LogSettings, tick: Progress) -> Cases:
     keys = {
         "case": settings.case_key or XES_CASE_KEY,
         "activity": settings.activity_key or XES_ACTIVITY_KEY,
         "timestamp": settings.timestamp_key or XES_TIMESTAMP_KEY,
     }
-    build = _Builder(path, keys, settings.lifecycle)
+    build = _Builder(path, keys, settings)
     parser = expat.ParserCreate()
     stack: list[str] = []  # local tag names from the root down
     trace: dict[str, str] = {}
@@ -277,7 +313,7 @@ def _read_xes(path: Path, settings: LogSettings) -> LogReport:
             case = trace.get(keys["case"])
             if not case:
                 for _, line in events:
-                    build.report.skip(NO_CASE_ID, f"trace at line {trace_line}, line {line}")
+                    build.skips.skip(NO_CASE_ID, f"trace at line {trace_line}, line {line}")
                 return
             case = build.trace_id(case)
             build.case(case, f"line {trace_line}")
@@ -293,13 +329,18 @@ def _read_xes(path: Path, settings: LogSettings) -> LogReport:
     parser.StartElementHandler = start
     parser.EndElementHandler = end
     parser.buffer_text = True
-    with _open(path, "rb") as fh:
-        try:
-            parser.ParseFile(fh)
-        except expat.ExpatError as e:
-            raise InputError(
-                f"{path}: line {e.lineno}: malformed XML ({expat.ErrorString(e.code)})"
-            ) from None
+    source = _Counted(path, tick)
+    try:
+        while chunk := source.stream.read(CHUNK):
+            parser.Parse(chunk, False)
+            source.report()
+        parser.Parse(b"", True)
+    except expat.ExpatError as e:
+        raise InputError(
+            f"{path}: line {e.lineno}: malformed XML ({expat.ErrorString(e.code)})"
+        ) from None
+    finally:
+        source.close()
     return build.finish()
 
 
@@ -319,42 +360,54 @@ def _column(header: list[str], given: str | None, candidates: tuple[str, ...], w
     )
 
 
-def _read_csv(path: Path, settings: LogSettings) -> LogReport:
-    with _open(path, "rt") as fh:
-        rows = csv.reader(fh)
-        try:
-            header = [h.strip() for h in next(rows)]
-        except StopIteration:
-            raise InputError(f"{path}: empty file (no header)") from None
-        except csv.Error as e:
-            raise InputError(f"{path}: line 1: {e}") from None
-        try:
-            keys = {
-                "case": _column(header, settings.case_key, CASE_COLUMNS, "case"),
-                "activity": _column(header, settings.activity_key, ACTIVITY_COLUMNS, "activity"),
-                "timestamp": _column(
-                    header, settings.timestamp_key, TIMESTAMP_COLUMNS, "timestamp"
-                ),
-            }
-        except InputError as e:
-            raise InputError(f"{path}: {e}") from None
-        build = _Builder(path, keys, settings.lifecycle)
-        at = [header.index(keys[k]) for k in ("case", "activity", "timestamp")]
-        life = header.index(LIFECYCLE_KEY) if LIFECYCLE_KEY in header else None
-        last, met, spread = None, set(), set()  # previous row's case; cases met; met again
-        try:
-            for row in rows:
-                if not any(cell.strip() for cell in row):
-                    continue  # a blank line
-                case, activity, stamp = (row[i].strip() if i < len(row) else "" for i in at)
-                if case and case != last:
-                    if case in met:
-                        spread.add(case)
-                    met.add(case)
-                    last = case
-                phase = row[life] if life is not None and life < len(row) else None
-                build.event(case, activity, stamp, phase, f"line {rows.line_num}")
-        except csv.Error as e:
-            raise InputError(f"{path}: line {rows.line_num}: {e}") from None
-    build.report.spread = len(spread)
+def _read_csv(path: Path, settings: LogSettings, tick: Progress) -> Cases:
+    source = _Counted(path, tick)
+    try:
+        text = io.TextIOWrapper(source.stream, encoding="utf-8-sig", newline="")
+        return _read_csv_rows(path, csv.reader(text), settings, source)
+    finally:
+        source.close()
+
+
+def _read_csv_rows(path: Path, rows, settings: LogSettings, source: _Counted) -> Cases:
+    try:
+        header = [h.strip() for h in next(rows)]
+    except StopIteration:
+        raise InputError(f"{path}: empty file (no header)") from None
+    except csv.Error as e:
+        raise InputError(f"{path}: line 1: {e}") from None
+    try:
+        keys = {
+            "case": _column(header, settings.case_key, CASE_COLUMNS, "case"),
+            "activity": _column(header, settings.activity_key, ACTIVITY_COLUMNS, "activity"),
+            "timestamp": _column(header, settings.timestamp_key, TIMESTAMP_COLUMNS, "timestamp"),
+        }
+    except InputError as e:
+        raise InputError(f"{path}: {e}") from None
+    build = _Builder(path, keys, settings)
+    at = [header.index(keys[k]) for k in ("case", "activity", "timestamp")]
+    life = header.index(LIFECYCLE_KEY) if LIFECYCLE_KEY in header else None
+    last, met, spread = None, set(), set()  # previous row's case; cases met; met again
+    try:
+        for number, row in enumerate(rows, 1):
+            if number % ROWS_PER_TICK == 0:
+                source.report()
+            if not any(cell.strip() for cell in row):
+                continue  # a blank line
+            if len(row) > len(header):
+                raise InputError(
+                    f"{path}: line {rows.line_num}: {len(row)} fields where the header has "
+                    f"{len(header)}"
+                )
+            case, activity, stamp = (row[i].strip() if i < len(row) else "" for i in at)
+            if case and case != last:
+                if case in met:
+                    spread.add(case)
+                met.add(case)
+                last = case
+            phase = row[life] if life is not None and life < len(row) else None
+            build.event(case, activity, stamp, phase, f"line {rows.line_num}")
+    except csv.Error as e:
+        raise InputError(f"{path}: line {rows.line_num}: {e}") from None
+    build.spread = len(spread)
     return build.finish()

@@ -5,6 +5,7 @@ Pure Python: the command line builds read-log's options from this module.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from tleaf_cli.errors import SettingError
@@ -65,9 +66,12 @@ class LogSettings:
 
     def check(self) -> None:
         check_values(self)
-        if len(self.split) != 3 or min(self.split) < 0 or abs(sum(self.split) - 1) > 1e-6:
+        split = self.split
+        finite = len(split) == 3 and all(math.isfinite(x) and x >= 0 for x in split)
+        if not finite or abs(sum(split) - 1) > 1e-6:
+            shown = ",".join(str(x) for x in split)
             raise SettingError(
-                "split", f"must be three non-negative fractions summing to 1, not {self.split}"
+                "split", f"must be three non-negative fractions summing to 1, not {shown}"
             )
         for name in ("case_key", "activity_key", "timestamp_key", "lifecycle"):
             if getattr(self, name) == "":

@@ -1,0 +1,75 @@
+"""The one in-memory shape of a dataset of sequences: `Case` (one sequence) and `Cases` (all of
+them, as read).
+
+Every reader of sequences gives `Cases`: an event log (data/log_readers.py, a case of
+activities), CaptainCook4D's recordings (data/captaincook.py, a recording of steps: `Recording`,
+a `Case` with the recording's own fields), and a `cases` artifact read back
+(data/event_logs.py `read_cases`). A case is its id, its activities in time order, each
+activity's formula atom, their UTC times, and its split; `Cases` holds the cases in the source's
+order with the activity -> atom map, the source's path, its parameters (provenance) and what was
+skipped reading it (`SkipReport`).
+"""
+
+from __future__ import annotations
+
+import os
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+from tleaf_cli.data.skip_report import SkipReport
+from tleaf_cli.errors import ArgumentTypeError
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case: its activities in time order, their UTC timestamps, atoms and split."""
+
+    case_id: str
+    activities: tuple[str, ...]
+    atoms: tuple[str, ...]
+    timestamps: tuple[datetime, ...]
+    split: str
+
+    def __len__(self) -> int:
+        return len(self.activities)
+
+
+@dataclass
+class Cases:
+    """Cases as read: in the source's order, the activity -> atom map, the source (`path`), its
+    parameters, what was skipped, and the files read (`inputs`, for the provenance)."""
+
+    cases: list[Case]
+    activity_atoms: dict[str, str]
+    path: str
+    params: dict[str, Any] = field(default_factory=dict)
+    skips: SkipReport = field(default_factory=SkipReport)
+    inputs: list[Path] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.cases)
+
+    def __iter__(self) -> Iterator[Case]:
+        return iter(self.cases)
+
+    @property
+    def events(self) -> int:
+        """The activities of every case together."""
+        return sum(len(c) for c in self.cases)
+
+    def split_counts(self) -> dict[str, int]:
+        """split -> cases, in name order."""
+        return dict(sorted(Counter(c.split for c in self.cases).items()))
+
+
+def source_path(path: object, what: str) -> str | os.PathLike:
+    """`path` if it names a file (a str or a path), else ArgumentTypeError naming `what`."""
+    if not isinstance(path, str | os.PathLike):
+        raise ArgumentTypeError(
+            "path", f"expected the path of {what}, not {type(path).__name__} {path!r}"
+        )
+    return path
