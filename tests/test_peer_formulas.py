@@ -83,3 +83,41 @@ def test_one_logs_rows_keep_their_line_numbers() -> None:
     assert [r.name for r in rows] == ["env_permit.strong"]
     with pytest.raises(InputError, match=r'line 4: .*activity "5" has no atom'):
         read_peer_formulas(TSV, {"3": "a3"}, log="bpi_13_incidents")
+
+
+@pytest.mark.parametrize(
+    ("row", "expected"),
+    [
+        ('h\tWEAK\t<>("8"', r"line 3: formula '<>\(\"8\"' is 'F\(a8' in tleaf's syntax, which "),
+        ('h\tWEAK\t<>"8")', "line 3: .* which does not parse"),
+        ('h\tMEDIUM\t<>"8"', "line 3: kind 'MEDIUM' is neither STRONG nor WEAK"),
+        ('h\tstrong\t<>"8"', "line 3: kind 'strong' is neither STRONG nor WEAK"),
+        ('h\tWEAK\t<>"8"\t2.5\t6', "line 3: prefix lengths '2.5' and '6' are not whole numbers"),
+        ('h\tWEAK\t<>"8"\tx\t', "line 3: prefix lengths 'x' and '' are not whole numbers"),
+        ('h\tWEAK\t<>"8"\t2', "line 3: prefix lengths '2' and '' are not whole numbers"),
+        ('h\tWEAK\t<>"8"\t6\t2', "line 3: prefix lengths from 6 to 2 .* none"),
+    ],
+)
+def test_rows_it_cannot_write_faithfully_are_refused(row: str, expected: str) -> None:
+    """A formula that would not parse once converted, a kind that is not STRONG or WEAK, prefix
+    lengths that are not two whole numbers (from < to): an error naming the line, never a rule
+    written that no later stage reads or a column dropped silently."""
+    with pytest.raises(InputError, match=expected):
+        read_peer_formulas(f'header\ng\tSTRONG\t<>"1"\n{row}\n')
+
+
+def test_blank_prefix_lengths_are_none() -> None:
+    (row,) = read_peer_formulas('header\nh\tWEAK\t<>"8"\t\t\n')
+    assert row.prefix_lengths is None
+
+
+def test_a_bad_row_writes_nothing(tmp_path) -> None:
+    """The .ltl is written only when every row converts; an earlier file there is kept."""
+    from tleaf_cli.knowledge.log_knowledge import convert_peer_file
+
+    tsv, out = tmp_path / "formulas.tsv", tmp_path / "f.ltl"
+    tsv.write_text('log\tkind\tformula\nh\tWEAK\t<>"8"\nh\tSTRONG\t[]("8" -> <>("6")\n')
+    out.write_text("kept: a\n")
+    with pytest.raises(InputError, match=r"formulas\.tsv: line 3: .*does not parse"):
+        convert_peer_file(tsv, out)
+    assert out.read_text() == "kept: a\n"
