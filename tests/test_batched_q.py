@@ -24,9 +24,9 @@ from tleaf_cli.embed.meta_data import chain_batch, with_chain_templates
 from tleaf_cli.embed.model import TripletEmbedder
 from tleaf_cli.embed.radius import RadiusClassifier
 from tleaf_cli.embed.train_meta import joint_step
-from tleaf_cli.embed.training import LoopSettings, Step, fit
 from tleaf_cli.embed.triplets import anchor_pull, triplet_step
 from tleaf_cli.logic.compile import compile_formula
+from tleaf_cli.training.loop import LoopSettings, Step, fit
 
 EDGE_DIM = 6
 

@@ -4,6 +4,7 @@ chosen on validation with 0 ("no logic loss") always among the choices, where it
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 from pathlib import Path
 
 import pytest
@@ -11,14 +12,15 @@ import torch
 
 from tests.conftest import tiny_activities
 from tleaf_cli.errors import SettingError
-from tleaf_cli.settings.action_recognition import TaskSettings, lambda_candidates
-from tleaf_cli.tasks.action_recognition.lambda_choice import (
+from tleaf_cli.settings.action_recognition import TaskSettings
+from tleaf_cli.settings.training import lambda_candidates
+from tleaf_cli.tasks.action_recognition.learning_curve import choose_lambda
+from tleaf_cli.training.lambdas import (
     LambdaChoice,
     RunSetup,
     resolve_lambda,
     train_choosing_lambda,
 )
-from tleaf_cli.tasks.action_recognition.learning_curve import choose_lambda
 
 TINY = ["--epochs", "2", "--hidden", "8", "--decode", "argmax"]
 
@@ -67,7 +69,7 @@ def _fake_train(val: dict[float, float]):
     """A stand-in for train_action_recognition: writes a run whose best val accuracy is
     val[λ]."""
 
-    def train(out_dir: Path, settings: TaskSettings, on_setup, **kwargs) -> dict:
+    def train(out_dir: Path, settings: TaskSettings, on_setup) -> dict:
         out_dir.mkdir(parents=True)
         if on_setup is not None:
             on_setup(RunSetup(resolve_lambda(settings, None)))
@@ -94,7 +96,9 @@ def test_lambda_on_validation_has_no_logic_loss_among_the_choices(
 ) -> None:
     settings = TaskSettings(logic_loss="exact", lambdas="1, 3")
     heard = []
-    metrics = train_choosing_lambda(_fake_train(val), tmp_path, settings, heard.append)
+    metrics = train_choosing_lambda(
+        _fake_train(val), tmp_path, settings, heard.append, "val_action_accuracy"
+    )
     assert metrics["lambda"]["value"] == chosen and metrics["lambda"]["source"] == "validation"
     assert [c["lambda"] for c in metrics["lambda"]["candidates"]] == [0.0, 1.0, 3.0]
     assert (tmp_path / "weights.pt").read_bytes() == str(chosen).encode()
@@ -159,7 +163,7 @@ def test_a_run_without_a_logic_loss_is_the_lambda_0_candidate(tmp_path: Path) ->
     reference = tmp_path / "none"
     reference.mkdir()
     (reference / "config.json").write_text(
-        json.dumps({"settings": {"logic_loss": "none", "lam": 1.0}})
+        json.dumps({"settings": asdict(TaskSettings(logic_loss="none", lam=1.0))})
     )
     metrics = {"logic_loss": "none", "best": {"val_action_accuracy": 0.6}}
     (reference / "metrics.json").write_text(json.dumps(metrics))
@@ -167,7 +171,7 @@ def test_a_run_without_a_logic_loss_is_the_lambda_0_candidate(tmp_path: Path) ->
     settings = TaskSettings(logic_loss="exact", lambdas="1")
     out = tmp_path / "exact"
     metrics = train_choosing_lambda(
-        _fake_train({1.0: 0.55}), out, settings, None, reference=reference
+        _fake_train({1.0: 0.55}), out, settings, None, "val_action_accuracy", reference
     )
     assert metrics["lambda"]["value"] == 0.0 and metrics["logic_loss"] == "exact"
     assert [c["lambda"] for c in metrics["lambda"]["candidates"]] == [0.0, 1.0]

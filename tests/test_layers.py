@@ -8,7 +8,8 @@ of one floor never import each other):
     1 logic    logic/
     2 data     data/, knowledge/, rule_set, views
     3 q        embed/: q's model, its loading and its embedding (model, load, embedder, ...)
-    4 jobs     embed/'s trainers and vector files (train_edge, train_meta, training, triplets,
+               |  training  training/: the loop, λ, the run folder, one task's run
+    4 jobs     embed/'s trainers and vector files (train_edge, train_meta, triplets,
                edge_data, vectors)  |  losses  losses/, decode, shield
     5 tasks    tasks/
     6 cli      cli/
@@ -41,9 +42,10 @@ PLACES: dict[str, tuple[int, str]] = {
     "tleaf_cli.rule_set": (2, "data"),
     "tleaf_cli.views": (2, "data"),
     "tleaf_cli.embed": (3, "q"),
+    "tleaf_cli.training": (3, "training"),
     **{
         f"tleaf_cli.embed.{name}": (4, "jobs")
-        for name in ("train_edge", "train_meta", "training", "triplets", "edge_data", "vectors")
+        for name in ("train_edge", "train_meta", "triplets", "edge_data", "vectors")
     },
     "tleaf_cli.losses": (4, "losses"),
     "tleaf_cli.decode": (4, "losses"),

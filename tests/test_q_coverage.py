@@ -14,7 +14,7 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.settings.action_recognition import TaskSettings
 from tleaf_cli.settings.meta import MetaSettings
-from tleaf_cli.tasks.q_coverage import q_coverage
+from tleaf_cli.training.q_coverage import q_coverage
 
 TINY = {"logic_loss": "tleaf", "hidden": 8, "head_hidden": 4, "epochs": 1, "decode": "argmax"}
 

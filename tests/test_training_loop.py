@@ -11,8 +11,8 @@ import pytest
 import torch
 from torch import nn
 
-from tleaf_cli.embed.training import LoopSettings, Step, chunks, fit
 from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.training.loop import LoopSettings, Step, chunks, fit
 
 
 class Stop(Exception):

@@ -20,6 +20,7 @@ from tleaf_cli.cli.common import (
     targets,
 )
 from tleaf_cli.cli.options import TASK, given, setting_option, with_settings
+from tleaf_cli.cli.runs import print_choice, run_printers, warn_replacing
 from tleaf_cli.settings.action_recognition import ReportSettings, TaskSettings
 
 ReportDecoding = setting_option(ReportSettings, "decode")  # whose figures eval's table shows
@@ -68,32 +69,14 @@ def train_task_action_recognition(
             given_flags(ctx, "lam", "lambdas"),
             "only with a logic loss or self-training (--unlabelled-loss), not --logic-loss none",
         )
-    model, logic_loss, epochs = settings.model, settings.logic_loss, settings.epochs
-
-    def on_setup(setup) -> None:  # before the first epoch (every candidate's, with --lambdas)
-        ui.summary(setup.lam.text(given="given with --lambda"), quiet)
-        if setup.coverage is not None and setup.coverage.left_out:
-            ui.summary(f"warning: {setup.coverage.left_out_text()}", quiet)
-
-    with ui.progress(f"training h ({model}, {logic_loss})", quiet) as update:
-
-        def on_epoch(r) -> None:
-            update(r.epoch, epochs)
-            ui.summary(
-                f"epoch {r.epoch}: task {r.task_loss:.4f}, logic {r.logic_loss:.4f}, "
-                + (f"unlabelled {r.unlabelled_loss:.4f}, " if r.unlabelled_loss else "")
-                + f"val action acc {r.val_action_accuracy:.3f} ({r.seconds:.1f} s)",
-                quiet,
-            )
-
+    warn_replacing(out, resume, quiet)
+    title = f"training h ({settings.model}, {settings.logic_loss})"
+    with run_printers(title, settings.epochs, quiet) as (on_setup, on_epoch):
         metrics = train_action_recognition(
             activities, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup,
             reference=reference,
         )  # fmt: skip
-    if settings.lambdas is not None:
-        from tleaf_cli.tasks.lambda_source import LambdaChoice
-
-        ui.summary(LambdaChoice(**metrics["lambda"]).text(), quiet)
+    print_choice(metrics, quiet)
     test = metrics["test"]
     ui.summary(
         f"{out}: test action {100 * test['action_accuracy']:.2f}%, ingredient "

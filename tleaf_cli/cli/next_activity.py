@@ -10,6 +10,7 @@ import typer
 from tleaf_cli import ui
 from tleaf_cli.cli.common import Quiet, Resume, exits, given_flags, preset_option, refuse, targets
 from tleaf_cli.cli.options import NEXT, SUFFIX, given, with_settings
+from tleaf_cli.cli.runs import print_choice, run_printers, warn_replacing
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings
 
 NextPreset = preset_option(NextActivitySettings)
@@ -58,28 +59,18 @@ def train_task_next_activity(
     settings = NextActivitySettings.preset(preset, **given(ctx, values))
     if settings.logic_loss == "none":
         refuse(given_flags(ctx, "lam", "lambdas"), "only with a logic loss, not --logic-loss none")
+        refuse(["--kb"] if kb is not None else [], "only with a logic loss, not --logic-loss none")
+    if settings.logic_loss != "tleaf":
+        refuse(["--embedder"] if embedder is not None else [], "only with --logic-loss tleaf")
 
-    def on_setup(setup) -> None:
-        ui.summary(setup.lam.text(given="given with --lambda"), quiet)
-
-    with ui.progress(f"training next-activity ({settings.logic_loss})", quiet) as update:
-
-        def on_epoch(r) -> None:
-            update(r.epoch, settings.epochs)
-            ui.summary(
-                f"epoch {r.epoch}: task {r.task_loss:.4f}, logic {r.logic_loss:.4f}, "
-                f"val acc {r.val_accuracy:.4f} ({r.seconds:.1f} s)",
-                quiet,
-            )
-
+    warn_replacing(out, resume, quiet)
+    title = f"training next-activity ({settings.logic_loss})"
+    with run_printers(title, settings.epochs, quiet) as (on_setup, on_epoch):
         metrics = train_next_activity(
             cases, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup,
             reference=reference,
         )  # fmt: skip
-    if settings.lambdas is not None:
-        from tleaf_cli.tasks.lambda_source import LambdaChoice
-
-        ui.summary(LambdaChoice(**metrics["lambda"]).text(), quiet)
+    print_choice(metrics, quiet)
     test = metrics["test"]
     ui.summary(
         f"{out}: test next-activity accuracy {100 * test['accuracy']:.2f}% over "

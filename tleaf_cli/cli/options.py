@@ -22,7 +22,7 @@ from typing import Annotated, Any, Literal
 
 import typer
 
-from tleaf_cli.settings import default_of, options
+from tleaf_cli.settings import check_value, default_of, options
 from tleaf_cli.settings.action_recognition import TaskSettings
 from tleaf_cli.settings.data import CompileSettings, FormulaSettings, TraceSettings
 from tleaf_cli.settings.declare import DeclareSettings
@@ -160,8 +160,7 @@ def _annotation(f: Field, cls: type) -> Any:
         *names,
         help=f"{meta['help']} \\[default: {default_text(f, cls)}]",
         show_default=False,
-        min=meta["min"] if base in (int, float) else None,
-    )
+    )  # bounds are checked by `check_value` (one `error:` line, NaN included), not by click
     return Annotated[base | None if optional else base, option]
 
 
@@ -202,6 +201,7 @@ def with_settings(command: SettingsCommand):
             for f in settings:
                 if f.name in kwargs:
                     kwargs[f.name] = _from_cli(f, kwargs[f.name])
+                    check_value(f, kwargs[f.name])
             return func(*args, **kwargs)
 
         wrapper.__signature__ = own.replace(parameters=params)

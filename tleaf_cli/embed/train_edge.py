@@ -28,7 +28,6 @@ from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.embed.atom_features import atom_features
 from tleaf_cli.embed.edge_data import TripletStore, guard_triplets, split_by_formula, vocabulary
 from tleaf_cli.embed.proposition_encoder import PropositionEncoder
-from tleaf_cli.embed.training import LoopSettings, chunks, device_for, fit
 from tleaf_cli.embed.triplets import (
     SCORE,
     EpochReport,
@@ -39,6 +38,7 @@ from tleaf_cli.embed.triplets import (
 from tleaf_cli.errors import InputError
 from tleaf_cli.settings import check_values
 from tleaf_cli.settings.edge import EdgeSettings
+from tleaf_cli.training.loop import LoopSettings, chunks, device_for, fit
 
 
 def train_edge(

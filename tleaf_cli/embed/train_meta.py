@@ -38,7 +38,6 @@ from tleaf_cli.embed.meta_data import (
     with_chain_templates,
 )
 from tleaf_cli.embed.model import TripletEmbedder, build_model, store_run_weights
-from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.embed.triplets import (
     SCORE,
     EpochReport,
@@ -56,6 +55,7 @@ from tleaf_cli.settings.meta import (
     MetaSettings,
     recommended_lambda,
 )
+from tleaf_cli.training.loop import LoopSettings, Step, chunks, device_for, fit
 
 GROUP = 4  # triplets of one formula that share its embedding within a batch
 SCORE_BATCH = 512  # pairs per pass when scoring (no gradient: a graph's vector is its own)

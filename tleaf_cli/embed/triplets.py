@@ -15,7 +15,7 @@ from typing import Any
 
 import torch
 
-from tleaf_cli.embed.training import Step
+from tleaf_cli.training.loop import Step
 
 Triplet = tuple[torch.Tensor, torch.Tensor, torch.Tensor]
 SCORE = "heldout_accuracy"  # the loop's name for the embedders' held-out (or val) accuracy

@@ -21,6 +21,7 @@ its options at start-up.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import MISSING, Field, field, fields
 from typing import Any, ClassVar
@@ -31,7 +32,7 @@ DEVICES = ("cpu", "cuda")  # where torch computes
 # how matrix products are computed: float32, bfloat16 (autocast), or auto (bfloat16 where the
 # hardware computes it natively: AMX / AVX-512 BF16 CPUs, GPUs; float32 elsewhere)
 PRECISIONS = ("float32", "bfloat16", "auto")
-SCHEDULES = ("constant", "cosine")  # the embedders' learning-rate schedules (embed/training.py)
+SCHEDULES = ("constant", "cosine")  # the embedders' learning-rate schedules (training/loop.py)
 LOGIC_LOSSES = ("none", "tleaf", "checker", "exact")  # `tl.logic_loss` kinds, and "none"
 
 
@@ -64,15 +65,23 @@ def options(cls: type) -> list[Field]:
 
 def check_values(settings: object) -> None:
     """SettingError for the first setting outside its `choices` or below its `min` (the
-    library's own check: the command line refuses such values before this runs)."""
+    library's own check; the command line runs `check_value` on each option it is given)."""
     for f in options(type(settings)):
-        value = getattr(settings, f.name)
-        if value is None:
-            continue
-        choices, low = f.metadata["choices"], f.metadata["min"]
-        if choices is not None and value not in choices:
-            raise SettingError(f.name, f"must be one of {', '.join(choices)}, not {value!r}")
-        if low is not None and value < low:
+        check_value(f, getattr(settings, f.name))
+
+
+def check_value(f: Field, value: Any) -> None:
+    """SettingError when `value` is not one the setting `f` takes: outside its `choices`; for a
+    setting with a `min`, NaN, infinite, or below it (a bounded number is a finite one)."""
+    if value is None:
+        return
+    choices, low = f.metadata["choices"], f.metadata["min"]
+    if choices is not None and value not in choices:
+        raise SettingError(f.name, f"must be one of {', '.join(choices)}, not {value!r}")
+    if low is not None and isinstance(value, int | float) and not isinstance(value, bool):
+        if not math.isfinite(value):
+            raise SettingError(f.name, f"must be a finite number of at least {low}, not {value}")
+        if value < low:
             raise SettingError(f.name, f"must be at least {low}, not {value}")
 
 

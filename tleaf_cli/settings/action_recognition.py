@@ -12,19 +12,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-from tleaf_cli.errors import SettingError
-from tleaf_cli.settings import DEVICES, LOGIC_LOSSES, Presets, check_values, setting
+from tleaf_cli.settings import LOGIC_LOSSES, setting
+from tleaf_cli.settings.training import TrainingSettings, training_field
 
 MODELS = ("lstm", "tcn")  # h's backbone (tasks/action_recognition/models.py)
 FORMULA_SOURCES = ("predictions", "labels", "kb")  # where a video's rule set comes from
 RULE_SET_SPLITS = ("video", "ingredient")  # one rule set per video, or one per ingredient
 DECODINGS = ("argmax", "constrained")  # test-time decoding
 UNLABELLED_LOSSES = ("logic", "decoded", "argmax")  # what unlabelled videos are trained on
-EXACT_LAMBDA = 1.0  # λ of the exact and checker losses when none is given (chosen on val)
 
 
 @dataclass(frozen=True)
-class TaskSettings(Presets):
+class TaskSettings(TrainingSettings):
     """Every setting of h's training (saved as config.json's "settings").
 
     The field defaults are preset `best`; `TaskSettings.preset("paper")` is the paper's."""
@@ -32,20 +31,6 @@ class TaskSettings(Presets):
     model: str = setting("lstm", "Backbone of h: lstm or tcn.", choices=MODELS)
     logic_loss: str = setting(
         "none", "none (reference), tleaf, exact, or checker (no gradient).", choices=LOGIC_LOSSES
-    )
-    lam: float | None = setting(
-        None,
-        "Weight λ of the logic loss.",
-        min=0.0,
-        auto=f"auto: with tleaf, the λ the embedder's folder recommends; otherwise {EXACT_LAMBDA}",
-    )
-    lambdas: str | None = setting(
-        None,
-        "Choose λ on validation: one run per value of this list (commas or spaces, e.g. "
-        "'0.3,1,3'), 0 (the logic loss weighing nothing) always among them, each from the same "
-        "seed; the run with the best val action accuracy is kept (ties: the smaller λ), every "
-        "candidate's run in its lambda-choice folder.",
-        auto="none: one run, at --lambda",
     )
     formula_from: str = setting(
         "predictions",
@@ -95,14 +80,10 @@ class TaskSettings(Presets):
     hidden: int = setting(128, "Backbone width.", min=1)
     head_hidden: int = 64
     dropout: float = 0.2
-    batch_size: int = setting(16, "Videos per batch.", min=1)
-    epochs: int = setting(150, "Most epochs to train.", min=1)
-    patience: int | None = setting(
-        20, "Stop after this many epochs without a better val action accuracy.", min=1
-    )
-    lr: float = setting(1e-3, "Adam learning rate.")
-    seed: int = setting(0, "Random seed; the same seed trains the same model.")
-    device: str = setting("cpu", "Where to compute.", choices=DEVICES)
+    batch_size: int = training_field("batch_size", 16)
+    epochs: int = training_field("epochs", 150)
+    patience: int | None = training_field("patience", 20)
+    lr: float = training_field("lr", 1e-3)
     decode: str = setting(
         "constrained",
         "Test-time decoding: argmax per step, or also constrained (the most probable sequence "
@@ -113,6 +94,7 @@ class TaskSettings(Presets):
         5, "Constrained decoding: candidate pairs per video (top k; chosen on val).", min=1
     )
 
+    DEFAULT_LAMBDA: ClassVar[float] = 1.0  # of the exact and checker losses (chosen on val)
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
         "best": {},
         "paper": {"lr": 1e-4, "epochs": 60, "patience": 10, "decode": "argmax"},
@@ -124,15 +106,10 @@ class TaskSettings(Presets):
         "decoding (on 60 training videos it stops far short of the best preset's accuracy)",
     }
 
-    def check(self) -> None:
-        """SettingError for a setting out of range or settings that do not fit together."""
-        check_values(self)
-        if self.lambdas is not None:
-            lambda_candidates(self.lambdas)
-            if self.lam is not None:
-                raise SettingError("lambdas", "chooses λ itself: not with lam")
-            if self.logic_loss == "none" and self.unlabelled_loss == "logic":
-                raise SettingError("lambdas", "λ weighs nothing without a logic loss")
+    @property
+    def uses_lambda(self) -> bool:
+        """λ weighs the logic loss, and self-training on unlabelled videos."""
+        return self.logic_loss != "none" or self.unlabelled_loss != "logic"
 
 
 @dataclass(frozen=True)
@@ -146,18 +123,3 @@ class ReportSettings:
         "side.",
         choices=DECODINGS,
     )
-
-
-def lambda_candidates(text: str) -> tuple[float, ...]:
-    """The λs a `lambdas` list names, with 0 (no logic loss's weight) always among them,
-    increasing; SettingError for a value that is not a number of at least 0."""
-    values = {0.0}
-    for word in text.replace(",", " ").split():
-        try:
-            value = float(word)
-        except ValueError:
-            raise SettingError("lambdas", f"{word!r} is not a number") from None
-        if not value >= 0 or value == float("inf"):
-            raise SettingError("lambdas", f"must be numbers of at least 0, not {word}")
-        values.add(value)
-    return tuple(sorted(values))

@@ -10,19 +10,18 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from tleaf_cli.errors import SettingError
-from tleaf_cli.settings import DEVICES, Presets, check_values, setting
-from tleaf_cli.settings.action_recognition import lambda_candidates
+from tleaf_cli.settings import check_values, setting
+from tleaf_cli.settings.training import TrainingSettings
 
 NEXT_ACTIVITY_LOSSES = ("none", "exact", "tleaf")  # `tl.logic_loss` kinds with a gradient
-EXACT_LAMBDA = 0.1  # λ of the exact loss when none is given
 SCORED_CASES = ("all", "satisfying")  # eval next-activity: which test cases
 
 
 @dataclass(frozen=True)
-class NextActivitySettings(Presets):
-    """Every setting of the next-activity model's training (saved as config.json's "settings").
-
-    The field defaults are preset `best`."""
+class NextActivitySettings(TrainingSettings):
+    """Every setting of the next-activity model's training (saved as config.json's "settings"):
+    the training fields every task shares (`TrainingSettings`: λ, batches, epochs, early stop,
+    learning rate, seed, device) and the model's own. The field defaults are preset `best`."""
 
     logic_loss: str = setting(
         "none",
@@ -30,31 +29,19 @@ class NextActivitySettings(Presets):
         "(the paper's loss: q's distance of the soft trace from the rules; needs --embedder).",
         choices=NEXT_ACTIVITY_LOSSES,
     )
-    lam: float | None = setting(
-        None,
-        "Weight λ of the logic loss.",
-        min=0.0,
-        auto=f"auto: with tleaf, the λ the embedder's folder recommends; with exact {EXACT_LAMBDA}",
-    )
-    lambdas: str | None = setting(
-        None,
-        "Choose λ on validation: one run per value of this list (commas or spaces), 0 (no logic "
-        "loss) always among them, each from the same seed; the run with the best val accuracy is "
-        "kept (ties: the smaller λ), every candidate's run in its lambda-choice folder.",
-        auto="none: one run, at --lambda",
-    )
     hidden: int = setting(100, "Units of each LSTM layer (Tax et al.: 100).", min=1)
     layers: int = setting(2, "Stacked LSTM layers (Tax et al.: one shared, one per output).", min=1)
     dropout: float = setting(0.2, "Dropout between the layers (Tax et al.: 0.2).")
-    batch_size: int = setting(32, "Cases per batch.", min=1)
-    epochs: int = setting(100, "Most epochs to train.", min=1)
-    patience: int | None = setting(
-        10, "Stop after this many epochs without a better val accuracy.", min=1
+    max_events: int | None = setting(
+        1000,
+        "Train on at most the first N events of a case (its later targets left out, and the "
+        "logic loss skips it): one case of 100,000 events would make an epoch take minutes and "
+        "gigabytes. Val and test cases are scored whole.",
+        min=1,
+        auto="none: every case whole",
     )
-    lr: float = setting(2e-3, "Adam learning rate.")
-    seed: int = setting(0, "Random seed; the same seed trains the same model.")
-    device: str = setting("cpu", "Where to compute.", choices=DEVICES)
 
+    DEFAULT_LAMBDA: ClassVar[float] = 0.1  # λ of the exact loss when none is given
     PRESETS: ClassVar[dict[str, dict[str, Any]]] = {
         "best": {},
         "tax": {"patience": 42, "epochs": 500, "batch_size": 16},
@@ -66,15 +53,9 @@ class NextActivitySettings(Presets):
 
     def check(self) -> None:
         """SettingError for a setting out of range or settings that do not fit together."""
-        check_values(self)
+        super().check()
         if not 0 <= self.dropout < 1:
             raise SettingError("dropout", f"must be in [0, 1), not {self.dropout}")
-        if self.lambdas is not None:
-            lambda_candidates(self.lambdas)
-            if self.lam is not None:
-                raise SettingError("lambdas", "chooses λ itself: not with lam")
-            if self.logic_loss == "none":
-                raise SettingError("lambdas", "λ weighs nothing without a logic loss")
 
 
 @dataclass(frozen=True)

@@ -47,11 +47,11 @@ from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text
 from tleaf_cli.data.dfa_table import read_dfas
 from tleaf_cli.data.traces import read_traces
 from tleaf_cli.embed.load import load_embedder
-from tleaf_cli.embed.training import adam, device_for
 from tleaf_cli.errors import InputError, MissingSplitError, SettingError
 from tleaf_cli.settings import PRECISIONS
 from tleaf_cli.settings.evaluation import PAIR_FEATURES, EvalSettings
 from tleaf_cli.settings.meta import MetaSettings
+from tleaf_cli.training.loop import adam, device_for
 
 
 @dataclass

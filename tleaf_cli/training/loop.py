@@ -1,5 +1,5 @@
-"""The one training loop of tleaf's models (edge and meta embedders, the action recognizer),
-and the helpers every trainer shares (`chunks`, `device_for`).
+"""The one training loop of tleaf's models (the edge and meta embedders, every sequence task
+through `training.task`), and the helpers every trainer shares (`chunks`, `device_for`).
 
 A trainer gives `fit` what is its own: `batches(epoch, generator)`, the epoch's training batches
 (shuffled by `generator`); `step(batch)`, the batch's loss and the figures to report (a `Step`;
@@ -13,9 +13,13 @@ the validation score that chooses the best epoch. The loop does the rest, the sa
   score, or after the epoch that passes `max_minutes`; the model ends with the best weights,
   written to `weights.pt`;
 * after every epoch `checkpoint.pt`: model, optimiser, schedule, history, best weights, epochs
-  since the best, torch's RNG. `resume=True` continues from it and ends with the weights and
-  records (but `seconds`) of a run never interrupted: an epoch's batches depend only on the seed
-  and the epoch (epoch e shuffles with seed · 100003 + e), everything else is in the checkpoint.
+  since the best, torch's RNG, and the run's `identity` (its settings and inputs, when the
+  trainer gives one). `resume=True` continues from it, only the same run
+  (`run_folder.check_same_run`), and ends with the weights and records (but `seconds`) of a run
+  never interrupted: an epoch's batches depend only on the seed and the epoch (epoch e shuffles
+  with seed · 100003 + e), everything else is in the checkpoint;
+* a loss that is not finite (a learning rate too large) stops the run with `TrainingDiverged`,
+  an interrupt (Ctrl-C) with `TrainingInterrupted`: each names the last epoch kept.
 
 Both files are written atomically (a temporary file renamed over the target), so a crash
 never leaves half a checkpoint; `on_epoch(record)` is called once the epoch's checkpoint is
@@ -24,6 +28,7 @@ written (the CLI's progress lines).
 
 from __future__ import annotations
 
+import math
 import os
 import pickle
 import time
@@ -35,8 +40,9 @@ from typing import Any, NamedTuple, TypeVar
 import torch
 
 from tleaf_cli.data.artifacts import atomic_path
-from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.errors import InputError, SettingError, TleafError
 from tleaf_cli.settings import SCHEDULES
+from tleaf_cli.training.run_folder import check_same_run
 
 B = TypeVar("B")  # a trainer's batch
 
@@ -50,6 +56,17 @@ class Step(NamedTuple):
     loss: torch.Tensor  # minimised
     figures: dict[str, float]  # reported per epoch: the mean over its batches, weighted by:
     weight: int = 1  # the batch's weight in those means (the embedders: triplets in the batch)
+
+
+class TrainingDiverged(TleafError):
+    """The loss stopped being a finite number: the run cannot go on (a learning rate too large,
+    a loss weight too large). The checkpoint holds the last finished epoch."""
+
+
+class TrainingInterrupted(TleafError):
+    """The run was interrupted (Ctrl-C) between two checkpoints."""
+
+    exit_code = 130
 
 
 @dataclass(frozen=True)
@@ -141,6 +158,7 @@ def fit(
     resume: bool = False,
     on_epoch: Callable[[dict[str, Any]], None] | None = None,
     flat: bool = False,
+    identity: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Train `model` as `settings` say; returns {"best": {"epoch", score}, "history": records}.
 
@@ -149,7 +167,9 @@ def fit(
     model's state_dict is what `weights.pt` and the checkpoint hold. `resume`: continue from
     out_dir's checkpoint when there is one. `on_epoch(record)`: after each epoch's checkpoint.
     `flat`: Adam over the parameters laid out as one tensor (`FlatParameters`), for a model
-    whose every parameter gets a gradient in every step.
+    whose every parameter gets a gradient in every step. `identity`: what makes this run this
+    run (`run_folder.run_identity`), kept in the checkpoint; with it, `resume` refuses another
+    run's checkpoint (InputError naming what differs).
     """
     start = time.perf_counter()
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -173,68 +193,102 @@ def fit(
     done = 0  # epochs trained
     checkpoint = out_dir / CHECKPOINT
     if resume and checkpoint.exists():
-        history, best, best_weights, stale, done = _restore(checkpoint, model, optimiser, scheduler)
-
-    for epoch in range(done + 1, settings.epochs + 1):
-        over_budget = settings.max_minutes is not None and (
-            time.perf_counter() - start > 60 * settings.max_minutes
+        history, best, best_weights, stale, done = _restore(
+            checkpoint, model, optimiser, scheduler, identity
         )
-        if (settings.patience is not None and stale >= settings.patience) or over_budget:
-            break
-        generator = torch.Generator().manual_seed(settings.seed * 100_003 + epoch)
-        model.train()
-        began = time.perf_counter()
-        sums: dict[str, float] = {}
-        seen = 0
-        for batch in batches(epoch, generator):
-            loss, figures, weight = step(batch)
-            if flat_parameters is None:
-                optimiser.zero_grad()
-                loss.backward()
+    try:
+        for epoch in range(done + 1, settings.epochs + 1):
+            over_budget = settings.max_minutes is not None and (
+                time.perf_counter() - start > 60 * settings.max_minutes
+            )
+            if (settings.patience is not None and stale >= settings.patience) or over_budget:
+                break
+            generator = torch.Generator().manual_seed(settings.seed * 100_003 + epoch)
+            model.train()
+            began = time.perf_counter()
+            means = _train_epoch(
+                batches(epoch, generator), step, optimiser, flat_parameters, epoch, checkpoint
+            )
+            if scheduler is not None:
+                scheduler.step()
+            seconds = time.perf_counter() - began
+            model.eval()
+            with torch.no_grad():
+                value = evaluate()
+            record = {"epoch": epoch, **means, "seconds": seconds, score: value}
+            history.append(record)
+            if value > best[score]:
+                best = {"epoch": epoch, score: value}
+                best_weights = _snapshot(model)
+                stale = 0
             else:
-                flat_parameters.zero_grad()
-                loss.backward()
-                flat_parameters.check()
-            optimiser.step()
-            for name, value in figures.items():
-                sums[name] = sums.get(name, 0.0) + value * weight
-            seen += weight
-        if scheduler is not None:
-            scheduler.step()
-        seconds = time.perf_counter() - began
-        model.eval()
-        with torch.no_grad():
-            value = evaluate()
-        means = {name: total / max(seen, 1) for name, total in sums.items()}
-        record = {"epoch": epoch, **means, "seconds": seconds, score: value}
-        history.append(record)
-        if value > best[score]:
-            best = {"epoch": epoch, score: value}
-            best_weights = _snapshot(model)
-            stale = 0
-        else:
-            stale += 1
-        save_atomic(
-            {
-                "model": model.state_dict(),
-                "optimiser": optimiser.state_dict(),
-                "scheduler": scheduler.state_dict() if scheduler is not None else None,
-                "epoch": epoch,
-                "history": history,
-                "best": best,
-                "best_model": best_weights,
-                "stale": stale,
-                "torch_rng": torch.get_rng_state(),
-                "cuda_rng": torch.cuda.get_rng_state_all() if torch.cuda.is_initialized() else None,
-            },
-            checkpoint,
-        )
-        if on_epoch is not None:
-            on_epoch(record)
+                stale += 1
+            save_atomic(
+                {
+                    "model": model.state_dict(),
+                    "optimiser": optimiser.state_dict(),
+                    "scheduler": scheduler.state_dict() if scheduler is not None else None,
+                    "epoch": epoch,
+                    "history": history,
+                    "best": best,
+                    "best_model": best_weights,
+                    "stale": stale,
+                    "torch_rng": torch.get_rng_state(),
+                    "cuda_rng": torch.cuda.get_rng_state_all()
+                    if torch.cuda.is_initialized()
+                    else None,
+                    "identity": identity,
+                },
+                checkpoint,
+            )
+            if on_epoch is not None:
+                on_epoch(record)
+    except KeyboardInterrupt:
+        raise TrainingInterrupted(f"interrupted; {_kept(checkpoint)}") from None
 
     model.load_state_dict(best_weights)
     save_atomic(_on_cpu(best_weights), out_dir / WEIGHTS)
     return {"best": best, "history": history}
+
+
+def _train_epoch(
+    batches: Iterable[B],
+    step: Callable[[B], Step],
+    optimiser: torch.optim.Optimizer,
+    flat_parameters: FlatParameters | None,
+    epoch: int,
+    checkpoint: Path,
+) -> dict[str, float]:
+    """One epoch's updates; each step figure's mean over the epoch (weighted by the batches'
+    weights). TrainingDiverged when a batch's loss is not a finite number."""
+    sums: dict[str, float] = {}
+    seen = 0
+    for batch in batches:
+        loss, figures, weight = step(batch)
+        if not math.isfinite(loss.item()):
+            raise TrainingDiverged(
+                f"the loss is {loss.item()} in epoch {epoch}: training diverged (lower the "
+                f"learning rate or the loss's weight); {_kept(checkpoint)}"
+            )
+        if flat_parameters is None:
+            optimiser.zero_grad()
+            loss.backward()
+        else:
+            flat_parameters.zero_grad()
+            loss.backward()
+            flat_parameters.check()
+        optimiser.step()
+        for name, value in figures.items():
+            sums[name] = sums.get(name, 0.0) + value * weight
+        seen += weight
+    return {name: total / max(seen, 1) for name, total in sums.items()}
+
+
+def _kept(checkpoint: Path) -> str:
+    """What an unfinished run leaves: the checkpoint of its last finished epoch, or nothing."""
+    if checkpoint.exists():
+        return f"the last finished epoch is in {checkpoint} (--resume continues from it)"
+    return "no epoch finished, nothing was written"
 
 
 def save_atomic(obj: object, path: Path) -> None:
@@ -273,12 +327,19 @@ def _restore(
     model: torch.nn.Module,
     optimiser: torch.optim.Optimizer,
     scheduler: torch.optim.lr_scheduler.LRScheduler | None,
+    identity: dict[str, Any] | None,
 ) -> tuple[list[dict[str, Any]], dict[str, Any], dict[str, torch.Tensor], int, int]:
     """Load a checkpoint into the model, optimiser, schedule and torch's RNG; returns the
     run's (history, best, best weights, epochs since the best, epochs trained). InputError
-    for a file that is not a checkpoint of this model."""
+    for a file that is not a checkpoint of this model, or (with `identity`) of another run."""
     try:
         state = torch.load(checkpoint, map_location="cpu", weights_only=True)
+    except (TypeError, ValueError, RuntimeError, EOFError, pickle.UnpicklingError) as e:
+        first = (str(e).strip().splitlines() or [type(e).__name__])[0]
+        raise InputError(f"{checkpoint}: not a checkpoint ({first}); train afresh") from None
+    if identity is not None:
+        check_same_run(checkpoint, state.get("identity"), identity)
+    try:
         model.load_state_dict(state["model"])
         optimiser.load_state_dict(state["optimiser"])
         if scheduler is not None and state["scheduler"] is not None:

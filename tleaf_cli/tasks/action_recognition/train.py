@@ -33,27 +33,23 @@ Same seed, same run: h's initial weights, batch order and dropout masks depend o
 only, so runs that differ only in the logic loss start from the same point (and the checker
 loss, which has no gradient, reproduces the reference run).
 
-`LogicObjective` (objective.py) gives ℓ_logic; `lambda_choice` the λ and where it came from.
-
-Model directory (docs/design.md): `config.json`, `weights.pt` (best epoch), `metrics.json`, and
-`checkpoint.pt` (last epoch, for `resume`: `embed.training.fit`).
+`LogicObjective` (objective.py) gives ℓ_logic. The run itself — λ and where it came from, the
+epochs, the run folder (`config.json`, `weights.pt` of the best epoch, `metrics.json`,
+`checkpoint.pt` of the last for `resume`) — is every task's: `tleaf_cli.training`.
 """
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
 from torch.nn import functional as F
 
-from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_to, write_text_atomic
 from tleaf_cli.embed.load import load_embedder
-from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
@@ -71,28 +67,158 @@ from tleaf_cli.tasks.action_recognition.activities import (
 )
 from tleaf_cli.tasks.action_recognition.batch import Batch
 from tleaf_cli.tasks.action_recognition.decoding import decode_pairs, own_labels
-from tleaf_cli.tasks.action_recognition.lambda_choice import (
-    resolve_lambda,
-    train_choosing_lambda,
-)
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
 from tleaf_cli.tasks.action_recognition.objective import (
     GRADIENT_LOSSES,
     LogicObjective,
     predicted_atoms,
 )
-from tleaf_cli.tasks.lambda_source import RunSetup
-from tleaf_cli.tasks.q_coverage import check_q_covers
+from tleaf_cli.training.lambdas import RunSetup
+from tleaf_cli.training.loop import Step, chunks
+from tleaf_cli.training.q_coverage import check_q_covers
+from tleaf_cli.training.task import EpochRecord, LossSetup, RunInputs, TaskTrainer, train_task
 
 
-@dataclass
-class EpochRecord:
-    epoch: int
-    task_loss: float
-    logic_loss: float
-    unlabelled_loss: float  # self-training's cross-entropy on unlabelled videos (0 without)
-    seconds: float  # training time of this epoch (forward, losses, backward), without eval
-    val_action_accuracy: float
+class ActionRecognitionTrainer(TaskTrainer[tuple[Batch, Batch | None, float], TaskSettings]):
+    """h on an activities artifact's train split (with its unlabelled videos where the loss
+    reads them), scored on val by action accuracy; on test by action, ingredient and pair
+    accuracy and the share of videos that break their rules, by argmax and under the rules."""
+
+    kind = "action-recognizer"
+    task = "action-recognition"
+    score = "val_action_accuracy"
+
+    def __init__(self, inputs: RunInputs, settings: TaskSettings, device: torch.device) -> None:
+        super().__init__(inputs, settings, device)
+        self.data = read_activities(inputs.data)
+        self.kb = read_knowledge_base(inputs.kb)
+        self.splits = {s: self.data.split(s) for s in ("train", "val", "test")}
+        empty = [s for s, videos in self.splits.items() if not videos]
+        if empty:
+            raise InputError(f"{inputs.data}: no videos in split(s) {', '.join(empty)}")
+        self.splits["train"] = first_videos(
+            self.splits["train"], settings.train_videos, inputs.data
+        )
+
+    def setup(self) -> LossSetup:
+        settings, data = self.settings, self.data
+        vocabulary = pair_vocabulary(data.actions, data.ingredients)
+        # the violation metric, for every loss
+        self.checker_rules = KnowledgeRuleSets(self.kb, vocabulary)
+        self.embedder, coverage, recommended = None, None, None
+        if settings.logic_loss == "tleaf":
+            self.embedder = load_embedder(self.inputs.embedder)
+            coverage = check_q_covers(self.kb, self.embedder.vectors.index, self.inputs.embedder)
+            self.embedder.model.to(self.device)
+            known = set(self.embedder.vectors.index)
+            self.loss_rules = KnowledgeRuleSets(self.kb, vocabulary, known)
+            if settings.lam is None:  # q's λ is read only when used
+                recommended = self.embedder.recommended_lambda
+        else:
+            self.loss_rules = self.checker_rules
+        if settings.logic_loss != "none":
+            self.loss_rules.prepare()  # every KB rule compiled once: epochs build products only
+        self.objective = LogicObjective(settings, data, self.loss_rules, self.embedder)
+        self.coverage = coverage
+        return LossSetup(recommended, coverage)
+
+    def model(self) -> ActionRecognizer:
+        settings, data = self.settings, self.data
+        self.net = ActionRecognizer(
+            settings.model,
+            data.feature_dim,
+            len(data.actions),
+            len(data.ingredients),
+            settings.hidden,
+            settings.head_hidden,
+            settings.dropout,
+        ).to(self.device)
+        return self.net
+
+    def batches(
+        self, epoch: int, generator: torch.Generator
+    ) -> Iterator[tuple[Batch, Batch | None, float]]:
+        """The epoch's training batches, each with the batch of unlabelled videos that joins it
+        (None when they are not used) and the weight of their loss (`unlabelled_weight`): the
+        unlabelled stream is read on from where the epochs before left it, so that the
+        batches depend on the seed and the epoch alone."""
+        settings = self.settings
+        per_epoch = -(-len(self.splits["train"]) // settings.batch_size)  # batches per epoch
+        unlabelled = unlabelled_batches(
+            self.data, settings, self.device, skip=(epoch - 1) * per_epoch
+        )
+        weight = unlabelled_weight(epoch, settings.unlabelled_warmup)
+        for videos in chunks(self.splits["train"], settings.batch_size, generator):
+            extra = None if unlabelled is None else next(unlabelled)
+            yield Batch.of(videos, self.device), extra, weight
+
+    def step(self, batches: tuple[Batch, Batch | None, float]) -> Step:
+        """ℓ_task + λ·ℓ_logic of a batch, ℓ_logic the mean over its and the unlabelled
+        batch's videos (theirs weighted); reported: ℓ_task and ℓ_logic, each the mean over the
+        epoch's batches."""
+        settings, model = self.settings, self.net
+        batch, extra, weight = batches
+        actions, ingredients = model(batch.features, batch.lengths)
+        task = F.cross_entropy(
+            actions.flatten(0, 1), batch.actions.flatten(), ignore_index=-100
+        ) + F.cross_entropy(
+            ingredients.flatten(0, 1), batch.ingredients.flatten(), ignore_index=-100
+        )
+        per_video = [self.objective(batch, actions, ingredients)]
+        own = task.new_zeros(())
+        if extra is not None:
+            outputs = model(extra.features, extra.lengths)
+            if settings.unlabelled_loss == "logic":
+                per_video.append(weight * self.objective(extra, *outputs))
+            else:  # self-training: h's own labels, decoded under the rules or not
+                rules = self.checker_rules if settings.unlabelled_loss == "decoded" else None
+                targets = own_labels(*outputs, extra.lengths, rules, settings.decode_top_k)
+                own = weight * sum(
+                    F.cross_entropy(out.flatten(0, 1), target.flatten(), ignore_index=-100)
+                    for out, target in zip(outputs, targets, strict=True)
+                )
+        logic = torch.cat(per_video).mean()
+        loss = task + settings.lam * (logic + own)
+        figures = {"task_loss": task.item(), "logic_loss": logic.item()}
+        return Step(loss, {**figures, "unlabelled_loss": own.item()})
+
+    def validate(self) -> float:
+        settings = self.settings
+        val = score(self.net, self.data, self.splits["val"], settings.batch_size, self.device)
+        return val["action_accuracy"]
+
+    def test(self) -> dict[str, Any]:
+        settings, videos = self.settings, self.splits["test"]
+        test = score(
+            self.net, self.data, videos, settings.batch_size, self.device, self.checker_rules
+        )
+        if settings.decode == "constrained":  # the same model, its test videos under the rules
+            test["constrained"] = score(
+                self.net, self.data, videos, settings.batch_size, self.device,
+                self.checker_rules, top_k=settings.decode_top_k,
+            )  # fmt: skip
+        return test
+
+    def metrics(self) -> dict[str, Any]:
+        return {
+            "model": self.settings.model,
+            "train_videos": len(self.splits["train"]),
+            "unlabelled_videos": unlabelled_count(self.data, self.settings),
+            "rule_sets": {
+                "compiled": self.loss_rules.compiled,
+                "rules_left_out_unknown_to_q": self.loss_rules.skipped_rules,
+                **({} if self.coverage is None else self.coverage.as_dict()),
+            },
+        }
+
+    def config(self) -> dict[str, Any]:
+        data = self.data
+        return {
+            "actions": list(data.actions),
+            "ingredients": list(data.ingredients),
+            "feature_dim": data.feature_dim,
+            "data": data.params.get("data", "synthetic" if data.params else "unknown"),
+        }
 
 
 def train_action_recognition(
@@ -108,165 +234,25 @@ def train_action_recognition(
 ) -> dict:
     """Train h, keep the best val epoch, score it on test; returns the metrics written.
 
-    The epochs are `embed.training.fit`'s loop; `resume` continues from out_dir's
-    `checkpoint.pt` and ends as the run never interrupted would. `on_setup` hears the run's λ
-    and its source, and what of the knowledge base q cannot read, before the first epoch
-    (`lambda_choice`). With `settings.lambdas`, one run per candidate λ and the best on val
-    kept (`lambda_choice.train_choosing_lambda`); `reference`: a finished λ-0 run of the same
-    settings and data (the run without a logic loss, or another loss's λ-0 candidate) taken as
-    the λ-0 candidate, not trained again. SettingError when the tleaf loss's q can read none of
-    the knowledge base's rules (`q_coverage`)."""
+    The run is every task's (`training.task.train_task`): `resume` continues from out_dir's
+    `checkpoint.pt`, only the same run, and ends as the run never interrupted would;
+    `on_setup` hears the run's λ and its source, and what of the knowledge base q cannot read,
+    before the first epoch. With `settings.lambdas`, one run per candidate λ and the best on
+    val kept; `reference`: a finished λ-0 run of the same settings and data (the run without a
+    logic loss, or another loss's λ-0 candidate) taken as the λ-0 candidate, not trained
+    again. SettingError when the tleaf loss has no q or its q can read none of the knowledge
+    base's rules (`q_coverage`)."""
     settings.check()
-    out_dir = Path(out_dir)
-    check_writable(out_dir / "metrics.json")
-    if reference is not None and settings.lambdas is None:
-        raise SettingError("reference", "is the λ-0 candidate of a choice: give lambdas too")
-    if settings.lambdas is not None:
-        return train_choosing_lambda(
-            train_action_recognition, out_dir, settings, on_setup, reference=reference,
-            activities_path=activities_path, kb_path=kb_path, embedder_dir=embedder_dir,
-            on_epoch=on_epoch, resume=resume,
-        )  # fmt: skip
-    device = device_for(settings.device)
-    data = read_activities(activities_path)
-    kb = read_knowledge_base(kb_path)
-    splits = {s: data.split(s) for s in ("train", "val", "test")}
-    empty = [s for s, videos in splits.items() if not videos]
-    if empty:
-        raise InputError(f"{activities_path}: no videos in split(s) {', '.join(empty)}")
-    splits["train"] = first_videos(splits["train"], settings.train_videos, activities_path)
-
-    setup_start = time.perf_counter()
-    vocabulary = pair_vocabulary(data.actions, data.ingredients)
-    checker_rules = KnowledgeRuleSets(kb, vocabulary)  # the violation metric, for every loss
-    embedder, coverage = None, None
-    if settings.logic_loss == "tleaf":
-        if embedder_dir is None:
-            raise SettingError("embedder", "the tleaf loss needs an embedder (a train-meta folder)")
-        embedder = load_embedder(embedder_dir)
-        coverage = check_q_covers(kb, embedder.vectors.index, embedder_dir)
-        embedder.model.to(device)
-        loss_rules = KnowledgeRuleSets(kb, vocabulary, set(embedder.vectors.index))
-    else:
-        loss_rules = checker_rules
-    # the λ that fits q (train-meta wrote it), or the exact loss's, unless given
-    asks_q = embedder is not None and settings.lam is None  # q's λ is read only when used
-    lam = resolve_lambda(settings, embedder.recommended_lambda if asks_q else None)
-    settings = replace(settings, lam=lam.value)
-    if on_setup is not None:
-        on_setup(RunSetup(lam, coverage))
-    if settings.logic_loss != "none":
-        loss_rules.prepare()  # every KB rule compiled once now: epochs only build their products
-    objective = LogicObjective(settings, data, loss_rules, embedder)
-    setup_seconds = time.perf_counter() - setup_start  # rules compiled, q loaded (and embedded)
-
-    torch.manual_seed(settings.seed)  # after the embedder: h starts the same for every loss
-    model = ActionRecognizer(
-        settings.model,
-        data.feature_dim,
-        len(data.actions),
-        len(data.ingredients),
-        settings.hidden,
-        settings.head_hidden,
-        settings.dropout,
-    ).to(device)
-    per_epoch = -(-len(splits["train"]) // settings.batch_size)  # training batches per epoch
-
-    def epoch_batches(
-        epoch: int, generator: torch.Generator
-    ) -> Iterator[tuple[Batch, Batch | None, float]]:
-        """The epoch's training batches, each with the batch of unlabelled videos that joins it
-        (None when they are not used) and the weight of their loss (`unlabelled_weight`): the
-        unlabelled stream is read on from where the epochs before left it, so that the
-        batches depend on the seed and the epoch alone."""
-        unlabelled = unlabelled_batches(data, settings, device, skip=(epoch - 1) * per_epoch)
-        weight = unlabelled_weight(epoch, settings.unlabelled_warmup)
-        for videos in chunks(splits["train"], settings.batch_size, generator):
-            extra = None if unlabelled is None else next(unlabelled)
-            yield Batch.of(videos, device), extra, weight
-
-    def step(batches: tuple[Batch, Batch | None, float]) -> Step:
-        """ℓ_task + λ·ℓ_logic of a batch, ℓ_logic the mean over its and the unlabelled
-        batch's videos (theirs weighted); reported: ℓ_task and ℓ_logic, each the mean over the
-        epoch's batches."""
-        batch, extra, weight = batches
-        actions, ingredients = model(batch.features, batch.lengths)
-        task = F.cross_entropy(
-            actions.flatten(0, 1), batch.actions.flatten(), ignore_index=-100
-        ) + F.cross_entropy(
-            ingredients.flatten(0, 1), batch.ingredients.flatten(), ignore_index=-100
-        )
-        per_video = [objective(batch, actions, ingredients)]
-        own = task.new_zeros(())
-        if extra is not None:
-            outputs = model(extra.features, extra.lengths)
-            if settings.unlabelled_loss == "logic":
-                per_video.append(weight * objective(extra, *outputs))
-            else:  # self-training: h's own labels, decoded under the rules or not
-                rules = checker_rules if settings.unlabelled_loss == "decoded" else None
-                targets = own_labels(*outputs, extra.lengths, rules, settings.decode_top_k)
-                own = weight * sum(
-                    F.cross_entropy(out.flatten(0, 1), target.flatten(), ignore_index=-100)
-                    for out, target in zip(outputs, targets, strict=True)
-                )
-        logic = torch.cat(per_video).mean()
-        loss = task + settings.lam * (logic + own)
-        figures = {"task_loss": task.item(), "logic_loss": logic.item()}
-        return Step(loss, {**figures, "unlabelled_loss": own.item()})
-
-    run = fit(
-        model,
-        epoch_batches,
-        step,
-        lambda: score(model, data, splits["val"], settings.batch_size, device)["action_accuracy"],
-        LoopSettings.of(settings),
-        out_dir,
-        score="val_action_accuracy",
-        resume=resume,
-        on_epoch=None if on_epoch is None else lambda record: on_epoch(EpochRecord(**record)),
+    if settings.logic_loss == "tleaf" and embedder_dir is None:
+        raise SettingError("embedder", "the tleaf loss needs an embedder (a train-meta folder)")
+    if settings.logic_loss != "tleaf" and embedder_dir is not None:
+        raise SettingError("embedder", "only the tleaf loss reads q")
+    inputs = RunInputs(
+        Path(activities_path), Path(kb_path), None if embedder_dir is None else Path(embedder_dir)
     )
-    history, best = run["history"], run["best"]  # the model now holds the best epoch's weights
-
-    test = score(model, data, splits["test"], settings.batch_size, device, checker_rules)
-    if settings.decode == "constrained":  # the same model, its test videos decoded under rules
-        test["constrained"] = score(
-            model, data, splits["test"], settings.batch_size, device, checker_rules,
-            top_k=settings.decode_top_k,
-        )  # fmt: skip
-    metrics = {
-        "task": "action-recognition",
-        "model": settings.model,
-        "logic_loss": settings.logic_loss,
-        "seed": settings.seed,
-        "train_videos": len(splits["train"]),
-        "unlabelled_videos": unlabelled_count(data, settings),
-        "history": history,
-        "best": best,
-        "mean_epoch_seconds": float(np.mean([h["seconds"] for h in history])),
-        "setup_seconds": setup_seconds,
-        "test": test,
-        "lambda": lam.as_dict(),
-        "rule_sets": {
-            "compiled": loss_rules.compiled,
-            "rules_left_out_unknown_to_q": loss_rules.skipped_rules,
-            **({} if coverage is None else coverage.as_dict()),
-        },
-    }
-    config = {
-        "kind": "action-recognizer",
-        "settings": asdict(settings),
-        "actions": list(data.actions),
-        "ingredients": list(data.ingredients),
-        "feature_dim": data.feature_dim,
-        "data": data.params.get("data", "synthetic" if data.params else "unknown"),
-        "inputs": describe_inputs([activities_path, kb_path]),
-        # absolute, and relative to this folder (docs/artifacts.md: portable model folders)
-        "embedder": None if embedder_dir is None else str(Path(embedder_dir).resolve()),
-        "embedder_relative": None if embedder_dir is None else relative_to(out_dir, embedder_dir),
-    }
-    write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
-    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
-    return metrics
+    return train_task(
+        ActionRecognitionTrainer, inputs, out_dir, settings, on_epoch, resume, on_setup, reference
+    )
 
 
 def first_videos(

@@ -39,7 +39,6 @@ from stable_baselines3.common.vec_env import VecNormalize
 
 from tleaf_cli.data.artifacts import check_writable
 from tleaf_cli.data.compile_dfas import CompileSettings
-from tleaf_cli.embed.training import device_for
 from tleaf_cli.errors import SettingError
 from tleaf_cli.settings.gail import PAPER_LAMBDA, GailSettings
 from tleaf_cli.tasks.cooking.behaviour_cloning import behaviour_cloning
@@ -58,7 +57,8 @@ from tleaf_cli.tasks.cooking.logic_term import CookingKnowledge, LogicTerm
 from tleaf_cli.tasks.cooking.pools import expert_returns, held_out_pool
 from tleaf_cli.tasks.cooking.ppo import LogicPPO, ShieldedPPO, ppo_learning_rate
 from tleaf_cli.tasks.cooking.run_files import run_metrics, write_run
-from tleaf_cli.tasks.lambda_source import RunSetup, resolve_lambda_source
+from tleaf_cli.training.lambdas import RunSetup, resolve_lambda_source
+from tleaf_cli.training.loop import device_for
 
 
 def train_gail(

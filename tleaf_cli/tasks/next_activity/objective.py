@@ -63,7 +63,9 @@ def logic_term(
         return out
     activities = batch.activities.cpu().numpy()
     cases = [activities[b, :n] for b, n in enumerate(batch.lengths.tolist())]
-    kept = np.flatnonzero(~rules.broken(cases)).tolist()
+    # a case cut for training (`max_events`) is no whole case: the rules judge whole ones
+    whole = [not batch.cases or len(batch.cases[b]) == len(c) for b, c in enumerate(cases)]
+    kept = np.flatnonzero(~rules.broken(cases) & np.array(whole)).tolist()
     if not kept:
         return out
     rows = torch.tensor(kept, device=logits.device)

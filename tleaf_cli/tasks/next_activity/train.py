@@ -17,39 +17,118 @@ Run folder: `config.json` (settings, the encoder: vocabulary and time scales, in
 
 from __future__ import annotations
 
-import json
-import time
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import asdict, dataclass, replace
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
 from torch.nn import functional as F
 
-from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_to, write_text_atomic
 from tleaf_cli.data.event_logs import Case, read_cases
-from tleaf_cli.embed.training import LoopSettings, Step, chunks, device_for, fit
 from tleaf_cli.errors import InputError, SettingError
-from tleaf_cli.settings.next_activity import EXACT_LAMBDA, NextActivitySettings
-from tleaf_cli.tasks.action_recognition.lambda_choice import train_choosing_lambda
-from tleaf_cli.tasks.lambda_source import RunSetup, resolve_lambda_source
+from tleaf_cli.settings.next_activity import NextActivitySettings
 from tleaf_cli.tasks.next_activity.batch import PAD, CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import TIME_FEATURES, Encoder
 from tleaf_cli.tasks.next_activity.model import NextActivityLSTM
 from tleaf_cli.tasks.next_activity.objective import logic_term
 from tleaf_cli.tasks.next_activity.rules import Rules, allowed_next, read_rules
+from tleaf_cli.training.loop import Step, chunks
+from tleaf_cli.training.task import EpochRecord, LossSetup, RunInputs, TaskTrainer, train_task
 
-SCORE = "val_accuracy"
+__all__ = ["EpochRecord", "NextActivityTrainer", "train_next_activity"]
 
 
-@dataclass
-class EpochRecord:
-    epoch: int
-    task_loss: float
-    logic_loss: float
-    seconds: float  # training time of this epoch, without eval
-    val_accuracy: float
+class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
+    """Tax et al.'s LSTM on a cases artifact's train split, scored on val and test by
+    next-activity accuracy pooled over prefixes."""
+
+    kind = "next-activity"
+    task = "next-activity"
+    score = "val_accuracy"
+
+    def __init__(
+        self, inputs: RunInputs, settings: NextActivitySettings, device: torch.device
+    ) -> None:
+        super().__init__(inputs, settings, device)
+        cases = read_cases(inputs.data)
+        self.splits = {
+            s: [c for c in cases.cases if c.split == s] for s in ("train", "val", "test")
+        }
+        empty = [s for s, part in self.splits.items() if not part]
+        if empty:
+            raise InputError(f"{inputs.data}: no cases in split(s) {', '.join(empty)}")
+        self.encoder = Encoder.fit(cases)
+        self.arrays: dict = {}  # each case's arrays, built once
+        self.rules: Rules | None = None
+        self.embedder = None
+        longest = settings.max_events
+        self.cut = sum(len(c) > longest for c in self.splits["train"]) if longest else 0
+
+    def setup(self) -> LossSetup:
+        # λ = 0 (the reference candidate of a λ choice) trains without the logic term: the same
+        # updates as 0 · ℓ_logic, without computing ℓ_logic (nor reading the rules and q for it)
+        settings, kb = self.settings, self.inputs.kb
+        self.logic = "none" if settings.lam == 0 else settings.logic_loss
+        if kb is not None and self.logic != "none":
+            self.rules = read_rules(kb, self.encoder.atoms)
+        if self.logic != "tleaf":
+            return LossSetup()
+        from tleaf_cli.embed.load import load_embedder
+
+        embedder_dir = self.inputs.embedder
+        self.embedder = load_embedder(embedder_dir)
+        missing = sorted(self.rules.atoms - set(self.embedder.vectors.index))
+        if missing:  # q could not embed the conjunction: the loss would teach nothing
+            raise SettingError(
+                "embedder",
+                f"{embedder_dir} was not trained on the atoms {', '.join(missing[:5])}"
+                f"{' and more' if len(missing) > 5 else ''} of the rules: train q on formulas "
+                "over this log's activities",
+            )
+        self.embedder.model.to(self.device)
+        return LossSetup(recommended_lambda=self.embedder.recommended_lambda)
+
+    def model(self) -> NextActivityLSTM:
+        self.net = new_model(self.encoder, self.settings).to(self.device)
+        return self.net
+
+    def batches(self, epoch: int, generator: torch.Generator) -> Iterator[CaseBatch]:
+        longest = self.settings.max_events
+        for part in chunks(self.splits["train"], self.settings.batch_size, generator):
+            if not longest or all(len(c) <= longest for c in part):
+                yield CaseBatch.of(part, self.encoder, self.device, self.arrays)
+                continue
+            CaseBatch.of(part, self.encoder, self.device, self.arrays)  # fills the cache
+            parts = [tuple(a[:longest] for a in self.arrays[c.case_id]) for c in part]
+            yield CaseBatch.of_parts(parts, part, self.device)
+
+    def step(self, batch: CaseBatch) -> Step:
+        logits = self.net(batch.activities, batch.times, batch.lengths)
+        task = F.cross_entropy(logits.flatten(0, 1), batch.targets.flatten(), ignore_index=PAD)
+        term = logic_term(self.logic, batch, logits, self.rules, self.embedder).mean()
+        loss = task + self.settings.lam * term
+        return Step(loss, {"task_loss": task.item(), "logic_loss": term.item()})
+
+    def validate(self) -> float:
+        return accuracy(
+            self.net, self.encoder, self.splits["val"], 256, self.device, cache=self.arrays
+        )["accuracy"]
+
+    def test(self) -> dict[str, Any]:
+        return accuracy(
+            self.net, self.encoder, self.splits["test"], self.settings.batch_size, self.device
+        )
+
+    def metrics(self) -> dict[str, Any]:
+        return {
+            "cases": {s: len(part) for s, part in self.splits.items()},
+            "train_cases_cut": self.cut,
+            "rule_states": None if self.rules is None else self.rules.states,
+        }
+
+    def config(self) -> dict[str, Any]:
+        return {"encoder": self.encoder.as_dict()}
 
 
 def train_next_activity(
@@ -58,126 +137,37 @@ def train_next_activity(
     embedder_dir: str | Path | None,
     out_dir: str | Path,
     settings: NextActivitySettings,
-    on_epoch: Callable[[EpochRecord], None] | None = None,
+    on_epoch=None,
     resume: bool = False,
-    on_setup: Callable[[RunSetup], None] | None = None,
+    on_setup=None,
     reference: str | Path | None = None,
 ) -> dict:
     """Train on the train split, keep the best val epoch, score it on test; the metrics.
 
-    `kb_path`: the rules of the logic loss (a `.ltl`, all its rules conjoined); needed unless
-    `settings.logic_loss` is none. With `settings.lambdas`, one run per candidate λ and 0, the
-    best on val kept; `reference`: a finished λ-0 run of the same settings and cases (another
-    loss's) taken as the λ-0 candidate, not trained again. SettingError for settings that do
-    not fit, InputError for inputs."""
+    `kb_path`: the rules of the logic loss (a `.ltl`, all its rules conjoined); needed with a
+    logic loss, refused without one. `embedder_dir`: q, for the tleaf loss only. With
+    `settings.lambdas`, one run per candidate λ and 0, the best on val kept; `reference`: a
+    finished λ-0 run of the same settings and cases (another loss's) taken as the λ-0
+    candidate, not trained again. The run (`training.task.train_task`) and its folder
+    (`training.run_folder`) are every task's. SettingError for settings that do not fit,
+    InputError for inputs."""
     settings.check()
-    out_dir = Path(out_dir)
-    check_writable(out_dir / "metrics.json")
     if settings.logic_loss != "none" and kb_path is None:
         raise SettingError("kb", f"the {settings.logic_loss} loss needs rules (a .ltl file)")
+    if settings.logic_loss == "none" and kb_path is not None:
+        raise SettingError("kb", "rules weigh nothing without a logic loss")
     if settings.logic_loss == "tleaf" and embedder_dir is None:
         raise SettingError("embedder", "the tleaf loss needs an embedder (a train-meta folder)")
-    if reference is not None and settings.lambdas is None:
-        raise SettingError("reference", "is the λ-0 candidate of a choice: give lambdas too")
-    if settings.lambdas is not None:
-        return train_choosing_lambda(
-            train_next_activity, out_dir, settings, on_setup, score=SCORE, reference=reference,
-            cases_path=cases_path, kb_path=kb_path, embedder_dir=embedder_dir,
-            on_epoch=on_epoch, resume=resume,
-        )  # fmt: skip
-    device = device_for(settings.device)
-    cases = read_cases(cases_path)
-    splits = {s: [c for c in cases.cases if c.split == s] for s in ("train", "val", "test")}
-    empty = [s for s, part in splits.items() if not part]
-    if empty:
-        raise InputError(f"{cases_path}: no cases in split(s) {', '.join(empty)}")
-    encoder = Encoder.fit(cases)
-
-    setup_start = time.perf_counter()
-    # λ = 0 (the reference candidate of a λ choice) trains without the logic term: the same
-    # updates as 0 · ℓ_logic, without computing ℓ_logic (nor reading the rules and q for it)
-    logic = "none" if settings.lam == 0 else settings.logic_loss
-    rules = None
-    if kb_path is not None and logic != "none":
-        rules = read_rules(kb_path, encoder.atoms)
-    embedder = None
-    if logic == "tleaf":
-        from tleaf_cli.embed.load import load_embedder
-
-        embedder = load_embedder(embedder_dir)
-        missing = sorted(rules.atoms - set(embedder.vectors.index))
-        if missing:  # q could not embed the conjunction: the loss would teach nothing
-            raise SettingError(
-                "embedder",
-                f"{embedder_dir} was not trained on the atoms {', '.join(missing[:5])}"
-                f"{' and more' if len(missing) > 5 else ''} of the rules: train q on formulas "
-                "over this log's activities",
-            )
-        embedder.model.to(device)
-    lam = resolve_lambda_source(
-        settings.lam,
-        used=settings.logic_loss != "none",
-        recommended=embedder.recommended_lambda if embedder is not None else None,
-        default=EXACT_LAMBDA,
+    if settings.logic_loss != "tleaf" and embedder_dir is not None:
+        raise SettingError("embedder", "only the tleaf loss reads q")
+    inputs = RunInputs(
+        Path(cases_path),
+        None if kb_path is None else Path(kb_path),
+        None if embedder_dir is None else Path(embedder_dir),
     )
-    settings = replace(settings, lam=lam.value)
-    if on_setup is not None:
-        on_setup(RunSetup(lam))
-    setup_seconds = time.perf_counter() - setup_start
-
-    torch.manual_seed(settings.seed)
-    model = new_model(encoder, settings).to(device)
-
-    arrays: dict = {}  # each case's arrays, built once
-
-    def epoch_batches(epoch: int, generator: torch.Generator) -> Iterator[CaseBatch]:
-        for part in chunks(splits["train"], settings.batch_size, generator):
-            yield CaseBatch.of(part, encoder, device, arrays)
-
-    def step(batch: CaseBatch) -> Step:
-        logits = model(batch.activities, batch.times, batch.lengths)
-        task = F.cross_entropy(logits.flatten(0, 1), batch.targets.flatten(), ignore_index=PAD)
-        term = logic_term(logic, batch, logits, rules, embedder).mean()
-        loss = task + settings.lam * term
-        return Step(loss, {"task_loss": task.item(), "logic_loss": term.item()})
-
-    run = fit(
-        model,
-        epoch_batches,
-        step,
-        lambda: accuracy(model, encoder, splits["val"], 256, device, cache=arrays)["accuracy"],
-        LoopSettings.of(settings),
-        out_dir,
-        score=SCORE,
-        resume=resume,
-        on_epoch=None if on_epoch is None else lambda record: on_epoch(EpochRecord(**record)),
+    return train_task(
+        NextActivityTrainer, inputs, out_dir, settings, on_epoch, resume, on_setup, reference
     )
-    history, best = run["history"], run["best"]
-    test = accuracy(model, encoder, splits["test"], settings.batch_size, device)
-    metrics = {
-        "task": "next-activity",
-        "logic_loss": settings.logic_loss,
-        "seed": settings.seed,
-        "cases": {s: len(part) for s, part in splits.items()},
-        "history": history,
-        "best": best,
-        "mean_epoch_seconds": float(np.mean([h["seconds"] for h in history])),
-        "setup_seconds": setup_seconds,
-        "test": test,
-        "lambda": lam.as_dict(),
-        "rule_states": None if rules is None else rules.states,
-    }
-    config = {
-        "kind": "next-activity",
-        "settings": asdict(settings),
-        "encoder": encoder.as_dict(),
-        "inputs": describe_inputs([p for p in (cases_path, kb_path) if p is not None]),
-        "embedder": None if embedder_dir is None else str(Path(embedder_dir).resolve()),
-        "embedder_relative": None if embedder_dir is None else relative_to(out_dir, embedder_dir),
-    }
-    write_text_atomic(out_dir / "config.json", json.dumps(config, indent=2))
-    write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
-    return metrics
 
 
 def new_model(encoder: Encoder, settings: NextActivitySettings) -> NextActivityLSTM:

@@ -1,0 +1,54 @@
+"""What the command line prints of a sequence task's training run (`train-task action-recognition`,
+`train-task next-activity`): the λ before the first epoch, one line per epoch, the λ chosen on
+validation, and a warning before a finished run's folder is trained over."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from tleaf_cli import ui
+
+
+def warn_replacing(out: Path, resume: bool, quiet: bool) -> None:
+    """Say so before a new run replaces the finished run in `out` (not when resuming it)."""
+    from tleaf_cli.training.run_folder import finished_run
+
+    if not resume and finished_run(out):
+        ui.summary(f"warning: {out} holds a finished run; this run replaces it", quiet)
+
+
+@contextmanager
+def run_printers(title: str, epochs: int, quiet: bool) -> Iterator[tuple[Callable, Callable]]:
+    """A progress bar titled `title` and the run's (on_setup, on_epoch) callbacks."""
+
+    def on_setup(setup) -> None:  # before the first epoch (every candidate's, with --lambdas)
+        ui.summary(setup.lam.text(given="given with --lambda"), quiet)
+        if setup.coverage is not None and setup.coverage.left_out:
+            ui.summary(f"warning: {setup.coverage.left_out_text()}", quiet)
+
+    with ui.progress(title, quiet) as update:
+
+        def on_epoch(r) -> None:
+            update(r.epoch, epochs)
+            figures = ", ".join(
+                f"{name.removesuffix('_loss')} {value:.4f}"
+                for name, value in r.figures.items()
+                if value or name != "unlabelled_loss"  # self-training's, only where it trains
+            )
+            score = r.score_name.replace("_", " ").replace("accuracy", "acc")
+            ui.summary(
+                f"epoch {r.epoch}: {figures}, {score} {r.score:.4f} ({r.seconds:.1f} s)", quiet
+            )
+
+        yield on_setup, on_epoch
+
+
+def print_choice(metrics: dict[str, Any], quiet: bool) -> None:
+    """The λ chosen on validation, with every candidate's val score (runs with --lambdas)."""
+    from tleaf_cli.training.lambdas import LambdaChoice
+
+    if metrics["lambda"]["source"] == "validation":
+        ui.summary(LambdaChoice(**metrics["lambda"]).text(), quiet)

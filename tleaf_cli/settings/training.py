@@ -1,0 +1,89 @@
+"""The settings every task's training shares, declared once: λ (given, or chosen on validation
+among candidates), the loop (batch size, epochs, early stop, learning rate), the seed and the
+device. A task's settings class extends `TrainingSettings` with its own fields (its model, its
+loss, its data) and, where its best value differs, takes a shared field with its own default
+(`training_field`): the field's help, bounds and checks stay those declared here.
+
+Pure Python: the command line builds its options from these fields.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from tleaf_cli.errors import SettingError
+from tleaf_cli.settings import DEVICES, Presets, check_values, setting
+
+
+@dataclass(frozen=True)
+class TrainingSettings(Presets):
+    """The training fields of every task (saved in config.json's "settings" with the task's).
+
+    `DEFAULT_LAMBDA`: the λ of a logic loss without one given and without a q to recommend one
+    (the tleaf loss's q recommends its own), chosen on validation for each task."""
+
+    lam: float | None = setting(
+        None,
+        "Weight λ of the logic loss.",
+        min=0.0,
+        auto="auto: with tleaf, the λ the embedder's folder recommends; otherwise the task's",
+    )
+    lambdas: str | None = setting(
+        None,
+        "Choose λ on validation: one run per value of this list (commas or spaces, e.g. "
+        "'0.3,1,3'), 0 (the logic loss weighing nothing) always among them, each from the same "
+        "seed; the run with the best val score is kept (ties: the smaller λ), every candidate's "
+        "run in its lambda-choice folder.",
+        auto="none: one run, at --lambda",
+    )
+    batch_size: int = setting(32, "Sequences (cases, videos) per batch.", min=1)
+    epochs: int = setting(100, "Most epochs to train.", min=1)
+    patience: int | None = setting(
+        10, "Stop after this many epochs without a better val score.", min=1
+    )
+    lr: float = setting(2e-3, "Adam learning rate (a finite number above 0).")
+    seed: int = setting(0, "Random seed; the same seed trains the same model.")
+    device: str = setting("cpu", "Where to compute.", choices=DEVICES)
+
+    DEFAULT_LAMBDA: ClassVar[float] = 1.0
+
+    @property
+    def uses_lambda(self) -> bool:
+        """Whether anything is weighed by λ (a logic loss, for most tasks)."""
+        return getattr(self, "logic_loss", "none") != "none"
+
+    def check(self) -> None:
+        """SettingError for a setting out of range or settings that do not fit together."""
+        check_values(self)
+        if not (math.isfinite(self.lr) and self.lr > 0):
+            raise SettingError("lr", f"must be a finite number above 0, not {self.lr}")
+        if self.lambdas is not None:
+            lambda_candidates(self.lambdas)
+            if self.lam is not None:
+                raise SettingError("lambdas", "chooses λ itself: not with lam")
+            if not self.uses_lambda:
+                raise SettingError("lambdas", "λ weighs nothing without a logic loss")
+
+
+def training_field(name: str, default: Any) -> Any:
+    """The shared setting `name` of `TrainingSettings` with a task's own default (its best
+    measured value): the same help, bounds and checks."""
+    base = TrainingSettings.__dataclass_fields__[name]
+    return field(default=default, metadata=base.metadata)
+
+
+def lambda_candidates(text: str) -> tuple[float, ...]:
+    """The λs a `lambdas` list names, with 0 (no logic loss's weight) always among them,
+    increasing; SettingError for a value that is not a finite number of at least 0."""
+    values = {0.0}
+    for word in text.replace(",", " ").split():
+        try:
+            value = float(word)
+        except ValueError:
+            raise SettingError("lambdas", f"{word!r} is not a number") from None
+        if not (math.isfinite(value) and value >= 0):
+            raise SettingError("lambdas", f"must be finite numbers of at least 0, not {word}")
+        values.add(value)
+    return tuple(sorted(values))

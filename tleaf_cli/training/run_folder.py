@@ -1,0 +1,96 @@
+"""A training run's folder, and what keeps one run's files one run's.
+
+A run folder holds `config.json` (the settings, the inputs with their sha256 — the data first,
+then the knowledge base —, the embedder, and the task's own fields such as its vocabulary),
+`weights.pt` (the best epoch), `metrics.json` and `checkpoint.pt` (the last finished epoch,
+for `--resume`). The checkpoint also holds the run's identity (`run_identity`): its settings
+and its inputs' sha256s. A resumed run must be the same run (`check_same_run`): the same cases,
+rules, q, loss and learning rate; only how long it trains (epochs, patience) and where (device)
+may change. Otherwise resuming would continue one run's weights on another's data and write
+metrics that name only the second.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Sequence
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from tleaf_cli.data.artifacts import describe_inputs, read_json_file
+from tleaf_cli.errors import InputError
+
+CONFIG, METRICS = "config.json", "metrics.json"
+RUN_FILES = (CONFIG, METRICS, "weights.pt")  # what a finished run has (and a λ choice copies)
+RESUMABLE = ("epochs", "patience", "device", "max_minutes")  # may differ on --resume
+
+
+def run_identity(
+    settings: object, inputs: Sequence[str | os.PathLike], embedder: str | os.PathLike | None
+) -> dict[str, Any]:
+    """What makes a run this run: its settings (but those a resumed run may change), its
+    inputs' sha256s in order (data, knowledge base), its embedder's folder. JSON-ready."""
+    values = json.loads(json.dumps(asdict(settings)))
+    return {
+        "settings": {k: v for k, v in values.items() if k not in RESUMABLE},
+        "inputs": [i["sha256"] for i in describe_inputs(inputs)],
+        "embedder": None if embedder is None else str(Path(embedder).resolve()),
+    }
+
+
+def identity_differences(saved: dict[str, Any], now: dict[str, Any]) -> list[str]:
+    """What differs between two runs' identities, in words ("lr 0.002 → 0.05", "the data")."""
+    out = []
+    before, after = saved.get("settings", {}), now.get("settings", {})
+    for key in sorted(set(before) | set(after)):
+        if before.get(key) != after.get(key):
+            out.append(f"{key} {before.get(key)} → {after.get(key)}")
+    names = ("the data", "the knowledge base")
+    old, new = saved.get("inputs", []), now.get("inputs", [])
+    for k in range(max(len(old), len(new))):
+        if old[k : k + 1] != new[k : k + 1]:
+            out.append(names[k] if k < len(names) else f"input {k + 1}")
+    if saved.get("embedder") != now.get("embedder"):
+        out.append("the embedder")
+    return out
+
+
+def check_same_run(checkpoint: Path, saved: dict[str, Any] | None, now: dict[str, Any]) -> None:
+    """InputError unless the checkpoint's run is the run `now` describes."""
+    if saved is None:
+        raise InputError(
+            f"{checkpoint}: written without the run's settings and inputs, so it cannot be "
+            "told to be this run's; train afresh without --resume"
+        )
+    differ = identity_differences(saved, now)
+    if differ:
+        raise InputError(
+            f"{checkpoint}: another run's checkpoint ({'; '.join(differ)}); resume it with its "
+            "own settings and inputs, or train afresh into another folder"
+        )
+
+
+def finished_run(folder: str | os.PathLike) -> bool:
+    """Whether `folder` holds a finished run (its metrics.json)."""
+    return (Path(folder) / METRICS).is_file()
+
+
+def read_run_config(folder: str | os.PathLike, kind: str) -> dict[str, Any]:
+    """A finished run's config.json, checked to be of `kind`; InputError naming the file."""
+    path = Path(folder) / CONFIG
+    if not path.is_file():
+        raise InputError(f"{path}: missing (not a finished {kind} run)")
+    config = read_json_file(path)
+    if not isinstance(config, dict) or config.get("kind") != kind:
+        found = config.get("kind") if isinstance(config, dict) else None
+        raise InputError(f"{path}: not a {kind} run (kind {found})")
+    return config
+
+
+def input_record(path: str | os.PathLike | None) -> dict[str, str] | None:
+    """An input as config.json names it (absolute path and sha256), None for no file."""
+    if path is None:
+        return None
+    return {"path": str(Path(path).resolve()), "sha256": describe_inputs([path])[0]["sha256"]}
