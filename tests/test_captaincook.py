@@ -1,5 +1,5 @@
-"""CaptainCook4D's recordings as a `recordings` artifact (data/recordings.py), from small
-annotation files shaped like the dataset's, written here."""
+"""CaptainCook4D's recordings as `Cases` of `Recording`s and a `recordings` artifact
+(data/captaincook.py), from small annotation files shaped like the dataset's, written here."""
 
 from __future__ import annotations
 
@@ -9,7 +9,15 @@ from pathlib import Path
 import pytest
 
 from tleaf_cli.data.artifacts import read_provenance
-from tleaf_cli.data.recordings import load_recordings, read_recordings, write_recordings
+from tleaf_cli.data.captaincook import (
+    CaptainCookReader,
+    Recording,
+    load_recordings,
+    read_recordings,
+    recording_rows,
+    write_recordings,
+)
+from tleaf_cli.data.case_readers import CaseReader
 from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge.task_graphs import read_task_graph
 
@@ -86,26 +94,30 @@ def test_rows_in_time_order_with_errors_and_splits(folder: Path, tmp_path: Path)
     report = read_recordings(folder, tmp_path / "splits.json")
     out = tmp_path / "recordings.parquet"
     write_recordings(report, out)
-    rows = {r["recording_id"]: r for r in load_recordings(out)}
-    assert set(rows) == {"1_1", "1_2"}
+    rows = {r.recording_id: r for r in load_recordings(out)}
+    assert set(rows) == {"1_1", "1_2"} and rows == {r.recording_id: r for r in report}
     one = rows["1_1"]
-    assert one["recipe"] == "ricebowl" and one["split"] == "train"
-    assert one["step_ids"] == [3, 2, 4]
-    assert one["start_s"] == [1.0, 30.0, 50.0] and one["end_s"] == [20.0, 40.0, 60.0]
-    assert one["step_has_error"] == [False, True, False]
-    assert one["step_error_categories"] == [[], ["Timing Error"], []]
-    assert one["has_errors"] and one["error_categories"] == ["Timing Error"]
+    assert isinstance(one, Recording) and one.case_id == "1_1"
+    assert one.recipe == "ricebowl" and one.split == "train"
+    assert one.step_ids == (3, 2, 4)
+    assert one.start_s == (1.0, 30.0, 50.0) and one.end_s == (20.0, 40.0, 60.0)
+    assert [t.timestamp() for t in one.timestamps] == [1.0, 30.0, 50.0]
+    assert one.step_has_error == (False, True, False)
+    assert one.step_error_categories == ((), ("Timing Error",), ())
+    assert one.has_errors and one.error_categories == ("Timing Error",)
     two = rows["1_2"]
-    assert two["split"] == "none" and two["step_ids"] == [2] and two["skipped_step_ids"] == [3]
-    assert two["error_categories"] == ["Missing Step"]
-    assert report.skipped == {
+    assert two.split == "none" and two.step_ids == (2,) and two.skipped_step_ids == (3,)
+    assert two.error_categories == ("Missing Step",)
+    assert recording_rows(out)[0]["step_error_categories"] == [[], ["Timing Error"], []]
+    assert report.skips.skipped == {
         "recordings without steps": 1,
         "steps with an unknown step_id": 1,
         "steps without times": 1,
         "split ids without a recording": 1,
     }
     prov = read_provenance(out)
-    assert prov.kind == "recordings" and prov.params["skipped"] == dict(report.skipped)
+    assert prov.kind == "recordings" and prov.params["skipped"] == report.skips.skipped
+    assert prov.params["missing_files"] == []
     assert len(prov.inputs) == 4
 
 
@@ -120,9 +132,9 @@ def test_atoms_match_the_task_graph(folder: Path, tmp_path: Path) -> None:
         )
     )
     atoms = set(read_task_graph(graph).atoms.values())
-    rows = read_recordings(folder).rows
+    rows = read_recordings(folder).cases
     assert {"rinse_rinse_the_rice", "cook_cook_the_rice"} <= atoms
-    assert rows[0]["atoms"][:2] == ["rinse_rinse_the_rice", "cook_cook_the_rice"]
+    assert rows[0].atoms[:2] == ("rinse_rinse_the_rice", "cook_cook_the_rice")
 
 
 def test_bad_files_name_the_file(folder: Path, tmp_path: Path) -> None:
@@ -156,7 +168,14 @@ def test_cli_summary_counts_splits_and_skips(folder: Path, tmp_path: Path) -> No
     result = CliRunner().invoke(app, [*args, "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert "2 recordings (2 with errors; none 1, train 1)" in result.output
-    assert "1 steps without times" in result.output and out.exists()
+    assert "steps without times: 1" in result.output and out.exists()
+
+
+def test_both_readers_implement_the_reader_interface(folder: Path) -> None:
+    from tleaf_cli.data.log_readers import LogReader
+
+    assert isinstance(CaptainCookReader(folder), CaseReader)
+    assert isinstance(LogReader("log.csv"), CaseReader)
 
 
 def _read_recordings_cli(folder: Path, out: Path, *args: str):

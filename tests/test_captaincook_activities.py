@@ -3,6 +3,7 @@ recording's real steps, order, split and rule violations, and train-task reads t
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -10,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
-from tleaf_cli.data.recordings import load_recordings
+from tleaf_cli.data.captaincook import load_recordings, recording_rows
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.knowledge.task_graphs import graph_files, read_task_graph
 from tleaf_cli.tasks.action_recognition.activities import read_activities
@@ -42,7 +43,7 @@ def converted(tmp_path_factory) -> dict[str, Path]:
 
 
 def test_every_recording_keeps_its_steps_order_and_split(converted) -> None:
-    rows = load_recordings(converted["recordings"])
+    rows = recording_rows(converted["recordings"])
     data = read_activities(converted["activities"])
     graphs = {g.recipe: g for g in map(read_task_graph, graph_files(DATA / "task_graphs"))}
     videos = {v.video_id: v for v in data.videos}
@@ -63,7 +64,7 @@ def test_every_recording_keeps_its_steps_order_and_split(converted) -> None:
 
 def test_the_first_train_recordings_span_the_recipes(converted) -> None:
     train = read_activities(converted["activities"]).split("train")
-    recipes = {v.video_id: r["recipe"] for r in load_recordings(converted["recordings"])
+    recipes = {v.video_id: r["recipe"] for r in recording_rows(converted["recordings"])
                for v in train if v.video_id == r["recording_id"]}  # fmt: skip
     assert len({recipes[v.video_id] for v in train[:24]}) >= 20
 
@@ -71,7 +72,7 @@ def test_the_first_train_recordings_span_the_recipes(converted) -> None:
 def test_the_step_rules_break_where_the_text_rules_do(converted, tmp_path) -> None:
     """Checking the step atoms against the step knowledge base finds, recording by recording,
     the same broken rules as check-recordings on the text atoms."""
-    rows = load_recordings(converted["recordings"])
+    rows = load_recordings(converted["recordings"]).cases
     data = read_activities(converted["activities"])
     steps = {v.video_id: data.atoms(v) for v in data.videos}
     kb = read_knowledge_base(converted["kb"])
@@ -79,7 +80,7 @@ def test_the_step_rules_break_where_the_text_rules_do(converted, tmp_path) -> No
     plain = tmp_path / "steps.ltl"  # check-recordings reads <recipe>.<kind>... names
     plain.write_text("".join(f"{r.name.removeprefix('ordering.')}: {r.formula}\n" for r in kb))
     text_checks = check_recordings(rows, read_recipe_rules([converted["edges"]]))
-    step_rows = [{**r, "atoms": steps[r["recording_id"]]} for r in rows]
+    step_rows = [replace(r, atoms=tuple(steps[r.recording_id])) for r in rows]
     step_checks = check_recordings(step_rows, read_recipe_rules([plain]))
     assert [c["broken_rules"] for c in step_checks] == [c["broken_rules"] for c in text_checks]
     assert sum(bool(c["broken_rules"]) for c in text_checks) == 198  # 16 normal + 182 with errors
@@ -88,7 +89,7 @@ def test_the_step_rules_break_where_the_text_rules_do(converted, tmp_path) -> No
 def test_longer_steps_get_less_noise(converted) -> None:
     """A step's feature averages its frames: its distance to the class mean shrinks with its
     duration (the same step class, drawn many times)."""
-    rows = {r["recording_id"]: r for r in load_recordings(converted["recordings"])}
+    rows = {r["recording_id"]: r for r in recording_rows(converted["recordings"])}
     data = read_activities(converted["activities"])
     spread: dict[str, list[tuple[float, np.ndarray]]] = {}
     for v in data.videos:

@@ -14,7 +14,8 @@ from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
 from tleaf_cli.data.artifacts import read_provenance
-from tleaf_cli.data.recordings import RecordingsReport, write_recordings
+from tleaf_cli.data.captaincook import Recording, write_recordings
+from tleaf_cli.data.cases import Cases
 from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge.task_graphs import write_graph_knowledge
 from tleaf_cli.tasks.procedure_checks import (
@@ -31,25 +32,27 @@ STEEP_POUR = "tea.before.steep.pour"
 
 
 def row(rid, recipe, atoms, errors, categories=(), split="train"):
-    """A recordings artifact row with the columns the checker reads (the rest filled in)."""
+    """A recording with the fields the checker reads (the rest filled in)."""
     n = len(atoms)
-    return {
-        "recording_id": rid,
-        "activity_id": 1,
-        "activity_name": recipe,
-        "recipe": recipe,
-        "step_ids": list(range(n)),
-        "step_descriptions": list(atoms),
-        "atoms": list(atoms),
-        "start_s": [float(k) for k in range(n)],
-        "end_s": [k + 0.5 for k in range(n)],
-        "step_has_error": [False] * n,
-        "step_error_categories": [[] for _ in range(n)],
-        "skipped_step_ids": [],
-        "has_errors": errors,
-        "error_categories": list(categories),
-        "split": split,
-    }
+    return Recording.of(
+        **{
+            "recording_id": rid,
+            "activity_id": 1,
+            "activity_name": recipe,
+            "recipe": recipe,
+            "step_ids": list(range(n)),
+            "step_descriptions": list(atoms),
+            "atoms": list(atoms),
+            "start_s": [float(k) for k in range(n)],
+            "end_s": [k + 0.5 for k in range(n)],
+            "step_has_error": [False] * n,
+            "step_error_categories": [[] for _ in range(n)],
+            "skipped_step_ids": [],
+            "has_errors": errors,
+            "error_categories": list(categories),
+            "split": split,
+        }
+    )
 
 
 # (recording, steps, has_errors, categories, split) -> the tea rules it breaks, by hand
@@ -71,7 +74,7 @@ def files(tmp_path: Path) -> tuple[Path, Path]:
     kb = tmp_path / "tea.ltl"
     write_graph_knowledge(tmp_path / "tea.txt", kb)
     recordings = tmp_path / "recordings.parquet"
-    write_recordings(RecordingsReport("hand-made", rows=[dict(r) for r in ROWS]), recordings)
+    write_recordings(Cases(list(ROWS), {}, "hand-made"), recordings)
     return recordings, kb
 
 

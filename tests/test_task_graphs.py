@@ -218,3 +218,11 @@ def test_graph_rules_of_something_not_a_graph_is_a_tleaf_error() -> None:
 
     with pytest.raises(TleafError, match="graph"):
         graph_rules("x")  # type: ignore[arg-type]
+
+
+def test_a_graph_that_gives_no_rule_is_refused(tmp_path: Path) -> None:
+    path = write_json(tmp_path, "START -> a\na -> END\n", "g.txt")
+    with pytest.raises(InputError, match="no rule: every edge is from START or into END"):
+        write_graph_knowledge(path, tmp_path / "kb.ltl")
+    assert not (tmp_path / "kb.ltl").exists()
+    write_graph_knowledge(path, tmp_path / "kb.ltl", at_most_once=True)

@@ -76,20 +76,32 @@ def read_recordings(
     Each row: the recording's steps in time order with their times, error flags and categories,
     and its split.
 
-    Steps without times or with an unknown step id, and recordings without steps, are skipped
-    and counted; a file that is not JSON exits 2 naming it, with nothing written.
+    Steps without times or with an unknown step id, and recordings without steps or of an
+    unknown activity id, are skipped and counted; error_annotations.json or
+    activity_idx_step_idx.json missing is warned of (and named in the artifact's provenance); a
+    file that is not JSON exits 2 naming it, with nothing written.
     """
-    from tleaf_cli.data.recordings import read_recordings as read
-    from tleaf_cli.data.recordings import write_recordings
+    from tleaf_cli.data.captaincook import CaptainCookReader
 
     targets([annotations, splits], [out])
-    report = read(annotations, splits)
-    write_recordings(report, out)
-    errors = sum(r["has_errors"] for r in report.rows)
-    per_split = ", ".join(f"{k} {n}" for k, n in report.split_counts().items())
+    reader = CaptainCookReader(annotations, splits)
+    with ui.progress("reading the recordings", quiet) as tick:
+        recordings = reader.read(tick)
+    reader.write(recordings, out)
+    missing = recordings.params["missing_files"]
+    if missing:
+        ui.summary(
+            f"warning: {len(missing)} annotation file{'s' if len(missing) > 1 else ''} missing: "
+            f"{', '.join(missing)} in {annotations} (without error_annotations.json the error "
+            "categories are empty and has_errors comes from the steps' flags; without "
+            "activity_idx_step_idx.json no step or activity id is checked)",
+            quiet,
+        )
+    errors = sum(r.has_errors for r in recordings)
+    per_split = ", ".join(f"{k} {n}" for k, n in recordings.split_counts().items())
     ui.summary(
-        f"{out}: {len(report.rows)} recordings ({errors} with errors; {per_split}); "
-        f"skipped: {report.skip_text()}",
+        f"{out}: {len(recordings)} recordings ({errors} with errors; {per_split}); "
+        f"skipped: {recordings.skips.text()}",
         quiet,
     )
 
@@ -124,6 +136,7 @@ def check_recordings(
         REPORT_FILE,
         check_recordings_report,
         report_tables,
+        score_text,
     )
 
     files = [out / METRICS_FILE, out / REPORT_FILE, out / CHECKS_FILE]
@@ -132,11 +145,19 @@ def check_recordings(
     if not quiet:
         for title, columns, rows in report_tables(report):
             ui.table(title, columns, rows)
+    unseen = report["rules_naming_unseen_steps"]
+    if unseen["count"]:
+        more = ", ..." if unseen["count"] > len(unseen["examples"]) else ""
+        ui.summary(
+            f"warning: {unseen['count']} rules name steps no recording of their recipe has, so "
+            f"they hold on every recording: {', '.join(unseen['examples'])}{more}",
+            quiet,
+        )
     d = report["detection"]["all"]
     ui.summary(
         f"{out}/metrics.json: {report['checked']} of {report['recordings']} recordings checked "
-        f"against {report['rules']} rules; breaks a rule: precision {d['precision'] or 0:.3f}, "
-        f"recall {d['recall'] or 0:.3f}",
+        f"against {report['rules']} rules; breaks a rule: precision {score_text(d['precision'])}, "
+        f"recall {score_text(d['recall'])}",
         quiet,
     )
 

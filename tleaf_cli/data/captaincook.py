@@ -1,32 +1,42 @@
-"""CaptainCook4D's recordings (people cooking recipes, every step annotated) as a `recordings`
-artifact: one row per recording, its steps in time order.
+"""CaptainCook4D's recordings (people cooking recipes, every step annotated) as `Cases` of
+`Recording`s, and as a `recordings` artifact: one row per recording, its steps in time order.
 
-Read from the annotation files as the dataset ships them (github.com/CaptainCook4D/annotations,
+Read by `CaptainCookReader` (the dataset reader interface of data/case_readers.py) from the
+annotation files as the dataset ships them (github.com/CaptainCook4D/annotations,
 `annotation_json/`):
 
 - `complete_step_annotations.json` (required): {recording_id: {activity_id, activity_name,
   person_id, environment, steps: [{step_id, start_time, end_time, description, has_errors}]}};
-- `error_annotations.json` (optional): [{recording_id, is_error, step_annotations: [{step_id,
+- `error_annotations.json`: [{recording_id, is_error, step_annotations: [{step_id,
   errors: [{tag, description}]}]}], which gives each step's error categories (the tags:
   Preparation Error, Measurement Error, Order Error, Timing Error, Technique Error, Temperature
   Error, Missing Step, Other) and the recording's `is_error`;
-- `activity_idx_step_idx.json` (optional): {activity_id: [step ids]}: a step id outside its
-  recipe's list is unknown;
+- `activity_idx_step_idx.json`: {activity_id: [step ids]}: the recipes, and each one's steps;
 - a split file (`data_splits/recordings_data_split_combined.json`, given separately):
   {split: [recording ids]}; a recording in no split gets split "none".
 
-A step annotated with negative times (-1: the person skipped it) is not in the order: its id is
-kept in `skipped_step_ids`. A step without numeric times, with an unknown or non-integer step id,
-or a recording without steps or recipe is skipped and counted (the first few named), as are the
-split file's ids that no recording has. Steps are sorted by start time (ties keep file order).
+The last two annotation files are read where they are: a folder without one is still read, but
+the file is named in `Cases.params["missing_files"]` (and read-recordings warns): without
+error_annotations.json every recording's error categories are empty and `has_errors` comes from
+the steps' own flags; without activity_idx_step_idx.json no step id or activity id is checked.
+
+A recording is a `Case` whose activities are its steps' descriptions, atoms the steps' atoms
+(`step_atom`, as the task graphs' rules name them) and timestamps the steps' start times; a
+recording has no wall-clock time, so these are its seconds from the video's start counted from
+1970-01-01 UTC (time gaps read true). A step annotated with negative times (-1: the person
+skipped it) is not in the order: its id is kept in `skipped_step_ids`. A step without numeric
+times, with an unknown or non-integer step id, a recording without steps or recipe, or of an
+activity_id that is not one of the recipes is skipped and counted (the first few named), as are
+the split file's ids that no recording has. Steps are sorted by start time (ties keep file
+order).
 """
 
 from __future__ import annotations
 
 import os
 import re
-from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, fields
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +44,9 @@ import pyarrow as pa
 
 from tleaf_cli.data.activity_names import activity_atom
 from tleaf_cli.data.artifacts import describe_inputs, read_artifact, read_json_file, write_artifact
+from tleaf_cli.data.case_readers import Progress
+from tleaf_cli.data.cases import Case, Cases, source_path
+from tleaf_cli.data.skip_report import SkipReport
 from tleaf_cli.errors import InputError
 
 KIND = "recordings"
@@ -42,7 +55,7 @@ STEPS_FILE = "complete_step_annotations.json"
 ERRORS_FILE = "error_annotations.json"
 RECIPE_STEPS_FILE = "activity_idx_step_idx.json"
 NO_SPLIT = "none"
-EXAMPLES = 5
+_START = datetime(1970, 1, 1, tzinfo=UTC)  # a recording's second 0, as a timestamp
 
 
 def step_atom(description: str) -> str:
@@ -58,32 +71,78 @@ def recipe_key(activity_name: str) -> str:
     return re.sub(r"[^a-z0-9]", "", activity_name.lower())
 
 
-@dataclass
-class RecordingsReport:
-    """What `read_recordings` read: the rows, and what it skipped, by kind, with examples."""
+@dataclass(frozen=True)
+class Recording(Case):
+    """One recording: a `Case` of its steps (activities: their descriptions), and its own
+    fields, each a column of the `recordings` artifact (docs/procedures.md)."""
 
-    folder: str
-    rows: list[dict[str, Any]] = field(default_factory=list)
-    skipped: Counter[str] = field(default_factory=Counter)
-    examples: dict[str, list[str]] = field(default_factory=dict)
-    inputs: list[Path] = field(default_factory=list)
+    activity_id: int
+    activity_name: str
+    recipe: str
+    step_ids: tuple[int, ...]
+    start_s: tuple[float, ...]
+    end_s: tuple[float, ...]
+    step_has_error: tuple[bool, ...]
+    step_error_categories: tuple[tuple[str, ...], ...]
+    skipped_step_ids: tuple[int, ...]
+    has_errors: bool
+    error_categories: tuple[str, ...]
 
-    def skip(self, kind: str, where: str) -> None:
-        self.skipped[kind] += 1
-        shown = self.examples.setdefault(kind, [])
-        if len(shown) < EXAMPLES:
-            shown.append(where)
+    @property
+    def recording_id(self) -> str:
+        return self.case_id
 
-    def skip_text(self) -> str:
-        if not self.skipped:
-            return "nothing"
-        return "; ".join(
-            f"{n} {kind} (e.g. {', '.join(self.examples[kind])})"
-            for kind, n in sorted(self.skipped.items())
+    @property
+    def step_descriptions(self) -> tuple[str, ...]:
+        return self.activities
+
+    @classmethod
+    def of(cls, **columns: Any) -> Recording:
+        """A recording from the artifact's columns (`recording_id`, `step_descriptions`, ...;
+        timestamps from `start_s`)."""
+        columns = dict(columns)
+        steps = tuple(columns.pop("step_descriptions"))
+        start = tuple(float(s) for s in columns.pop("start_s"))
+        return cls(
+            case_id=str(columns.pop("recording_id")),
+            activities=steps,
+            atoms=tuple(columns.pop("atoms")),
+            timestamps=tuple(_START + timedelta(seconds=s) for s in start),
+            split=columns.pop("split"),
+            start_s=start,
+            step_error_categories=tuple(tuple(c) for c in columns.pop("step_error_categories")),
+            **{k: tuple(v) if isinstance(v, list) else v for k, v in columns.items()},
         )
 
-    def split_counts(self) -> dict[str, int]:
-        return dict(sorted(Counter(r["split"] for r in self.rows).items()))
+    def row(self) -> dict[str, Any]:
+        """The artifact's columns of this recording (lists, as the artifact's rows read)."""
+        own = {f.name: getattr(self, f.name) for f in fields(self)}
+        own.update(recording_id=self.case_id, step_descriptions=self.activities)
+        return {c: _listed(own[c]) for c in _TYPES}
+
+
+def _listed(value: Any) -> Any:
+    """Tuples (nested too) as lists."""
+    return [_listed(v) for v in value] if isinstance(value, tuple) else value
+
+
+_TYPES = {
+    "recording_id": pa.string(),
+    "activity_id": pa.int64(),
+    "activity_name": pa.string(),
+    "recipe": pa.string(),
+    "step_ids": pa.list_(pa.int64()),
+    "step_descriptions": pa.list_(pa.string()),
+    "atoms": pa.list_(pa.string()),
+    "start_s": pa.list_(pa.float64()),
+    "end_s": pa.list_(pa.float64()),
+    "step_has_error": pa.list_(pa.bool_()),
+    "step_error_categories": pa.list_(pa.list_(pa.string())),
+    "skipped_step_ids": pa.list_(pa.int64()),
+    "has_errors": pa.bool_(),
+    "error_categories": pa.list_(pa.string()),
+    "split": pa.string(),
+}
 
 
 def _number(value: Any) -> float | None:
@@ -126,78 +185,117 @@ def _step_errors(path: Path, data: Any) -> tuple[dict[tuple[str, int], list[str]
     return tags, is_error
 
 
+def _recipe_steps(path: Path) -> dict[str, set[int]]:
+    """activity id -> its step ids, from activity_idx_step_idx.json."""
+    data = read_json_file(path)
+    try:
+        return {str(k): {int(s) for s in v} for k, v in data.items()}
+    except (AttributeError, TypeError, ValueError):
+        raise InputError(f"{path}: expected {{activity_id: [step ids]}}") from None
+
+
+@dataclass
+class _Annotations:
+    """What the optional annotation files say (empty where a file is missing)."""
+
+    tags: dict[tuple[str, int], list[str]]
+    is_error: dict[str, bool]
+    known: dict[str, set[int]] | None  # activity id -> step ids; None: not checked
+
+
+class CaptainCookReader:
+    """CaptainCook4D's annotation folder as `Cases` of `Recording`s (a `CaseReader`): `read`
+    the folder (and the split file, if given), `write` the `recordings` artifact."""
+
+    def __init__(self, folder: str | os.PathLike, splits: str | os.PathLike | None = None) -> None:
+        self.folder = Path(source_path(folder, "CaptainCook4D's annotation folder"))
+        self.splits = None if splits is None else Path(splits)
+
+    def read(self, progress: Progress | None = None) -> Cases[Recording]:
+        """The folder's recordings (see the module docstring); progress by recording."""
+        folder = self.folder
+        if not folder.is_dir():
+            raise InputError(f"{folder}: not a folder (the dataset's annotation_json/)")
+        steps_path = folder / STEPS_FILE
+        data = read_json_file(steps_path)
+        if not isinstance(data, dict):
+            raise InputError(f"{steps_path}: expected an object {{recording_id: recording}}")
+        inputs, missing = [steps_path], []
+        notes = _Annotations({}, {}, None)
+        if (folder / ERRORS_FILE).exists():
+            notes.tags, notes.is_error = _step_errors(
+                folder / ERRORS_FILE, read_json_file(folder / ERRORS_FILE)
+            )
+            inputs.append(folder / ERRORS_FILE)
+        else:
+            missing.append(ERRORS_FILE)
+        if (folder / RECIPE_STEPS_FILE).exists():
+            notes.known = _recipe_steps(folder / RECIPE_STEPS_FILE)
+            inputs.append(folder / RECIPE_STEPS_FILE)
+        else:
+            missing.append(RECIPE_STEPS_FILE)
+        split_of: dict[str, str] = {}
+        if self.splits is not None:
+            split_of = read_splits(self.splits)
+            inputs.append(self.splits)
+        skips = SkipReport()
+        recordings: list[Recording] = []
+        for k, (key, rec) in enumerate(data.items()):
+            found = _recording(str(key), rec, notes, split_of, skips)
+            if found is not None:
+                recordings.append(found)
+            if progress is not None:
+                progress(k + 1, len(data))
+        read = {r.case_id for r in recordings}
+        for rid in split_of:
+            if rid not in read:
+                skips.skip("split ids without a recording", rid)
+        atoms = {a: t for r in recordings for a, t in zip(r.activities, r.atoms, strict=True)}
+        params = {"folder": str(folder), "missing_files": missing}
+        return Cases(recordings, atoms, str(folder), params, skips, inputs)
+
+    def write(self, cases: Cases[Recording], out: str | os.PathLike) -> None:
+        """The `recordings` artifact of `cases` (`write_recordings`)."""
+        write_recordings(cases, out)
+
+
 def read_recordings(
     folder: str | os.PathLike, splits: str | os.PathLike | None = None
-) -> RecordingsReport:
-    """The recordings of the annotation folder `folder` (see the module docstring)."""
-    folder = Path(folder)
-    if not folder.is_dir():
-        raise InputError(f"{folder}: not a folder (the dataset's annotation_json/)")
-    report = RecordingsReport(str(folder))
-    steps_path = folder / STEPS_FILE
-    data = read_json_file(steps_path)
-    if not isinstance(data, dict):
-        raise InputError(f"{steps_path}: expected an object {{recording_id: recording}}")
-    report.inputs.append(steps_path)
-    tags: dict[tuple[str, int], list[str]] = {}
-    is_error: dict[str, bool] = {}
-    if (folder / ERRORS_FILE).exists():
-        tags, is_error = _step_errors(folder / ERRORS_FILE, read_json_file(folder / ERRORS_FILE))
-        report.inputs.append(folder / ERRORS_FILE)
-    known: dict[str, set[int]] | None = None
-    if (folder / RECIPE_STEPS_FILE).exists():
-        recipe_steps = read_json_file(folder / RECIPE_STEPS_FILE)
-        if not isinstance(recipe_steps, dict):
-            raise InputError(f"{folder / RECIPE_STEPS_FILE}: expected {{activity_id: [step ids]}}")
-        known = {str(k): {int(s) for s in v} for k, v in recipe_steps.items()}
-        report.inputs.append(folder / RECIPE_STEPS_FILE)
-    split_of: dict[str, str] = {}
-    if splits is not None:
-        split_of = read_splits(splits)
-        report.inputs.append(Path(splits))
-    for key, rec in data.items():
-        row = _recording(str(key), rec, known, tags, is_error, report)
-        if row is not None:
-            row["split"] = split_of.get(row["recording_id"], NO_SPLIT)
-            report.rows.append(row)
-    read = {r["recording_id"] for r in report.rows}
-    for rid in split_of:
-        if rid not in read:
-            report.skip("split ids without a recording", rid)
-    return report
+) -> Cases[Recording]:
+    """The recordings of the annotation folder `folder` (`CaptainCookReader.read`)."""
+    return CaptainCookReader(folder, splits).read()
 
 
 def _recording(
-    key: str,
-    rec: Any,
-    known: dict[str, set[int]] | None,
-    tags: dict[tuple[str, int], list[str]],
-    is_error: dict[str, bool],
-    report: RecordingsReport,
-) -> dict[str, Any] | None:
+    key: str, rec: Any, notes: _Annotations, split_of: dict[str, str], skips: SkipReport
+) -> Recording | None:
     if not isinstance(rec, dict) or not isinstance(rec.get("steps"), list) or not rec["steps"]:
-        report.skip("recordings without steps", key)
+        skips.skip("recordings without steps", key)
         return None
     rid = str(rec.get("recording_id", key))
     name = rec.get("activity_name")
     if not isinstance(name, str) or not recipe_key(name) or "activity_id" not in rec:
-        report.skip("recordings without recipe", rid)
+        skips.skip("recordings without recipe", rid)
         return None
-    allowed = known.get(str(rec["activity_id"])) if known is not None else None
+    activity = rec["activity_id"]
+    if not _whole(activity) or (notes.known is not None and str(activity) not in notes.known):
+        skips.skip("recordings with an unknown activity_id", f"{rid} (activity_id {activity!r})")
+        return None
+    allowed = notes.known.get(str(activity)) if notes.known is not None else None
     done: list[tuple[float, float, int, str, bool]] = []
     skipped_ids: list[int] = []
     for k, step in enumerate(rec["steps"]):
         where = f"{rid} step {k}"
         sid = step.get("step_id") if isinstance(step, dict) else None
-        if not isinstance(sid, int) or isinstance(sid, bool):
-            report.skip("steps without an integer step_id", where)
+        if not _whole(sid):
+            skips.skip("steps without an integer step_id", where)
             continue
         if allowed is not None and sid not in allowed:
-            report.skip("steps with an unknown step_id", f"{where} (id {sid})")
+            skips.skip("steps with an unknown step_id", f"{where} (id {sid})")
             continue
         start, end = _number(step.get("start_time")), _number(step.get("end_time"))
         if start is None or end is None:
-            report.skip("steps without times", f"{where} (id {sid})")
+            skips.skip("steps without times", f"{where} (id {sid})")
             continue
         if start < 0 or end < 0:
             skipped_ids.append(sid)
@@ -206,62 +304,59 @@ def _recording(
             (start, end, sid, str(step.get("description", "")), bool(step.get("has_errors")))
         )
     done.sort(key=lambda s: s[0])  # stable: ties keep file order
-    step_tags = [sorted(set(tags.get((rid, sid), []))) for _, _, sid, _, _ in done]
-    all_tags = {t for (r, _), ts in tags.items() if r == rid for t in ts}
+    step_tags = [sorted(set(notes.tags.get((rid, sid), []))) for _, _, sid, _, _ in done]
+    all_tags = {t for (r, _), ts in notes.tags.items() if r == rid for t in ts}
     flags = [err or bool(ts) for (*_, err), ts in zip(done, step_tags, strict=True)]
-    return {
-        "recording_id": rid,
-        "activity_id": int(rec["activity_id"]),
-        "activity_name": name,
-        "recipe": recipe_key(name),
-        "step_ids": [s[2] for s in done],
-        "step_descriptions": [s[3] for s in done],
-        "atoms": [step_atom(s[3]) for s in done],
-        "start_s": [s[0] for s in done],
-        "end_s": [s[1] for s in done],
-        "step_has_error": flags,
-        "step_error_categories": step_tags,
-        "skipped_step_ids": skipped_ids,
-        "has_errors": is_error.get(rid, any(flags) or bool(all_tags)),
-        "error_categories": sorted(all_tags),
-    }
+    return Recording.of(
+        recording_id=rid,
+        activity_id=int(activity),
+        activity_name=name,
+        recipe=recipe_key(name),
+        step_ids=[s[2] for s in done],
+        step_descriptions=[s[3] for s in done],
+        atoms=[step_atom(s[3]) for s in done],
+        start_s=[s[0] for s in done],
+        end_s=[s[1] for s in done],
+        step_has_error=flags,
+        step_error_categories=step_tags,
+        skipped_step_ids=skipped_ids,
+        has_errors=notes.is_error.get(rid, any(flags) or bool(all_tags)),
+        error_categories=sorted(all_tags),
+        split=split_of.get(rid, NO_SPLIT),
+    )
 
 
-_TYPES = {
-    "recording_id": pa.string(),
-    "activity_id": pa.int64(),
-    "activity_name": pa.string(),
-    "recipe": pa.string(),
-    "step_ids": pa.list_(pa.int64()),
-    "step_descriptions": pa.list_(pa.string()),
-    "atoms": pa.list_(pa.string()),
-    "start_s": pa.list_(pa.float64()),
-    "end_s": pa.list_(pa.float64()),
-    "step_has_error": pa.list_(pa.bool_()),
-    "step_error_categories": pa.list_(pa.list_(pa.string())),
-    "skipped_step_ids": pa.list_(pa.int64()),
-    "has_errors": pa.bool_(),
-    "error_categories": pa.list_(pa.string()),
-    "split": pa.string(),
-}
+def _whole(value: Any) -> bool:
+    """An integer, not a bool (JSON's true is no id)."""
+    return isinstance(value, int) and not isinstance(value, bool)
 
 
-def write_recordings(report: RecordingsReport, out: str | os.PathLike) -> None:
-    """Write the `recordings` artifact atomically, with what was skipped in its provenance."""
-    if not report.rows:
-        raise InputError(f"{report.folder}: no recordings to write ({report.skip_text()})")
-    table = pa.table({c: pa.array([r[c] for r in report.rows], t) for c, t in _TYPES.items()})
+def write_recordings(cases: Cases[Recording], out: str | os.PathLike) -> None:
+    """Write the `recordings` artifact atomically, with what was skipped and which annotation
+    files were missing in its provenance."""
+    if not cases.cases:
+        raise InputError(f"{cases.path}: no recordings to write ({cases.skips.text()} skipped)")
+    rows = [r.row() for r in cases.cases]
+    table = pa.table({c: pa.array([r[c] for r in rows], t) for c, t in _TYPES.items()})
     params = {
-        "folder": report.folder,
-        "skipped": dict(report.skipped),
-        "skipped_examples": report.examples,
-        "splits": report.split_counts(),
+        "folder": cases.path,
+        **cases.skips.params(),
+        "splits": cases.split_counts(),
+        "missing_files": list(cases.params.get("missing_files", [])),
     }
-    inputs = describe_inputs(report.inputs)
+    inputs = describe_inputs(cases.inputs)
     write_artifact(table, out, kind=KIND, schema=SCHEMA_VERSION, params=params, inputs=inputs)
 
 
-def load_recordings(path: str | os.PathLike) -> list[dict[str, Any]]:
-    """A `recordings` artifact's rows, as dicts of the columns, in file order."""
-    table, _ = read_artifact(path, KIND, SCHEMA_VERSION)
-    return table.to_pylist()
+def load_recordings(path: str | os.PathLike) -> Cases[Recording]:
+    """A `recordings` artifact as `Cases` of `Recording`s, in file order."""
+    table, prov = read_artifact(source_path(path, "a recordings artifact"), KIND, SCHEMA_VERSION)
+    recordings = [Recording.of(**row) for row in table.to_pylist()]
+    atoms = {a: t for r in recordings for a, t in zip(r.activities, r.atoms, strict=True)}
+    return Cases(recordings, atoms, str(path), prov.params, SkipReport.from_params(prov.params))
+
+
+def recording_rows(path: str | os.PathLike) -> list[dict[str, Any]]:
+    """A `recordings` artifact's rows as dicts of its columns: for code that reads the columns
+    by name (tasks/step_recognition/activities.py); `load_recordings` gives `Recording`s."""
+    return [r.row() for r in load_recordings(path).cases]

@@ -18,7 +18,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import Any, Generic, TypeVar
 
 from tleaf_cli.data.skip_report import SkipReport
 from tleaf_cli.errors import ArgumentTypeError
@@ -38,12 +38,16 @@ class Case:
         return len(self.activities)
 
 
-@dataclass
-class Cases:
-    """Cases as read: in the source's order, the activity -> atom map, the source (`path`), its
-    parameters, what was skipped, and the files read (`inputs`, for the provenance)."""
+C = TypeVar("C", bound=Case)
 
-    cases: list[Case]
+
+@dataclass
+class Cases(Generic[C]):
+    """Cases as read: in the source's order, the activity -> atom map, the source (`path`), its
+    parameters, what was skipped, and the files read (`inputs`, for the provenance). `Cases[C]`:
+    cases of the kind C (`Case`, or a dataset's own, e.g. `Recording`)."""
+
+    cases: list[C]
     activity_atoms: dict[str, str]
     path: str
     params: dict[str, Any] = field(default_factory=dict)
@@ -53,7 +57,7 @@ class Cases:
     def __len__(self) -> int:
         return len(self.cases)
 
-    def __iter__(self) -> Iterator[Case]:
+    def __iter__(self) -> Iterator[C]:
         return iter(self.cases)
 
     @property

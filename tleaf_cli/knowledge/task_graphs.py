@@ -5,9 +5,11 @@ A graph says which step must come before which. Two inputs are read:
 - CaptainCook4D's task graphs: JSON `{"steps": {id: "Verb-text"}, "edges": [[a, b], ...]}`, an
   edge a -> b meaning a comes before b, with a node "START" and a node "END";
 - a plain edge list: a text file, one edge a line, `a -> b` or `a,b`, `#` comments, blank lines
-  ignored; the names are the steps (a node START or END, any case, is read as those nodes).
+  ignored; the names are the steps (a node START or END, any case, is read as those nodes). A
+  line with `->` is split there only, so a step's name may hold a comma; a chain `a -> b -> c`
+  (or `a,b,c`) on one line is refused, naming the line, rather than read as one step "b -> c".
 
-A step's atom is `step_atom(text)` (data/recordings.py): the same words, lower case, joined by _,
+A step's atom is `step_atom(text)` (data/captaincook.py): the same words, lower case, joined by _,
 so a recording's steps read by `read-recordings` name the same atoms. Two nodes with the same
 text (CaptainCook4D repeats a few, e.g. "Microwave for 1.5 minutes" in dressedupmeatballs) share
 their atom, and a recording cannot tell them apart: an edge that touches such a node would speak
@@ -26,7 +28,8 @@ step get an at-most-once rule (the file's header counts them).
   is one of END's predecessors (the graph's sinks when it has no END).
 
 Edges from START are skipped (every step may come first); edges into END only feed `ends`. An
-edge that names an unknown node, a cycle, or a file that does not read stops with InputError
+edge that names an unknown node, a cycle, a graph without edges (JSON or edge list alike), a
+graph source that gives no rule at all, or a file that does not read stops with InputError
 naming the file and the edge or line.
 """
 
@@ -41,13 +44,14 @@ from typing import Any
 
 from tleaf_cli.data.activity_names import activity_atoms
 from tleaf_cli.data.artifacts import read_json_file, read_text_file, write_text_atomic
-from tleaf_cli.data.recordings import step_atom
-from tleaf_cli.errors import InputError
+from tleaf_cli.data.captaincook import step_atom
+from tleaf_cli.errors import ArgumentTypeError, InputError
 from tleaf_cli.knowledge.declare import Constraint
 
 START, END = "START", "END"
 GRAPH_SUFFIXES = (".json", ".txt")
-_EDGE = re.compile(r"^\s*(.+?)\s*(?:->|,)\s*(.+?)\s*$")
+ARROW = "->"
+NO_EDGES = "no edges (one 'a -> b' or 'a,b' a line; in JSON, [before, after] pairs in 'edges')"
 
 
 @dataclass(frozen=True)
@@ -107,6 +111,8 @@ def _from_json(path: Path, data: Any) -> TaskGraph:
             if node not in steps:
                 raise InputError(f"{path}: edge {k} [{a}, {b}]: unknown step {node}")
         edges.append((a, b))
+    if not edges:
+        raise InputError(f"{path}: {NO_EDGES}")
     atoms = {n: step_atom(t) for n, t in steps.items() if t not in (START, END)}
     label = {n: f"s{n}" if re.fullmatch(r"[A-Za-z0-9_-]+", n) else atoms.get(n, "x") for n in steps}
     return TaskGraph(recipe_name(path), str(path), steps, edges, atoms, label)
@@ -119,18 +125,28 @@ def _from_edges(path: Path, text: str) -> TaskGraph:
         line = line.split("#", 1)[0].strip()
         if not line:
             continue
-        match = _EDGE.match(line)
-        if not match or not match.group(1) or not match.group(2):
-            raise InputError(f"{path}: line {number}: expected 'a -> b' or 'a,b', got {line!r}")
-        a, b = (_special(x) for x in match.groups())
+        a, b = (_special(x) for x in _edge(path, number, line))
         edges.append((a, b))
         names.update({a: None, b: None})
     if not edges:
-        raise InputError(f"{path}: no edges (one 'a -> b' or 'a,b' a line)")
+        raise InputError(f"{path}: {NO_EDGES}")
     atoms = activity_atoms(n for n in names if n not in (START, END))
     steps = {n: n for n in names}
     label = {n: atoms.get(n, n.lower()) for n in names}
     return TaskGraph(recipe_name(path), str(path), steps, edges, atoms, label)
+
+
+def _edge(path: Path, number: int, line: str) -> tuple[str, str]:
+    """The two steps of an edge list's line: split at `->` if it has one, else at `,`."""
+    parts = [p.strip() for p in line.split(ARROW if ARROW in line else ",")]
+    if len(parts) > 2 and all(parts):
+        raise InputError(
+            f"{path}: line {number}: one edge a line, got a chain of {len(parts)} steps "
+            f"{line!r} (write a -> b and b -> c on lines of their own)"
+        )
+    if len(parts) != 2 or not all(parts):
+        raise InputError(f"{path}: line {number}: expected 'a -> b' or 'a,b', got {line!r}")
+    return parts[0], parts[1]
 
 
 def _special(name: str) -> str:
@@ -167,6 +183,10 @@ def graph_rules(
     """The graph's rules (see the module docstring), `before` rules in edge order, then `once`
     in node order, then `ends`. An edge or step whose atom names two nodes (`shared_atoms`) gives
     no rule, nor does an edge that repeats another edge's atoms."""
+    if not isinstance(graph, TaskGraph):
+        raise ArgumentTypeError(
+            "graph", f"expected a TaskGraph (read_task_graph), not {type(graph).__name__}"
+        )
     r, text, atom = graph.recipe, graph.steps, graph.atoms
     shared = shared_atoms(graph)
     rules: list[GraphRule] = []
@@ -252,6 +272,8 @@ def write_graph_knowledge(
     if len(set(recipes)) != len(recipes):
         raise InputError(f"{source}: two graph files name the same recipe ({sorted(recipes)})")
     done = [(g, graph_rules(g, at_most_once, last_step_ends)) for g in graphs]
+    if not any(rules for _, rules in done):
+        raise InputError(f"{source}: no rule: every edge is from START or into END")
     chosen = [
         o for o, on in (("at-most-once", at_most_once), ("last-step-ends", last_step_ends)) if on
     ]

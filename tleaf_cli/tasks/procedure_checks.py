@@ -21,7 +21,10 @@ The report (`summarise`):
   about the steps' order and presence) against those with other errors only.
 
 A recording whose recipe has no rule is not checked (counted per recipe); rules of recipes that
-no recording has are counted. A rule without a recipe in its name, a formula file line with a
+no recording has are counted, and so are the rules that name a step no recording of their recipe
+has (`unseen_step_rules`, the first few named): such a rule holds on every recording whatever its
+order (another recipe's rules under this recipe's name hold vacuously), so it is said, not
+hidden in a recall of 0. A rule without a recipe in its name, a formula file line with a
 problem, or two rules of one name stop with InputError naming the file and line.
 """
 
@@ -39,8 +42,9 @@ import numpy as np
 import pyarrow as pa
 
 from tleaf_cli.data.artifacts import describe_inputs, write_artifact, write_text_atomic
+from tleaf_cli.data.captaincook import Recording, load_recordings
 from tleaf_cli.data.formula_files import read_formulas
-from tleaf_cli.data.recordings import load_recordings
+from tleaf_cli.data.skip_report import EXAMPLES
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
@@ -114,21 +118,21 @@ def read_recipe_rules(files: Sequence[Path]) -> dict[str, list[RecipeRule]]:
 
 
 def check_recordings(
-    rows: Sequence[dict[str, Any]], rules: dict[str, list[RecipeRule]]
+    rows: Sequence[Recording], rules: dict[str, list[RecipeRule]]
 ) -> list[dict[str, Any]]:
     """Per recording (in `rows`' order): its id, recipe, split, has_errors, error categories,
     steps, whether its recipe has rules (`checked`) and the names of the rules it breaks."""
     out = []
     by_recipe: dict[str, list[int]] = {}
     for k, row in enumerate(rows):
-        by_recipe.setdefault(row["recipe"], []).append(k)
+        by_recipe.setdefault(row.recipe, []).append(k)
     broken: dict[int, list[str]] = {}
     for recipe, ks in by_recipe.items():
         recipe_rules = rules.get(recipe, [])
-        ks = [k for k in ks if rows[k]["atoms"]]  # the checker reads non-empty traces
+        ks = [k for k in ks if rows[k].atoms]  # the checker reads non-empty traces
         if not recipe_rules or not ks:
             continue
-        traces = [[{a} for a in rows[k]["atoms"]] for k in ks]
+        traces = [[{a} for a in rows[k].atoms] for k in ks]
         mentioned = {a for r in recipe_rules for a in r.atoms}
         vocabulary = sorted(mentioned | {a for t in traces for letter in t for a in letter})
         sets = [RuleSet(r.formula, vocabulary, name=r.name) for r in recipe_rules]
@@ -142,17 +146,35 @@ def check_recordings(
     for k, row in enumerate(rows):
         out.append(
             {
-                "recording_id": row["recording_id"],
-                "recipe": row["recipe"],
-                "split": row["split"],
-                "has_errors": bool(row["has_errors"]),
-                "error_categories": list(row["error_categories"]),
-                "steps": len(row["atoms"]),
+                "recording_id": row.case_id,
+                "recipe": row.recipe,
+                "split": row.split,
+                "has_errors": bool(row.has_errors),
+                "error_categories": list(row.error_categories),
+                "steps": len(row.atoms),
                 "checked": k in broken,
                 "broken_rules": broken.get(k, []),
             }
         )
     return out
+
+
+def unseen_step_rules(
+    rows: Sequence[Recording], rules: dict[str, list[RecipeRule]]
+) -> dict[str, Any]:
+    """The rules, of recipes that have recordings, that name a step (atom) no recording of
+    their recipe has: `count`, and the first few as 'name (atoms)' in file order."""
+    seen: dict[str, set[str]] = {}
+    for row in rows:
+        seen.setdefault(row.recipe, set()).update(row.atoms)
+    found = [
+        f"{rule.name} ({', '.join(sorted(set(rule.atoms) - seen[recipe]))})"
+        for recipe, recipe_rules in sorted(rules.items())
+        if recipe in seen
+        for rule in recipe_rules
+        if set(rule.atoms) - seen[recipe]
+    ]
+    return {"count": len(found), "examples": found[:EXAMPLES]}
 
 
 def detection(pairs: Sequence[tuple[bool, bool]]) -> dict[str, Any]:
@@ -300,11 +322,17 @@ def check_recordings_report(
     `checks.parquet` (one row per recording) in `out_dir`, and return the report."""
     files = rule_files(knowledge)
     rules = read_recipe_rules(files)
-    rows = load_recordings(recordings)
+    rows = load_recordings(recordings).cases
     checks = check_recordings(rows, rules)
     report = summarise(checks, rules)
     inputs = describe_inputs([Path(recordings), *files])
-    report = {"version": __version__, "inputs": inputs, **report}
+    unseen = unseen_step_rules(rows, rules)
+    report = {
+        "version": __version__,
+        "inputs": inputs,
+        **report,
+        "rules_naming_unseen_steps": unseen,
+    }
     out_dir = Path(out_dir)
     table = pa.table({c: pa.array([r[c] for r in checks], t) for c, t in _TYPES.items()})
     params = {"knowledge": str(knowledge), "rules": report["rules"], "checked": report["checked"]}
@@ -385,6 +413,12 @@ def _scores(m: dict[str, Any]) -> list[str]:
 
 def _pct(value: float | None) -> str:
     return "—" if value is None else f"{100 * value:.1f}"
+
+
+def score_text(value: float | None) -> str:
+    """A score as the summary line says it: '66.7 %', or '—' where it is undefined (nothing to
+    divide by), as the tables show it."""
+    return "—" if value is None else f"{_pct(value)} %"
 
 
 def _top_rule(broken: dict[str, dict[str, int]]) -> str:

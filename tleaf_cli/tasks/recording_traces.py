@@ -35,7 +35,7 @@ from tleaf_cli.data.artifacts import (
     write_artifact,
     write_text_atomic,
 )
-from tleaf_cli.data.recordings import load_recordings
+from tleaf_cli.data.captaincook import load_recordings
 from tleaf_cli.data.traces import COLUMNS, KIND, SCHEMA_VERSION, read_traces
 from tleaf_cli.errors import InputError, MissingSplitError
 from tleaf_cli.tasks.procedure_checks import check_recordings, read_recipe_rules, rule_files
@@ -92,14 +92,14 @@ def recording_traces(
     if not held_out:
         raise InputError(f"{traces}: no test recipe (the split holds none out)")
     rules = read_recipe_rules(rule_files(knowledge))
-    recorded = load_recordings(recordings)
+    recorded = load_recordings(recordings).cases
     checks = check_recordings(recorded, rules)
 
     kept = [r | {"recording_id": None} for r in rows if r["split"] in ("train", "val")]
     left_out: Counter = Counter()
     labels: Counter = Counter()
     for k, (row, check) in enumerate(zip(recorded, checks, strict=True)):
-        recipe = row["recipe"]
+        recipe = row.recipe
         if recipe not in split_of:
             left_out["recipe without a formula in the traces"] += 1
         elif split_of[recipe] != "test":
@@ -113,11 +113,11 @@ def recording_traces(
                 {
                     "formula_id": recipe,
                     "trace_id": k,
-                    "trace": [[a] for a in row["atoms"]],
+                    "trace": [[a] for a in row.atoms],
                     "label": keeps,
                     "source": RECORDED,
                     "split": "test",
-                    "recording_id": row["recording_id"],
+                    "recording_id": row.case_id,
                 }
             )
     if not labels:

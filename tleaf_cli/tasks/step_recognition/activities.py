@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_artifact
-from tleaf_cli.data.recordings import load_recordings
+from tleaf_cli.data.captaincook import recording_rows as load_recordings
 from tleaf_cli.data.traces import SPLITS
 from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge.base import KnowledgeBase, Rule, write_knowledge_base
