@@ -26,24 +26,6 @@ from collections.abc import Collection, Sequence
 from typing import NamedTuple
 
 import torch
-from ltlf2dfa.ltlf import (
-    LTLfAlways,
-    LTLfAnd,
-    LTLfAtomic,
-    LTLfEquivalence,
-    LTLfEventually,
-    LTLfFalse,
-    LTLfFormula,
-    LTLfImplies,
-    LTLfLast,
-    LTLfNext,
-    LTLfNot,
-    LTLfOr,
-    LTLfRelease,
-    LTLfTrue,
-    LTLfUntil,
-    LTLfWeakNext,
-)
 from torch_geometric.data import Batch, Data
 from torch_geometric.utils import to_undirected
 
@@ -51,6 +33,9 @@ from tleaf_cli.errors import InputError
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import check_depth
 from tleaf_cli.logic.guards import guard_for
+
+# ruff: noqa: F405  (the node classes come from the star import below)
+from tleaf_cli.logic.ltlf_nodes import *  # noqa: F403  (ltlf2dfa's 16 node classes)
 
 # Propositional graph node types.
 GLOBAL, AND, OR, NOT, ATOM = range(5)

@@ -24,26 +24,10 @@ from __future__ import annotations
 
 import re
 
-from ltlf2dfa.ltlf import (
-    LTLfAlways,
-    LTLfAnd,
-    LTLfAtomic,
-    LTLfEquivalence,
-    LTLfEventually,
-    LTLfFalse,
-    LTLfFormula,
-    LTLfImplies,
-    LTLfLast,
-    LTLfNext,
-    LTLfNot,
-    LTLfOr,
-    LTLfRelease,
-    LTLfTrue,
-    LTLfUntil,
-    LTLfWeakNext,
-)
-
 from tleaf_cli.atom_names import AMBIGUOUS as _AMBIGUOUS
+
+# ruff: noqa: F405  (the node classes come from the star import below)
+from tleaf_cli.logic.ltlf_nodes import *  # noqa: F403  (ltlf2dfa's 16 node classes)
 
 # One token per match; `word` and `upper` are checked further in _tokens.
 _TOKEN = re.compile(

@@ -44,29 +44,14 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from ltlf2dfa.ltlf import (
-    LTLfAlways,
-    LTLfAnd,
-    LTLfAtomic,
-    LTLfEquivalence,
-    LTLfEventually,
-    LTLfFalse,
-    LTLfFormula,
-    LTLfImplies,
-    LTLfLast,
-    LTLfNext,
-    LTLfNot,
-    LTLfOr,
-    LTLfRelease,
-    LTLfTrue,
-    LTLfUntil,
-    LTLfWeakNext,
-)
 
 from tleaf_cli.errors import TleafError
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import check_depth
+
+# ruff: noqa: F405  (the node classes come from the star import below)
+from tleaf_cli.logic.ltlf_nodes import *  # noqa: F403  (ltlf2dfa's 16 node classes)
 
 # Over more atoms than this a top-level & or | is compiled operand by operand and combined.
 DIRECT_ATOMS = 4

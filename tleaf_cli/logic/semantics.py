@@ -12,27 +12,11 @@ from __future__ import annotations
 
 from collections.abc import Collection, Sequence
 
-from ltlf2dfa.ltlf import (
-    LTLfAlways,
-    LTLfAnd,
-    LTLfAtomic,
-    LTLfEquivalence,
-    LTLfEventually,
-    LTLfFalse,
-    LTLfFormula,
-    LTLfImplies,
-    LTLfLast,
-    LTLfNext,
-    LTLfNot,
-    LTLfOr,
-    LTLfRelease,
-    LTLfTrue,
-    LTLfUntil,
-    LTLfWeakNext,
-)
-
 from tleaf_cli.errors import InputError
 from tleaf_cli.logic.formulas import check_depth
+
+# ruff: noqa: F405  (the node classes come from the star import below)
+from tleaf_cli.logic.ltlf_nodes import *  # noqa: F403  (ltlf2dfa's 16 node classes)
 
 Trace = Sequence[Collection[str]]
 
