@@ -83,15 +83,19 @@ def train_task_next_activity(
 @exits
 @with_settings(SUFFIX)
 def eval_next_activity(
+    ctx: typer.Context,
     run: Annotated[Path, typer.Argument(help="A train-task next-activity run directory.")],
     cases: Annotated[Path, typer.Argument(help="The cases artifact whose test split to score.")],
     rules: Annotated[
         Path | None,
-        typer.Option(help="Rules of the suffix search (.ltl), and of --scored satisfying."),
+        typer.Option(
+            help="Other rules (.ltl) for the suffix search and --scored satisfying than those "
+            "the run trained with \\[default: the run's knowledge base, from its config.json]."
+        ),
     ] = None,
     rule: Annotated[
         list[str] | None,
-        typer.Option(help="Only the rule of this name from --rules (repeat for several)."),
+        typer.Option(help="Only the rule of this name from the rules (repeat for several)."),
     ] = None,
     scored_by: Annotated[
         Path | None,
@@ -118,8 +122,8 @@ def eval_next_activity(
     from tleaf_cli.tasks.next_activity.evaluate import evaluate_next_activity
 
     targets([run, cases, rules, scored_by], folders=[out])
-    if rules is None and rule:
-        refuse(["--rule"], "only with --rules")
+    if values.get("prefix_lengths") is None:
+        refuse(given_flags(ctx, "beam_width", "max_suffix"), "only with --prefix-lengths")
     if scored_by is None and scored_rule:
         refuse(["--scored-rule"], "only with --scored-by")
     settings = SuffixSettings(**values)
@@ -128,11 +132,16 @@ def eval_next_activity(
             run, cases, out, settings, rules, tuple(rule or ()), on_length=update,
             scored_by=scored_by, scored_by_names=tuple(scored_rule or ()),
         )  # fmt: skip
+    for warning in metrics["warnings"]:
+        ui.summary(f"warning: {warning}", quiet)
     acc = metrics["accuracy"]
     under = acc.get("accuracy_rules")
+    whose = "the run's rules"
+    if metrics["rules"] is not None and metrics["rules"]["source"] == "other":
+        whose = f"other rules, {metrics['rules']['path']}"
     ui.summary(
         f"{out}: next-activity accuracy {100 * acc['accuracy']:.2f}%"
-        + ("" if under is None else f" ({100 * under:.2f}% under the rules)")
+        + ("" if under is None else f" ({100 * under:.2f}% under {whose})")
         + f" over {acc['prefixes']} prefixes of {metrics['scored_cases']} test cases",
         quiet,
     )

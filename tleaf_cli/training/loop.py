@@ -287,7 +287,7 @@ def _train_epoch(
 def _kept(checkpoint: Path) -> str:
     """What an unfinished run leaves: the checkpoint of its last finished epoch, or nothing."""
     if checkpoint.exists():
-        return f"the last finished epoch is in {checkpoint} (--resume continues from it)"
+        return f"the last finished epoch is in {checkpoint} (resuming continues from it)"
     return "no epoch finished, nothing was written"
 
 

@@ -19,12 +19,12 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from tleaf_cli.data.artifacts import describe_inputs, read_json_file
+from tleaf_cli.data.artifacts import describe_inputs, file_sha256, read_json_file
 from tleaf_cli.errors import InputError
 
 CONFIG, METRICS = "config.json", "metrics.json"
 RUN_FILES = (CONFIG, METRICS, "weights.pt")  # what a finished run has (and a λ choice copies)
-RESUMABLE = ("epochs", "patience", "device", "max_minutes")  # may differ on --resume
+RESUMABLE = ("epochs", "patience", "device", "max_minutes")  # may differ when resuming
 
 
 def run_identity(
@@ -62,7 +62,7 @@ def check_same_run(checkpoint: Path, saved: dict[str, Any] | None, now: dict[str
     if saved is None:
         raise InputError(
             f"{checkpoint}: written without the run's settings and inputs, so it cannot be "
-            "told to be this run's; train afresh without --resume"
+            "told to be this run's; train afresh without resuming"
         )
     differ = identity_differences(saved, now)
     if differ:
@@ -94,3 +94,28 @@ def input_record(path: str | os.PathLike | None) -> dict[str, str] | None:
     if path is None:
         return None
     return {"path": str(Path(path).resolve()), "sha256": describe_inputs([path])[0]["sha256"]}
+
+
+ROLES = {"data": 0, "kb": 1}  # a run's inputs in config.json's "inputs" list, by position
+
+
+def recorded_input(run_dir: str | os.PathLike, config: dict[str, Any], role: str) -> Path | None:
+    """The input a run's config.json records for `role` ("data" or "kb"), checked to exist and
+    to be the bytes the run read; None where the run read none (a run without rules).
+    InputError naming the run otherwise. config.json names them by role in "trained_on"; runs
+    written before it did are read by the "inputs" list's order (the data, then the knowledge
+    base)."""
+    if "trained_on" in config:
+        item = config["trained_on"][role]
+    else:
+        listed = config.get("inputs") or []
+        item = listed[ROLES[role]] if ROLES[role] < len(listed) else None
+    if item is None:
+        return None
+    what = {"data": "data", "kb": "knowledge base"}[role]
+    path = Path(item["path"])
+    if not path.is_file():
+        raise InputError(f"{run_dir}: its {what} {path} is gone")
+    if item.get("sha256") not in (None, file_sha256(path)):
+        raise InputError(f"{run_dir}: its {what} {path} changed since the run was trained")
+    return path

@@ -148,9 +148,14 @@ def train_task(
         def candidate(folder: Path, one: TrainingSettings, hear) -> dict[str, Any]:
             return train_task(trainer, inputs, folder, one, on_epoch, resume, hear)
 
-        return train_choosing_lambda(
+        metrics = train_choosing_lambda(
             candidate, out_dir, settings, on_setup, trainer.score, reference, inputs.data
         )
+        # the chosen candidate may be a reference trained without rules: this run names its own
+        config = json.loads((out_dir / CONFIG).read_text())
+        config.update(_named_inputs(inputs))
+        write_text_atomic(out_dir / CONFIG, json.dumps(config, indent=2))
+        return metrics
     device = device_for(settings.device)
     task = trainer(inputs, settings, device)
     setup_start = time.perf_counter()
@@ -201,9 +206,7 @@ def train_task(
         "kind": trainer.kind,
         "settings": asdict(settings),
         **task.config(),
-        "inputs": describe_inputs(read),
-        "data": input_record(inputs.data),
-        "kb": input_record(inputs.kb),
+        **_named_inputs(inputs),
         # absolute, and relative to this folder (docs/artifacts.md: portable run folders)
         "embedder": None if inputs.embedder is None else str(Path(inputs.embedder).resolve()),
         "embedder_relative": None
@@ -213,3 +216,13 @@ def train_task(
     write_text_atomic(out_dir / CONFIG, json.dumps(config, indent=2))
     write_text_atomic(out_dir / METRICS, json.dumps(metrics, indent=2))
     return metrics
+
+
+def _named_inputs(inputs: RunInputs) -> dict[str, Any]:
+    """config.json's record of a run's inputs: as a list (data, knowledge base), and by role
+    (`run_folder.recorded_input` reads them back)."""
+    read = [p for p in (inputs.data, inputs.kb) if p is not None]
+    return {
+        "inputs": describe_inputs(read),
+        "trained_on": {"data": input_record(inputs.data), "kb": input_record(inputs.kb)},
+    }

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from tleaf_cli.data.artifacts import check_writable, file_sha256, write_text_atomic
+from tleaf_cli.data.artifacts import check_writable, write_text_atomic
 from tleaf_cli.embed.model_folder import read_model_config
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.knowledge.base import (
@@ -56,6 +56,7 @@ from tleaf_cli.tasks.action_recognition.train import (
     predicted_atoms,
     rules_broken,
 )
+from tleaf_cli.training.run_folder import recorded_input
 
 SPLITS = ("train", "val", "test")
 DEFAULT_SPLITS = ("train", "test")
@@ -92,21 +93,10 @@ def forbidden_pairs(kb: KnowledgeBase) -> set[str]:
 def _recorded_inputs(run_dir: Path, config: dict) -> tuple[Path, Path]:
     """The activities file and knowledge base config.json records (in that order), checked to
     exist and to be the bytes the run was trained on; InputError naming the run otherwise."""
-    recorded = config.get("inputs") or []
-    if len(recorded) != 2:
-        raise InputError(
-            f"{run_dir}: config.json records {len(recorded)} inputs, expected the activities "
-            "file and the knowledge base"
-        )
-    paths = []
-    for what, item in zip(("activities file", "knowledge base"), recorded, strict=True):
-        path = Path(item["path"])
-        if not path.is_file():
-            raise InputError(f"{run_dir}: its {what} {path} is gone")
-        if item.get("sha256") not in (None, file_sha256(path)):
-            raise InputError(f"{run_dir}: its {what} {path} changed since the run was trained")
-        paths.append(path)
-    return paths[0], paths[1]
+    data, kb = (recorded_input(run_dir, config, role) for role in ("data", "kb"))
+    if data is None or kb is None:
+        raise InputError(f"{run_dir}: config.json records no activities file or knowledge base")
+    return data, kb
 
 
 def _read_inputs(activities: Path, kb_path: Path) -> Inputs:

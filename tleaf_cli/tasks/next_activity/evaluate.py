@@ -26,8 +26,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_text_atomic
-from tleaf_cli.data.event_logs import Case, read_cases
+from tleaf_cli.data.artifacts import (
+    check_writable,
+    describe_inputs,
+    file_sha256,
+    write_text_atomic,
+)
+from tleaf_cli.data.event_logs import Case, Cases, read_cases
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
@@ -37,6 +42,7 @@ from tleaf_cli.tasks.next_activity.rules import Rules, read_rules
 from tleaf_cli.tasks.next_activity.similarity import dl_similarity
 from tleaf_cli.tasks.next_activity.suffix_search import Rows, SearchStats, predict_suffixes
 from tleaf_cli.tasks.next_activity.train import accuracy, new_model
+from tleaf_cli.training.run_folder import read_run_config, recorded_input
 
 CHUNK = 1024  # rows per model forward in the suffix search
 
@@ -44,26 +50,76 @@ CHUNK = 1024  # rows per model forward in the suffix search
 def load_run(run_dir: str | Path) -> tuple[NextActivityLSTM, Encoder, NextActivitySettings]:
     """A train-task next-activity folder's best model (eval mode, CPU), encoder and settings;
     InputError naming the file when the folder is not such a run."""
+    model, encoder, settings, _ = _load_run(run_dir)
+    return model, encoder, settings
+
+
+def _load_run(
+    run_dir: str | Path,
+) -> tuple[NextActivityLSTM, Encoder, NextActivitySettings, dict]:
+    """`load_run`'s model, encoder and settings, and the run's config.json."""
     run_dir = Path(run_dir)
-    config_path, weights_path = run_dir / "config.json", run_dir / "weights.pt"
-    for path in (config_path, weights_path):
-        if not path.is_file():
-            raise InputError(f"{path}: missing (not a train-task next-activity folder)")
+    weights_path = run_dir / "weights.pt"
+    config = read_run_config(run_dir, "next-activity")
+    if not weights_path.is_file():
+        raise InputError(f"{weights_path}: missing (not a finished next-activity run)")
     try:
-        config = json.loads(config_path.read_text())
-        if config.get("kind") != "next-activity":
-            raise InputError(f"{config_path}: not a next-activity run (kind {config.get('kind')})")
         encoder = Encoder.from_dict(config["encoder"])
         settings = NextActivitySettings(**config["settings"])
     except (ValueError, KeyError, TypeError) as e:
-        raise InputError(f"{config_path}: not a next-activity run's config ({e})") from None
+        raise InputError(
+            f"{run_dir / 'config.json'}: not a next-activity run's config ({e})"
+        ) from None
     model = new_model(encoder, settings)
     try:
         model.load_state_dict(torch.load(weights_path, map_location="cpu", weights_only=True))
     except (RuntimeError, OSError, EOFError, ValueError) as e:
         first = str(e).splitlines()[0] if str(e) else type(e).__name__
         raise InputError(f"{weights_path}: not this run's model's weights ({first})") from None
-    return model.eval(), encoder, settings
+    return model.eval(), encoder, settings, config
+
+
+def check_same_log(cases: Cases, encoder: Encoder, run_dir: str | Path) -> None:
+    """InputError where `cases` name the run's activity atoms otherwise than the run did (another
+    preprocessing of the log: its atom a3 another activity), which would score the model's
+    predictions against other activities."""
+    theirs = {atom: activity for activity, atom in cases.activity_atoms.items()}
+    ours = dict(zip(encoder.atoms, encoder.activities, strict=True))
+    clash = [a for a in ours if a in theirs and theirs[a] != ours[a]]
+    if clash:
+        a = clash[0]
+        raise InputError(
+            f"{cases.path}: its {a} is {theirs[a]!r}, the run's {a} was {ours[a]!r} "
+            f"({len(clash)} activities differ): another preprocessing of the log than {run_dir} "
+            "was trained on; evaluate on the cases artifact the run was trained on"
+        )
+
+
+def compare_with_training(cases: Cases, trained: Path | None, run_dir: str | Path) -> list[str]:
+    """What makes scoring `cases` on the run doubtful, as warnings; InputError where they are
+    another preprocessing of the log the run trained on (`trained`): a case of both has other
+    activities in one than in the other (activity ids numbered otherwise), so the run's
+    predictions would be scored against other activities."""
+    if trained is None or file_sha256(trained) == file_sha256(cases.path):
+        return []
+    ours = {c.case_id: c for c in read_cases(trained).cases}
+    shared = [c for c in cases.cases if c.case_id in ours]
+    changed = [c for c in shared if c.activities != ours[c.case_id].activities]
+    if changed:
+        raise InputError(
+            f"{cases.path}: case {changed[0].case_id} (and {len(changed) - 1} more of "
+            f"{len(shared)} shared) has other activities than in {trained}, which {run_dir} "
+            "was trained on: another preprocessing of the log; evaluate on the cases the run "
+            "was trained on"
+        )
+    seen = [c for c in shared if c.split == "test" and ours[c.case_id].split != "test"]
+    out = [f"{cases.path} is not the file {run_dir} was trained on ({trained})"]
+    if seen:
+        out.append(
+            f"{len(seen)} of its test cases were training or validation cases of the run (another "
+            "split of the log): its figures are not test figures"
+        )
+    return out
 
 
 def evaluate_next_activity(
@@ -79,18 +135,30 @@ def evaluate_next_activity(
 ) -> dict:
     """Score the run on the test split of `cases_path`; write and return metrics.json.
 
-    `rules_path` / `rule_names`: the rules of the suffix search and of next-activity
-    prediction under the rules (`accuracy_rules`). `scored_by` / `scored_by_names`: the rules
-    that choose the scored cases with `scored="satisfying"` (default: the same rules).
-    `on_length(done, total)` hears each prefix length finished."""
+    The rules of the suffix search and of next-activity prediction under the rules
+    (`accuracy_rules`) are the knowledge base the run trained with, read from its config.json
+    (checked to be the same bytes), unless `rules_path` names other rules; `rule_names`: only
+    these of them. `scored_by` / `scored_by_names`: the rules that choose the scored cases
+    with `scored="satisfying"` (default: the same rules). `on_length(done, total)` hears each
+    prefix length finished. Cases that are another preprocessing of the log the run trained on
+    are refused (`compare_with_training`); metrics.json's "warnings" says what makes the
+    figures doubtful: the cases are not the file the run trained on, test cases the run
+    trained on."""
     settings.check()
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
+    model, encoder, _, config = _load_run(run_dir)
+    source = "other" if rules_path is not None else "run"
+    if rules_path is None:
+        rules_path = recorded_input(run_dir, config, "kb")
+    if rules_path is None and rule_names:
+        raise SettingError("rule_names", f"{run_dir} trained without rules: name other rules")
     if settings.scored == "satisfying" and rules_path is None and scored_by is None:
         raise SettingError("scored", "'satisfying' needs rules: which cases satisfy what?")
-    model, encoder, _ = load_run(run_dir)
     device = torch.device("cpu")  # the run's model is loaded on the CPU (load_run)
     cases = read_cases(cases_path)
+    check_same_log(cases, encoder, run_dir)
+    warnings = compare_with_training(cases, recorded_input(run_dir, config, "data"), run_dir)
     test = [c for c in cases.cases if c.split == "test"]
     if not test:
         raise InputError(f"{cases_path}: no cases in the test split")
@@ -109,11 +177,14 @@ def evaluate_next_activity(
         "run": str(run_dir),
         "test_cases": len(test),
         "scored_cases": len(scored),
-        "rules": None if rules is None else {"path": rules.path, "names": list(rules.names)},
+        "rules": None
+        if rules is None
+        else {"path": rules.path, "names": list(rules.names), "source": source},
         "scored_by": None if judge is None else {"path": judge.path, "names": list(judge.names)},
         "settings": asdict(settings),
         "accuracy": accuracy(model, encoder, scored, 256, device, rules),
         "suffix": {},
+        "warnings": warnings,
         "inputs": describe_inputs([p for p in (cases_path, rules_path) if p is not None]),
     }
     if settings.prefix_lengths is not None:

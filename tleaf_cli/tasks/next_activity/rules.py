@@ -49,6 +49,30 @@ class Rules:
             part.dfa.table[:, part.letters(np.arange(len(part.vocabulary)))] for part in self.parts
         )
 
+    def satisfiable(self, limit: int = 100_000) -> bool | None:
+        """Whether some case (one activity or more) satisfies every part: a search of the
+        parts' product from their initial states, through states live in every part, to one
+        every part accepts. None where it passes `limit` product states undecided."""
+        start = tuple(part.dfa.initial for part in self.parts)
+        if not all(live[s] for live, s in zip(self.lives, start, strict=True)):
+            return False
+        accepting = [part.dfa.accepting for part in self.parts]
+        seen, frontier = {start}, [start]
+        while frontier:
+            state = frontier.pop()
+            ahead = [following[s] for following, s in zip(self.following, state, strict=True)]
+            for nxt in zip(*(row.tolist() for row in ahead), strict=True):
+                if not all(live[s] for live, s in zip(self.lives, nxt, strict=True)):
+                    continue
+                if all(acc[s] for acc, s in zip(accepting, nxt, strict=True)):
+                    return True
+                if nxt not in seen:
+                    seen.add(nxt)
+                    frontier.append(nxt)
+                    if len(seen) > limit:
+                        return None
+        return False
+
     def broken(self, cases: Sequence[np.ndarray]) -> np.ndarray:
         """bool [n]: the cases (activity-index arrays) some part rejects."""
         out = np.zeros(len(cases), dtype=bool)
@@ -67,7 +91,8 @@ def read_rules(
     of at most `max_states` states.
 
     Raises InputError naming the file and line of a formula that does not read, a name the
-    file does not have, or a formula over an activity the model does not know."""
+    file does not have, a formula over an activity the model does not know, or rules that
+    together accept no case."""
     sources = read_formulas(path)
     for src in sources:
         if src.problem is not None:
@@ -90,7 +115,13 @@ def read_rules(
         )
     except InputError as e:
         raise InputError(f"{path}: {e}") from None
-    return Rules(os.fspath(path), tuple(s.formula_id for s in chosen), parts)
+    rules = Rules(os.fspath(path), tuple(s.formula_id for s in chosen), parts)
+    if rules.satisfiable() is False:  # a loss of 0 and no decoding: knowledge that never applies
+        raise InputError(
+            f"{path}: its rules{' ' + ', '.join(names) if names else ''} together accept no "
+            "case (unsatisfiable): no prediction could keep them"
+        )
+    return rules
 
 
 def allowed_next(rules: Rules, activities: np.ndarray) -> np.ndarray:
