@@ -20,7 +20,14 @@ from tleaf_cli.cli.common import (
     targets,
 )
 from tleaf_cli.cli.options import TASK, given, setting_option, with_settings
-from tleaf_cli.cli.runs import print_choice, run_printers, warn_replacing
+from tleaf_cli.cli.runs import (
+    EmbedderOption,
+    Reference,
+    RunOut,
+    print_choice,
+    run_printers,
+    warn_replacing,
+)
 from tleaf_cli.settings.action_recognition import ReportSettings, TaskSettings
 
 ReportDecoding = setting_option(ReportSettings, "decode")  # whose figures eval's table shows
@@ -34,18 +41,9 @@ def train_task_action_recognition(
     ctx: typer.Context,
     activities: Annotated[Path, typer.Argument(help="An activities.parquet (gen-activities).")],
     kb: Annotated[Path, typer.Option(help="The knowledge base (.ltl) the rule sets come from.")],
-    embedder: Annotated[
-        Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
-    ] = None,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
-    reference: Annotated[
-        Path | None,
-        typer.Option(
-            help="With --lambdas: a finished λ-0 run of the same settings and data (the "
-            "--logic-loss none run of the same seed and size, or another loss's λ-0 "
-            "candidate), taken as the λ-0 candidate instead of training it again."
-        ),
-    ] = None,
+    embedder: EmbedderOption = None,
+    out: RunOut = Path("run"),
+    reference: Reference = None,
     preset: TaskPreset = DEFAULT_TASK_PRESET,
     resume: Resume = False,
     quiet: Quiet = False,

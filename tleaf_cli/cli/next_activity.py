@@ -10,7 +10,14 @@ import typer
 from tleaf_cli import ui
 from tleaf_cli.cli.common import Quiet, Resume, exits, given_flags, preset_option, refuse, targets
 from tleaf_cli.cli.options import NEXT, SUFFIX, given, with_settings
-from tleaf_cli.cli.runs import print_choice, run_printers, warn_replacing
+from tleaf_cli.cli.runs import (
+    EmbedderOption,
+    Reference,
+    RunOut,
+    print_choice,
+    run_printers,
+    warn_replacing,
+)
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings
 
 NextPreset = preset_option(NextActivitySettings)
@@ -29,18 +36,9 @@ def train_task_next_activity(
             "conjoined; needed for --logic-loss exact / tleaf."
         ),
     ] = None,
-    embedder: Annotated[
-        Path | None, typer.Option(help="q: a train-meta directory (needed for --logic-loss tleaf).")
-    ] = None,
-    out: Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")] = Path("run"),
-    reference: Annotated[
-        Path | None,
-        typer.Option(
-            help="With --lambdas: a finished λ-0 run of the same settings and cases (e.g. "
-            "another loss's lambda-choice/lambda-0), taken as the λ-0 candidate instead of "
-            "training it again."
-        ),
-    ] = None,
+    embedder: EmbedderOption = None,
+    out: RunOut = Path("run"),
+    reference: Reference = None,
     preset: NextPreset = DEFAULT_NEXT_PRESET,
     resume: Resume = False,
     quiet: Quiet = False,

@@ -102,6 +102,8 @@ def default_text(f: Field, cls: type) -> str:
     if f.name in SWITCHES:
         value = value == SWITCHES[f.name][1]
     text = f.metadata["auto"] if value is None else _shown(value)
+    if "{cls." in text:  # an automatic default that names the class's own value
+        text = text.format(cls=cls)
     presets = getattr(cls, "PRESETS", {})
     others = [
         f"{name}: {_shown(values[f.name])}"

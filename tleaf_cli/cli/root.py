@@ -1,10 +1,11 @@
 """The `tleaf` command itself: its Typer app, the `eval` and `train-task` groups, every command
 registered under its name (in the order --help lists them), and the entry point `main`.
 
-Each command lives in the module of its stage family (compile, generate, knowledge, embedder,
-model_checking, action_recognition, cooking); those modules read arguments, call the library and
-map its errors to exit codes. The library is imported inside each command, so `tleaf --help` and
-light commands start fast (ltlf2dfa alone pulls in sympy).
+Each command lives in the module of its stage family (compile, generate, knowledge, event_logs,
+procedures, embedder, model_checking, action_recognition, next_activity, cooking; runs.py holds
+what the sequence tasks' train-task commands print); those modules read arguments, call the
+library and map its errors to exit codes. The library is imported inside each command, so
+`tleaf --help` and light commands start fast (ltlf2dfa alone pulls in sympy).
 """
 
 from __future__ import annotations

@@ -7,9 +7,27 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+import typer
 
 from tleaf_cli import ui
+
+# the options every sequence task's train-task command takes besides its data and rules
+EmbedderOption = Annotated[
+    Path | None,
+    typer.Option("--embedder", help="q: a train-meta directory (needed for --logic-loss tleaf)."),
+]
+RunOut = Annotated[Path, typer.Option("--out", "-o", help="Run directory to write.")]
+Reference = Annotated[
+    Path | None,
+    typer.Option(
+        "--reference",
+        help="With --lambdas: a finished λ-0 run of the same settings and data (the "
+        "--logic-loss none run of the same seed, or another loss's lambda-choice/lambda-0), "
+        "taken as the λ-0 candidate instead of training it again.",
+    ),
+]
 
 
 def warn_replacing(out: Path, resume: bool, quiet: bool) -> None:

@@ -308,14 +308,6 @@ class AutomatonEncoder(nn.Module):
         cached = getattr(batch, "run_weights", None)
         return cached if cached is not None else self.run_weights(batch).t()
 
-    def _layer(self, k: int) -> tuple[torch.Tensor, torch.Tensor]:
-        """Layer k's weight [ways · hidden, in] (W→ above W←) and its summed bias."""
-        conv = self.convs[k]
-        if self.back is None:
-            return conv.lin.weight, conv.bias
-        back = self.back[k]
-        return torch.cat([conv.lin.weight, back.lin.weight]), conv.bias + back.bias
-
     def node_inputs(self, batch) -> torch.Tensor:
         """[n, KINDS + FLAGS + edge_dim]: the nodes' input vectors, one-hot kind, flags and
         edge-node vector (0 on states)."""

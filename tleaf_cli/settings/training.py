@@ -28,7 +28,8 @@ class TrainingSettings(Presets):
         None,
         "Weight λ of the logic loss.",
         min=0.0,
-        auto="auto: with tleaf, the λ the embedder's folder recommends; otherwise the task's",
+        auto="auto: with tleaf, the λ the embedder's folder recommends; otherwise "
+        "{cls.DEFAULT_LAMBDA:g}",
     )
     lambdas: str | None = setting(
         None,

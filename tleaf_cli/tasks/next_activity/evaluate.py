@@ -148,9 +148,16 @@ def evaluate_next_activity(
     out_dir = Path(out_dir)
     check_writable(out_dir / "metrics.json")
     model, encoder, _, config = _load_run(run_dir)
-    source = "other" if rules_path is not None else "run"
+    try:
+        own = recorded_input(run_dir, config, "kb")
+    except InputError:
+        if rules_path is None:
+            raise
+        own = None  # other rules given: the run's may be gone
+    same = rules_path is None or (own is not None and file_sha256(rules_path) == file_sha256(own))
+    source = "run" if same else "other"  # --rules naming the run's own file is the run's rules
     if rules_path is None:
-        rules_path = recorded_input(run_dir, config, "kb")
+        rules_path = own
     if rules_path is None and rule_names:
         raise SettingError("rule_names", f"{run_dir} trained without rules: name other rules")
     if settings.scored == "satisfying" and rules_path is None and scored_by is None:
