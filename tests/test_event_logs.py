@@ -1,5 +1,5 @@
-"""Event logs in: XES and CSV logs (written here) read into `Cases` and a cases artifact, every bad input a
-counted skip or one clear error with nothing written, and read-log's exit codes."""
+"""Event logs in: XES and CSV logs (written here) read into `Cases` and a cases artifact, every
+bad input a counted skip or one clear error with nothing written, and read-log's exit codes."""
 
 from __future__ import annotations
 

@@ -63,18 +63,18 @@ def test_a_csv_row_with_an_extra_field_is_refused_naming_the_row(tmp_path: Path)
     assert result.exit_code == 2 and "line 3: 4 fields" in result.output, result.output
 
 
-def test_read_log_reports_progress_to_the_end(tmp_path: Path) -> None:
-    for name in ("l.csv", "l.csv.gz"):
-        log = _csv(tmp_path, "".join(f"{i},a,2020-01-01\n" for i in range(50)), name)
-        if name.endswith(".gz"):
-            import gzip
+@pytest.mark.parametrize("name", ["l.csv", "l.csv.gz"])
+def test_read_log_reports_progress_to_the_end(tmp_path: Path, name: str) -> None:
+    log = _csv(tmp_path, "".join(f"{i},a,2020-01-01\n" for i in range(50)), name)
+    if name.endswith(".gz"):
+        import gzip
 
-            log.write_bytes(gzip.compress(log.read_bytes()))
-        calls: list[tuple[int, int]] = []
-        cases = read_log(log, progress=lambda done, total: calls.append((done, total)))
-        assert len(cases.cases) == 50
-        assert calls and calls[-1][0] == calls[-1][1] == log.stat().st_size, calls
-        assert all(done <= total for done, total in calls)
+        log.write_bytes(gzip.compress(log.read_bytes()))
+    calls: list[tuple[int, int]] = []
+    cases = read_log(log, progress=lambda done, total: calls.append((done, total)))
+    assert len(cases.cases) == 50
+    assert calls and calls[-1][0] == calls[-1][1] == log.stat().st_size, calls
+    assert all(done <= total for done, total in calls)
 
 
 def test_read_cases_without_a_path_is_a_tleaf_error() -> None:
