@@ -298,3 +298,21 @@ def test_the_settings_know_the_templates() -> None:
     from tleaf_cli.settings.declare import DECLARE_TEMPLATES
 
     assert DECLARE_TEMPLATES == TEMPLATES
+
+
+def test_mine_declare_says_no_rule_was_mined_and_counts_the_test_cases(tmp_path) -> None:
+    """Before: a log with test cases whose thresholds kept no rule printed "no test cases"."""
+    from typer.testing import CliRunner
+
+    from tests.test_next_activity import cases_artifact
+    from tleaf_cli.cli import app
+
+    cases = cases_artifact(tmp_path)
+    result = CliRunner().invoke(
+        app,
+        ["mine-declare", str(cases), "-o", str(tmp_path / "kb.ltl"), "--templates",
+         "response,chain_response", "--min-activated", "1000"],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "no rule mined" in result.output and "no test cases" not in result.output
+    assert "test cases" in result.output

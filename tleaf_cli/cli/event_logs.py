@@ -119,19 +119,7 @@ def mine_declare(
     settings = DeclareSettings(**values)
     settings.check()
     found = mine_log(cases, out, settings)
-    shares = [s for s in found.test_support if s == s]  # nan: no test cases
-    test = (
-        f"; on the {found.test_cases} test cases each holds on "
-        f"{min(shares):.1%} to {max(shares):.1%} (mean {sum(shares) / len(shares):.1%}), "
-        f"all of them on {found.test_joint:.1%}"
-        if shares
-        else "; no test cases"
-    )
-    ui.summary(
-        f"{out}: {len(found.rules)} rules from {found.train_cases} train cases, "
-        f"{found.activities} activities{test}; per rule: {support_table_path(out)}",
-        quiet,
-    )
+    ui.summary(f"{out}: {found.summary()}; per rule: {support_table_path(out)}", quiet)
 
 
 @exits

@@ -30,12 +30,10 @@ from torch_geometric.data import Batch, Data
 from torch_geometric.utils import to_undirected
 
 from tleaf_cli.errors import InputError
+from tleaf_cli.logic import ltlf_nodes as ltlf
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import check_depth
 from tleaf_cli.logic.guards import guard_for
-
-# ruff: noqa: F405  (the node classes come from the star import below)
-from tleaf_cli.logic.ltlf_nodes import *  # noqa: F403  (ltlf2dfa's 16 node classes)
 
 # Propositional graph node types.
 GLOBAL, AND, OR, NOT, ATOM = range(5)
@@ -46,20 +44,20 @@ STATE, EDGE = range(2)
 
 # Syntax-tree node types: operators in a fixed order, then atoms.
 SYNTAX_OPS: tuple[type, ...] = (
-    LTLfNot,
-    LTLfAnd,
-    LTLfOr,
-    LTLfImplies,
-    LTLfEquivalence,
-    LTLfNext,
-    LTLfWeakNext,
-    LTLfEventually,
-    LTLfAlways,
-    LTLfUntil,
-    LTLfRelease,
-    LTLfTrue,
-    LTLfFalse,
-    LTLfLast,
+    ltlf.LTLfNot,
+    ltlf.LTLfAnd,
+    ltlf.LTLfOr,
+    ltlf.LTLfImplies,
+    ltlf.LTLfEquivalence,
+    ltlf.LTLfNext,
+    ltlf.LTLfWeakNext,
+    ltlf.LTLfEventually,
+    ltlf.LTLfAlways,
+    ltlf.LTLfUntil,
+    ltlf.LTLfRelease,
+    ltlf.LTLfTrue,
+    ltlf.LTLfFalse,
+    ltlf.LTLfLast,
 )
 SYNTAX_ATOM = len(SYNTAX_OPS)
 SYNTAX_TYPES = SYNTAX_ATOM + 1
@@ -381,7 +379,7 @@ def readout_pool(weights: torch.Tensor, graph_of: torch.Tensor, graphs: int) -> 
     return Adjacency(_csr(rows, cols, values, size), _csr(cols, rows, values, size[::-1]))
 
 
-def syntax_graph(formula: LTLfFormula, vocabulary: dict[str, int]) -> Data:
+def syntax_graph(formula: ltlf.LTLfFormula, vocabulary: dict[str, int]) -> Data:
     """The parse tree as a graph: `node_type` [N] (SYNTAX_OPS index, or SYNTAX_ATOM), `atom` [N]
     (vocabulary index, -1 for operators), arcs child -> parent; node 0 is the root.
     FormulaSyntaxError for a formula nested too deeply to walk (the walk recurses)."""
@@ -390,13 +388,13 @@ def syntax_graph(formula: LTLfFormula, vocabulary: dict[str, int]) -> Data:
     atoms: list[int] = []
     arcs: list[tuple[int, int]] = []
 
-    def visit(f: LTLfFormula) -> int:
+    def visit(f: ltlf.LTLfFormula) -> int:
         node = len(types)
-        if isinstance(f, LTLfTrue | LTLfFalse):  # subclasses of LTLfAtomic: test first
+        if isinstance(f, ltlf.LTLfTrue | ltlf.LTLfFalse):  # subclasses of LTLfAtomic: test first
             types.append(SYNTAX_OPS.index(type(f)))
             atoms.append(-1)
             return node
-        if isinstance(f, LTLfAtomic):
+        if isinstance(f, ltlf.LTLfAtomic):
             name = str(f.s)
             if name not in vocabulary:
                 raise KeyError(f"atom '{name}' is not in the vocabulary")

@@ -25,25 +25,23 @@ from __future__ import annotations
 import re
 
 from tleaf_cli.atom_names import AMBIGUOUS as _AMBIGUOUS
-
-# ruff: noqa: F405  (the node classes come from the star import below)
-from tleaf_cli.logic.ltlf_nodes import *  # noqa: F403  (ltlf2dfa's 16 node classes)
+from tleaf_cli.logic import ltlf_nodes as ltlf
 
 # One token per match; `word` and `upper` are checked further in _tokens.
 _TOKEN = re.compile(
     r"\s*(?:(?P<word>[a-z][a-z0-9_]*)|(?P<op><->|<=>|->|=>|\|\||&&|[|&!~()])"
     r"|(?P<upper>WX|[XFGUR])(?![a-z]))"
 )
-_CONSTANTS = {"true": LTLfTrue, "false": LTLfFalse, "last": LTLfLast}
-_UNARY = {"!": LTLfNot, "~": LTLfNot, "X": LTLfNext, "WX": LTLfWeakNext}
-_UNARY.update({"F": LTLfEventually, "G": LTLfAlways})
+_CONSTANTS = {"true": ltlf.LTLfTrue, "false": ltlf.LTLfFalse, "last": ltlf.LTLfLast}
+_UNARY = {"!": ltlf.LTLfNot, "~": ltlf.LTLfNot, "X": ltlf.LTLfNext, "WX": ltlf.LTLfWeakNext}
+_UNARY.update({"F": ltlf.LTLfEventually, "G": ltlf.LTLfAlways})
 _LEVELS = (  # loosest first: the operator tokens of each binary level and the class it builds
-    ({"<->", "<=>"}, LTLfEquivalence),
-    ({"->", "=>"}, LTLfImplies),
-    ({"|", "||"}, LTLfOr),
-    ({"&", "&&"}, LTLfAnd),
-    ({"U"}, LTLfUntil),
-    ({"R"}, LTLfRelease),
+    ({"<->", "<=>"}, ltlf.LTLfEquivalence),
+    ({"->", "=>"}, ltlf.LTLfImplies),
+    ({"|", "||"}, ltlf.LTLfOr),
+    ({"&", "&&"}, ltlf.LTLfAnd),
+    ({"U"}, ltlf.LTLfUntil),
+    ({"R"}, ltlf.LTLfRelease),
 )
 
 
@@ -51,7 +49,7 @@ class _Unsure(Exception):
     """This reader does not decide the text; lark will."""
 
 
-def read_formula(text: str) -> LTLfFormula | None:
+def read_formula(text: str) -> ltlf.LTLfFormula | None:
     """The formula lark would build from `text`, or None when this reader is not sure."""
     try:
         tokens = _tokens(text)
@@ -79,7 +77,7 @@ def _tokens(text: str) -> list[str]:
             return tokens
 
 
-def _binary(tokens: list[str], pos: int, level: int) -> tuple[LTLfFormula, int]:
+def _binary(tokens: list[str], pos: int, level: int) -> tuple[ltlf.LTLfFormula, int]:
     if level == len(_LEVELS):
         return _unary(tokens, pos)
     ops, cls = _LEVELS[level]
@@ -91,7 +89,7 @@ def _binary(tokens: list[str], pos: int, level: int) -> tuple[LTLfFormula, int]:
     return (first if len(operands) == 1 else cls(operands)), pos
 
 
-def _unary(tokens: list[str], pos: int) -> tuple[LTLfFormula, int]:
+def _unary(tokens: list[str], pos: int) -> tuple[ltlf.LTLfFormula, int]:
     if pos >= len(tokens):
         raise _Unsure
     token = tokens[pos]
@@ -107,5 +105,5 @@ def _unary(tokens: list[str], pos: int) -> tuple[LTLfFormula, int]:
     if constant is not None:
         return constant(), pos + 1
     if token[0].islower():
-        return LTLfAtomic(token), pos + 1
+        return ltlf.LTLfAtomic(token), pos + 1
     raise _Unsure

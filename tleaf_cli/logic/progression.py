@@ -46,12 +46,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from tleaf_cli.errors import TleafError
+from tleaf_cli.logic import ltlf_nodes as ltlf
 from tleaf_cli.logic.alphabet import Alphabet
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import check_depth
-
-# ruff: noqa: F405  (the node classes come from the star import below)
-from tleaf_cli.logic.ltlf_nodes import *  # noqa: F403  (ltlf2dfa's 16 node classes)
 
 # Over more atoms than this a top-level & or | is compiled operand by operand and combined.
 DIRECT_ATOMS = 4
@@ -93,7 +91,9 @@ class Limits:
         return None if self.max_seconds is None else time.perf_counter() + self.max_seconds
 
 
-def progression_dfa(formula: LTLfFormula, alphabet: Alphabet, limits: Limits | None = None) -> DFA:
+def progression_dfa(
+    formula: ltlf.LTLfFormula, alphabet: Alphabet, limits: Limits | None = None
+) -> DFA:
     """The minimal DFA of `formula`'s non-empty traces over `alphabet` (which must hold all of
     the formula's atoms), built in this process; TooLarge past the `limits`."""
     check_depth(formula)
@@ -212,40 +212,40 @@ class _Nodes:
         return self._intern((kind, left, right))
 
     # ------------------------------------------------------------------------- NNF
-    def nnf(self, f: LTLfFormula, neg: bool) -> int:
+    def nnf(self, f: ltlf.LTLfFormula, neg: bool) -> int:
         """The NNF node of `f`, negated when `neg`; ltlf2dfa's n-ary readings kept:
         `a -> b -> c` is `(a -> b) -> c`, `a U b U c` is `a U (b U c)` (likewise R), and
         `a <-> b <-> c` holds when all operands agree."""
-        # LTLfTrue/LTLfFalse subclass LTLfAtomic, so they are tested first.
-        if isinstance(f, LTLfTrue):
+        # ltlf.LTLfTrue/ltlf.LTLfFalse subclass ltlf.LTLfAtomic, so they are tested first.
+        if isinstance(f, ltlf.LTLfTrue):
             return self.false if neg else self.true
-        if isinstance(f, LTLfFalse):
+        if isinstance(f, ltlf.LTLfFalse):
             return self.true if neg else self.false
-        if isinstance(f, LTLfAtomic):
+        if isinstance(f, ltlf.LTLfAtomic):
             return self.lit(self._atom_index[str(f.s)], not neg)
-        if isinstance(f, LTLfLast):
+        if isinstance(f, ltlf.LTLfLast):
             return self._intern((NOT_LAST,) if neg else (LAST,))
-        if isinstance(f, LTLfNot):
+        if isinstance(f, ltlf.LTLfNot):
             return self.nnf(f.f, not neg)
-        if isinstance(f, LTLfAnd | LTLfOr):
-            kind = AND if isinstance(f, LTLfAnd) != neg else OR
+        if isinstance(f, ltlf.LTLfAnd | ltlf.LTLfOr):
+            kind = AND if isinstance(f, ltlf.LTLfAnd) != neg else OR
             return self.junction(kind, [self.nnf(g, neg) for g in f.formulas])
-        if isinstance(f, LTLfImplies):
+        if isinstance(f, ltlf.LTLfImplies):
             return self._implies(list(f.formulas), neg)
-        if isinstance(f, LTLfEquivalence):
+        if isinstance(f, ltlf.LTLfEquivalence):
             pos = [self.nnf(g, False) for g in f.formulas]
             negs = [self.nnf(g, True) for g in f.formulas]
             if neg:  # not all agree: some operand true and some false
                 return self.junction(AND, [self.junction(OR, pos), self.junction(OR, negs)])
             return self.junction(OR, [self.junction(AND, pos), self.junction(AND, negs)])
-        if isinstance(f, LTLfNext | LTLfWeakNext):
-            kind = NEXT if isinstance(f, LTLfNext) != neg else WNEXT
+        if isinstance(f, ltlf.LTLfNext | ltlf.LTLfWeakNext):
+            kind = NEXT if isinstance(f, ltlf.LTLfNext) != neg else WNEXT
             return self.unary(kind, self.nnf(f.f, neg))
-        if isinstance(f, LTLfEventually | LTLfAlways):
-            kind = EVENTUALLY if isinstance(f, LTLfEventually) != neg else ALWAYS
+        if isinstance(f, ltlf.LTLfEventually | ltlf.LTLfAlways):
+            kind = EVENTUALLY if isinstance(f, ltlf.LTLfEventually) != neg else ALWAYS
             return self.unary(kind, self.nnf(f.f, neg))
-        if isinstance(f, LTLfUntil | LTLfRelease):
-            kind = UNTIL if isinstance(f, LTLfUntil) != neg else RELEASE
+        if isinstance(f, ltlf.LTLfUntil | ltlf.LTLfRelease):
+            kind = UNTIL if isinstance(f, ltlf.LTLfUntil) != neg else RELEASE
             operands = [self.nnf(g, neg) for g in f.formulas]
             right = operands[-1]
             for left in reversed(operands[:-1]):
@@ -253,7 +253,7 @@ class _Nodes:
             return right
         raise TypeError(f"no progression for {type(f).__name__}")
 
-    def _implies(self, operands: list[LTLfFormula], neg: bool) -> int:
+    def _implies(self, operands: list[ltlf.LTLfFormula], neg: bool) -> int:
         """`a -> b -> c` is `(a -> b) -> c`, i.e. `!(a -> b) | c`."""
         if len(operands) == 1:
             return self.nnf(operands[0], neg)

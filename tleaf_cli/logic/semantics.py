@@ -13,15 +13,13 @@ from __future__ import annotations
 from collections.abc import Collection, Sequence
 
 from tleaf_cli.errors import InputError
+from tleaf_cli.logic import ltlf_nodes as ltlf
 from tleaf_cli.logic.formulas import check_depth
-
-# ruff: noqa: F405  (the node classes come from the star import below)
-from tleaf_cli.logic.ltlf_nodes import *  # noqa: F403  (ltlf2dfa's 16 node classes)
 
 Trace = Sequence[Collection[str]]
 
 
-def satisfies(trace: Trace, formula: LTLfFormula) -> bool:
+def satisfies(trace: Trace, formula: ltlf.LTLfFormula) -> bool:
     """True when the non-empty `trace` satisfies `formula` at its first position.
 
     FormulaSyntaxError for a formula nested too deeply to evaluate (the walk recurses)."""
@@ -31,51 +29,51 @@ def satisfies(trace: Trace, formula: LTLfFormula) -> bool:
     return _eval(formula, trace)[0]
 
 
-def _eval(f: LTLfFormula, w: Trace) -> list[bool]:
+def _eval(f: ltlf.LTLfFormula, w: Trace) -> list[bool]:
     n = len(w)
-    # LTLfTrue/LTLfFalse subclass LTLfAtomic, so they are tested first.
-    if isinstance(f, LTLfTrue):
+    # ltlf.LTLfTrue/ltlf.LTLfFalse subclass ltlf.LTLfAtomic, so they are tested first.
+    if isinstance(f, ltlf.LTLfTrue):
         return [True] * n
-    if isinstance(f, LTLfFalse):
+    if isinstance(f, ltlf.LTLfFalse):
         return [False] * n
-    if isinstance(f, LTLfAtomic):
+    if isinstance(f, ltlf.LTLfAtomic):
         name = str(f.s)
         return [name in letter for letter in w]
-    if isinstance(f, LTLfLast):
+    if isinstance(f, ltlf.LTLfLast):
         return [i == n - 1 for i in range(n)]
-    if isinstance(f, LTLfNot):
+    if isinstance(f, ltlf.LTLfNot):
         return [not v for v in _eval(f.f, w)]
-    if isinstance(f, LTLfAnd):
+    if isinstance(f, ltlf.LTLfAnd):
         parts = [_eval(g, w) for g in f.formulas]
         return [all(col) for col in zip(*parts, strict=True)]
-    if isinstance(f, LTLfOr):
+    if isinstance(f, ltlf.LTLfOr):
         parts = [_eval(g, w) for g in f.formulas]
         return [any(col) for col in zip(*parts, strict=True)]
-    if isinstance(f, LTLfImplies):
+    if isinstance(f, ltlf.LTLfImplies):
         acc = _eval(f.formulas[0], w)
         for g in f.formulas[1:]:
             acc = [(not a) or b for a, b in zip(acc, _eval(g, w), strict=True)]
         return acc
-    if isinstance(f, LTLfEquivalence):
+    if isinstance(f, ltlf.LTLfEquivalence):
         parts = [_eval(g, w) for g in f.formulas]
         return [all(col) or not any(col) for col in zip(*parts, strict=True)]
-    if isinstance(f, LTLfNext):
+    if isinstance(f, ltlf.LTLfNext):
         sub = _eval(f.f, w)
         return [i + 1 < n and sub[i + 1] for i in range(n)]
-    if isinstance(f, LTLfWeakNext):
+    if isinstance(f, ltlf.LTLfWeakNext):
         sub = _eval(f.f, w)
         return [i + 1 >= n or sub[i + 1] for i in range(n)]
-    if isinstance(f, LTLfEventually):
+    if isinstance(f, ltlf.LTLfEventually):
         return _backward(_eval(f.f, w), lambda now, later: now or later, end=False)
-    if isinstance(f, LTLfAlways):
+    if isinstance(f, ltlf.LTLfAlways):
         return _backward(_eval(f.f, w), lambda now, later: now and later, end=True)
-    if isinstance(f, LTLfUntil):
+    if isinstance(f, ltlf.LTLfUntil):
         right = _eval(f.formulas[-1], w)
         for g in reversed(f.formulas[:-1]):
             left = _eval(g, w)
             right = _until(left, right)
         return right
-    if isinstance(f, LTLfRelease):
+    if isinstance(f, ltlf.LTLfRelease):
         right = _eval(f.formulas[-1], w)
         for g in reversed(f.formulas[:-1]):
             left = _eval(g, w)
