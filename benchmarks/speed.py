@@ -18,6 +18,10 @@ set from its labels (fixed for the run) instead of from the model's predictions 
 every batch). Prints a markdown table: seconds per epoch for each tree and device, and the
 baseline / this-tree ratio; for the action recogniser also each loss against `none`
 (`--embedders-only`: q_e and q_m alone).
+
+Each tree's commands run `python -P` with the tree first on PYTHONPATH, and before anything
+runs the script checks that each tree's commands import that tree's own tleaf_cli: a baseline
+that resolved to the checkout's package would time the code against itself.
 """
 
 from __future__ import annotations
@@ -41,14 +45,16 @@ NA = float("nan")  # a run that failed: "n/a" in the tables
 
 
 def tleaf(tree: Path, *args: str) -> None:
-    """`tleaf args` with the package of `tree`, one torch thread. Run from `tree` (`python -c`
-    puts the working directory first on sys.path, before PYTHONPATH)."""
-    subprocess.run(
-        [sys.executable, "-c", "from tleaf_cli.cli import main; main()", *args, "-q"],
-        check=True,
-        env=tree_env(tree),
-        cwd=tree,
-    )
+    """`tleaf args` with the package of `tree`, one torch thread."""
+    subprocess.run([*command(*args), "-q"], check=True, env=tree_env(tree), cwd=tree)
+
+
+def command(*args: str) -> list[str]:
+    """The tleaf command line for a tree's environment (`tree_env`). `python -P`: no working
+    directory or script folder first on sys.path, so the package imported is the one first on
+    PYTHONPATH, the tree's, wherever the command runs (a checkout's own package, found first
+    from its folder, would time the checkout against itself)."""
+    return [sys.executable, "-P", "-c", "from tleaf_cli.cli import main; main()", *args]
 
 
 def tree_env(tree: Path) -> dict[str, str]:
@@ -56,6 +62,24 @@ def tree_env(tree: Path) -> dict[str, str]:
     caller put there, e.g. wheels unpacked on a device machine), one torch thread."""
     path = os.pathsep.join(p for p in (str(tree), os.environ.get("PYTHONPATH", "")) if p)
     return {**os.environ, "PYTHONPATH": path, "OMP_NUM_THREADS": "1"}
+
+
+def package_of(tree: Path) -> Path | None:
+    """Where `tree`'s commands import tleaf_cli from (None: they cannot import it)."""
+    done = subprocess.run(
+        [sys.executable, "-P", "-c", "import tleaf_cli; print(tleaf_cli.__file__)"],
+        env=tree_env(tree), cwd=ROOT, capture_output=True, text=True,
+    )  # fmt: skip
+    return Path(done.stdout.strip()).resolve() if done.returncode == 0 else None
+
+
+def check_tree(tree: Path) -> None:
+    """Exit unless `tree`'s commands import the tree's own tleaf_cli."""
+    where = package_of(tree)
+    if where is None:
+        sys.exit(f"error: {tree}: its commands cannot import tleaf_cli")
+    if not where.is_relative_to(tree.resolve()):
+        sys.exit(f"error: {tree}: its commands would import tleaf_cli from {where.parent}")
 
 
 def epoch_seconds(run: Path) -> float:
@@ -121,9 +145,7 @@ def prepare(data: Path, tree: Path, formulas: int) -> None:
         tleaf(tree, "compile-dfa", str(ar / "kb.ltl"), "--one-hot", "-o", str(ar / "rules.parquet"))
         subprocess.run(  # exit 1: some rule set is short of traces; the others are written
             [
-                sys.executable,
-                "-c",
-                "from tleaf_cli.cli import main; main()",
+                *command(),
                 "gen-traces",
                 str(ar / "kb" / "dfas.parquet"),
                 "--once-each",
@@ -320,9 +342,11 @@ def main() -> None:
 
         devices = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
     out = args.out.resolve()
-    prepare(out / "data", args.this.resolve(), args.formulas)
     trees = [("this", args.this.resolve())]
     trees += [("baseline", args.baseline.resolve())] if args.baseline else []
+    for _, tree in trees:
+        check_tree(tree)
+    prepare(out / "data", args.this.resolve(), args.formulas)
     runs: dict[tuple[str, str], list[dict[str, float]]] = {}
     for _ in range(args.repeat):
         for device in devices:
