@@ -24,9 +24,8 @@ from tleaf_cli.cli.runs import (
     EmbedderOption,
     Reference,
     RunOut,
-    print_choice,
-    run_printers,
-    warn_replacing,
+    refuse_unused_lambda,
+    train_printing,
 )
 from tleaf_cli.settings.action_recognition import ReportSettings, TaskSettings
 
@@ -62,19 +61,13 @@ def train_task_action_recognition(
     settings = TaskSettings.preset(preset, **given(ctx, values))
     if settings.decode != "constrained":
         refuse(given_flags(ctx, "decode_top_k"), "only with --decode constrained")
-    if settings.logic_loss == "none" and settings.unlabelled_loss == "logic":  # λ weighs nothing
-        refuse(
-            given_flags(ctx, "lam", "lambdas"),
-            "only with a logic loss or self-training (--unlabelled-loss), not --logic-loss none",
-        )
-    warn_replacing(out, resume, quiet)
+    why = "only with a logic loss or self-training (--unlabelled-loss), not --logic-loss none"
+    refuse_unused_lambda(ctx, settings, why)
     title = f"training h ({settings.model}, {settings.logic_loss})"
-    with run_printers(title, settings.epochs, quiet) as (on_setup, on_epoch):
-        metrics = train_action_recognition(
-            activities, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup,
-            reference=reference,
-        )  # fmt: skip
-    print_choice(metrics, quiet)
+    metrics = train_printing(
+        train_action_recognition, (activities, kb, embedder), out, settings, title,
+        resume=resume, reference=reference, quiet=quiet,
+    )  # fmt: skip
     test = metrics["test"]
     ui.summary(
         f"{out}: test action {100 * test['action_accuracy']:.2f}%, ingredient "

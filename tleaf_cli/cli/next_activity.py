@@ -14,9 +14,8 @@ from tleaf_cli.cli.runs import (
     EmbedderOption,
     Reference,
     RunOut,
-    print_choice,
-    run_printers,
-    warn_replacing,
+    refuse_unused_lambda,
+    train_printing,
 )
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings
 
@@ -55,20 +54,16 @@ def train_task_next_activity(
 
     targets([cases, kb, embedder, reference], folders=[out])
     settings = NextActivitySettings.preset(preset, **given(ctx, values))
+    refuse_unused_lambda(ctx, settings, "only with a logic loss, not --logic-loss none")
     if settings.logic_loss == "none":
-        refuse(given_flags(ctx, "lam", "lambdas"), "only with a logic loss, not --logic-loss none")
         refuse(["--kb"] if kb is not None else [], "only with a logic loss, not --logic-loss none")
     if settings.logic_loss != "tleaf":
         refuse(["--embedder"] if embedder is not None else [], "only with --logic-loss tleaf")
-
-    warn_replacing(out, resume, quiet)
     title = f"training next-activity ({settings.logic_loss})"
-    with run_printers(title, settings.epochs, quiet) as (on_setup, on_epoch):
-        metrics = train_next_activity(
-            cases, kb, embedder, out, settings, on_epoch, resume=resume, on_setup=on_setup,
-            reference=reference,
-        )  # fmt: skip
-    print_choice(metrics, quiet)
+    metrics = train_printing(
+        train_next_activity, (cases, kb, embedder), out, settings, title,
+        resume=resume, reference=reference, quiet=quiet,
+    )  # fmt: skip
     test = metrics["test"]
     ui.summary(
         f"{out}: test next-activity accuracy {100 * test['accuracy']:.2f}% over "

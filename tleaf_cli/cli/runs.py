@@ -64,6 +64,38 @@ def run_printers(title: str, epochs: int, quiet: bool) -> Iterator[tuple[Callabl
         yield on_setup, on_epoch
 
 
+def train_printing(
+    train: Callable[..., dict[str, Any]],
+    inputs: tuple,
+    out: Path,
+    settings: Any,
+    title: str,
+    *,
+    resume: bool,
+    reference: Path | None,
+    quiet: bool,
+) -> dict[str, Any]:
+    """`train(*inputs, out, settings, on_epoch, resume=, on_setup=, reference=)` (a task's
+    trainer) with its progress printed: a warning before a finished run is replaced, the λ, a
+    line per epoch, the λ chosen on validation. Its metrics."""
+    warn_replacing(out, resume, quiet)
+    with run_printers(title, settings.epochs, quiet) as (on_setup, on_epoch):
+        metrics = train(
+            *inputs, out, settings, on_epoch, resume=resume, on_setup=on_setup,
+            reference=reference,
+        )  # fmt: skip
+    print_choice(metrics, quiet)
+    return metrics
+
+
+def refuse_unused_lambda(ctx: typer.Context, settings: Any, why: str) -> None:
+    """Refuse --lambda and --lambdas where nothing is weighed by λ (`why`: what would be)."""
+    from tleaf_cli.cli.common import given_flags, refuse
+
+    if not settings.uses_lambda:
+        refuse(given_flags(ctx, "lam", "lambdas"), why)
+
+
 def print_choice(metrics: dict[str, Any], quiet: bool) -> None:
     """The λ chosen on validation, with every candidate's val score (runs with --lambdas)."""
     from tleaf_cli.training.lambdas import LambdaChoice
