@@ -185,3 +185,19 @@ def test_a_finished_step_says_what_it_found(tmp_path: Path) -> None:
     assert say("rm/Helpdesk/fold0/eval-exact") == (
         "rm/Helpdesk/fold0/eval-exact: test accuracy 80.00 %, under the rules 81.00 %\n"
     )
+
+
+def test_the_suffix_goals_count_the_pipeline_logs(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    row = {"cases": 10, "argmax": {"dl_similarity": 0.5}, "beam": {"dl_similarity": 0.6},
+           "rules": {"dl_similarity": 0.7, "satisfying": 1.0, "not_found": 0}}  # fmt: skip
+    for log in ("helpdesk", "mylog"):
+        for name in ("eval-none-strong", "eval-none-strong-mined"):
+            (out / "df" / log / name).mkdir(parents=True)
+            metrics = {"accuracy": {"accuracy": 0.5}, "suffix": {"2": row}, "scored_cases": 10}
+            (out / "df" / log / name / "metrics.json").write_text(json.dumps(metrics))
+    text = report(out, tmp_path / "page.md", tmp_path / "runs.json", "--df-all", "helpdesk bpi_11")
+    assert "| mylog | strong | 2 | 10 |" in text  # shown, not counted
+    assert "satisfying: 1 of 1 cells (goal: every cell)" in text
+    assert "1 of 1 logs run (goal: all of the pipeline's 2)" in text
+    assert "not counted above (not among the pipeline's logs): mylog." in text
