@@ -14,7 +14,6 @@ from tleaf_cli.data.captaincook import (
     Recording,
     load_recordings,
     read_recordings,
-    recording_rows,
     write_recordings,
 )
 from tleaf_cli.data.case_readers import CaseReader
@@ -108,7 +107,11 @@ def test_rows_in_time_order_with_errors_and_splits(folder: Path, tmp_path: Path)
     two = rows["1_2"]
     assert two.split == "none" and two.step_ids == (2,) and two.skipped_step_ids == (3,)
     assert two.error_categories == ("Missing Step",)
-    assert recording_rows(out)[0]["step_error_categories"] == [[], ["Timing Error"], []]
+    assert load_recordings(out).cases[0].row()["step_error_categories"] == [
+        [],
+        ["Timing Error"],
+        [],
+    ]
     assert report.skips.skipped == {
         "recordings without steps": 1,
         "steps with an unknown step_id": 1,

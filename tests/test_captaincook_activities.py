@@ -11,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from tleaf_cli.cli import app
-from tleaf_cli.data.captaincook import load_recordings, recording_rows
+from tleaf_cli.data.captaincook import load_recordings
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.knowledge.task_graphs import graph_files, read_task_graph
 from tleaf_cli.tasks.action_recognition.activities import read_activities
@@ -43,29 +43,29 @@ def converted(tmp_path_factory) -> dict[str, Path]:
 
 
 def test_every_recording_keeps_its_steps_order_and_split(converted) -> None:
-    rows = recording_rows(converted["recordings"])
+    rows = load_recordings(converted["recordings"]).cases
     data = read_activities(converted["activities"])
     graphs = {g.recipe: g for g in map(read_task_graph, graph_files(DATA / "task_graphs"))}
     videos = {v.video_id: v for v in data.videos}
     assert len(videos) == len(rows) == 384
-    assert [v.video_id for v in data.videos] == [r["recording_id"] for r in interleaved(rows)]
+    assert [v.video_id for v in data.videos] == [r.recording_id for r in interleaved(rows)]
     for row in rows:
-        video = videos[row["recording_id"]]
-        assert video.split == row["split"]
-        names = step_names(graphs[row["recipe"]])
-        expected = [names.get(a, "u") for a in row["atoms"]]
+        video = videos[row.recording_id]
+        assert video.split == row.split
+        names = step_names(graphs[row.recipe])
+        expected = [names.get(a, "u") for a in row.atoms]
         got = data.atoms(video)
         assert len(got) == len(expected)
         for step, want in zip(got, expected, strict=True):
-            assert step.endswith(f"_{row['recipe']}")
+            assert step.endswith(f"_{row.recipe}")
             assert (want == "u" and step.startswith("u")) or step == want
     assert data.feature_dim == 32 and all(np.isfinite(v.features).all() for v in data.videos)
 
 
 def test_the_first_train_recordings_span_the_recipes(converted) -> None:
     train = read_activities(converted["activities"]).split("train")
-    recipes = {v.video_id: r["recipe"] for r in recording_rows(converted["recordings"])
-               for v in train if v.video_id == r["recording_id"]}  # fmt: skip
+    recipes = {v.video_id: r.recipe for r in load_recordings(converted["recordings"]).cases
+               for v in train if v.video_id == r.recording_id}  # fmt: skip
     assert len({recipes[v.video_id] for v in train[:24]}) >= 20
 
 
@@ -89,12 +89,12 @@ def test_the_step_rules_break_where_the_text_rules_do(converted, tmp_path) -> No
 def test_longer_steps_get_less_noise(converted) -> None:
     """A step's feature averages its frames: its distance to the class mean shrinks with its
     duration (the same step class, drawn many times)."""
-    rows = {r["recording_id"]: r for r in recording_rows(converted["recordings"])}
+    rows = {r.recording_id: r for r in load_recordings(converted["recordings"]).cases}
     data = read_activities(converted["activities"])
     spread: dict[str, list[tuple[float, np.ndarray]]] = {}
     for v in data.videos:
         row = rows[v.video_id]
-        for atom, f, s, e in zip(data.atoms(v), v.features, row["start_s"], row["end_s"],
+        for atom, f, s, e in zip(data.atoms(v), v.features, row.start_s, row.end_s,
                                  strict=True):  # fmt: skip
             spread.setdefault(atom, []).append((e - s, f))
     short, long = [], []

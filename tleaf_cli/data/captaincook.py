@@ -354,9 +354,3 @@ def load_recordings(path: str | os.PathLike) -> Cases[Recording]:
     recordings = [Recording.of(**row) for row in table.to_pylist()]
     atoms = {a: t for r in recordings for a, t in zip(r.activities, r.atoms, strict=True)}
     return Cases(recordings, atoms, str(path), prov.params, SkipReport.from_params(prov.params))
-
-
-def recording_rows(path: str | os.PathLike) -> list[dict[str, Any]]:
-    """A `recordings` artifact's rows as dicts of its columns: for code that reads the columns
-    by name (tasks/step_recognition/activities.py); `load_recordings` gives `Recording`s."""
-    return [r.row() for r in load_recordings(path).cases]

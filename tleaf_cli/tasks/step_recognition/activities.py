@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from tleaf_cli.data.artifacts import check_writable, describe_inputs, write_artifact
-from tleaf_cli.data.captaincook import recording_rows as load_recordings
+from tleaf_cli.data.captaincook import Recording, load_recordings
 from tleaf_cli.data.traces import SPLITS
 from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge.base import KnowledgeBase, Rule, write_knowledge_base
@@ -109,12 +109,12 @@ def class_means(
     return dict(zip(steps, rng.standard_normal((len(steps), features.feature_dim)), strict=True))
 
 
-def interleaved(rows: Sequence[dict]) -> list[dict]:
+def interleaved(rows: Sequence[Recording]) -> list[Recording]:
     """Rows interleaved by recipe: every recipe's first row (recipes in order of first
     appearance), then every recipe's second, ..."""
-    by_recipe: dict[str, list[dict]] = {}
+    by_recipe: dict[str, list[Recording]] = {}
     for row in rows:
-        by_recipe.setdefault(row["recipe"], []).append(row)
+        by_recipe.setdefault(row.recipe, []).append(row)
     rounds = max((len(v) for v in by_recipe.values()), default=0)
     return [v[i] for i in range(rounds) for v in by_recipe.values() if i < len(v)]
 
@@ -136,7 +136,7 @@ def recording_activities(
     features.check()
     for target in (out, kb_out):
         check_writable(target)
-    rows = load_recordings(recordings)
+    rows = load_recordings(recordings).cases
     read = [read_task_graph(p) for p in graph_files(graphs)]
     by_recipe = {g.recipe: g for g in read}
     names = {g.recipe: step_names(g) for g in read}
@@ -144,12 +144,12 @@ def recording_activities(
     report = ConversionReport()
     kept = []
     for row in interleaved(rows):
-        if row["recipe"] not in by_recipe:
+        if row.recipe not in by_recipe:
             report.skipped["no graph"] += 1
-        elif row["split"] not in SPLITS:
+        elif row.split not in SPLITS:
             report.skipped["no split"] += 1
         else:
-            kept.append((row, _step_atoms(row, names[row["recipe"]], report)))
+            kept.append((row, _step_atoms(row, names[row.recipe], report)))
     if not kept:
         raise InputError(f"{recordings}: no recording of a recipe in {graphs} has a split")
     for recipe, unknown in report.not_in_graph.items():
@@ -160,8 +160,8 @@ def recording_activities(
     columns: dict[str, list] = {k: [] for k in ("ids", "steps", "actions", "ingredients", "splits")}
     drawn: list[np.ndarray] = []
     for row, text_atoms in kept:
-        step_atoms = [names[row["recipe"]].get(a, a) for a in text_atoms]
-        seconds = np.subtract(row["end_s"], row["start_s"])
+        step_atoms = [names[row.recipe].get(a, a) for a in text_atoms]
+        seconds = np.subtract(row.end_s, row.start_s)
         frames = np.maximum(1, np.round(seconds / features.frame_seconds))
         noise = rng.standard_normal((len(step_atoms), features.feature_dim))
         drawn.append(
@@ -173,15 +173,15 @@ def recording_activities(
             columns["actions"].append(action)
             columns["ingredients"].append(ingredient)
             columns["steps"].append(k)
-            columns["ids"].append(row["recording_id"])
-            columns["splits"].append(row["split"])
-        report.videos[row["split"]] = report.videos.get(row["split"], 0) + 1
+            columns["ids"].append(row.recording_id)
+            columns["splits"].append(row.split)
+        report.videos[row.split] = report.videos.get(row.split, 0) + 1
         report.steps += len(step_atoms)
     kb = KnowledgeBase(
         tuple(
             r
             for g in read
-            if g.recipe in {row["recipe"] for row in rows}
+            if g.recipe in {row.recipe for row in rows}
             for r in step_rules(g, names[g.recipe], at_most_once, last_step_ends)
         )
     )
@@ -223,17 +223,17 @@ def recording_activities(
     return report
 
 
-def _step_atoms(row: dict, names: dict[str, str], report: ConversionReport) -> list[str]:
+def _step_atoms(row: Recording, names: dict[str, str], report: ConversionReport) -> list[str]:
     """The recording's steps as step atoms, in its order; a step that is not a node of its
     recipe's graph (two in CaptainCook4D) is `u<k>_<recipe>`, k numbering those texts of the
     recipe in sorted order (no rule names it), and counted."""
     out = []
-    for text_atom in row["atoms"]:
+    for text_atom in row.atoms:
         if text_atom not in names:
-            unknown = report.not_in_graph.setdefault(row["recipe"], {})
+            unknown = report.not_in_graph.setdefault(row.recipe, {})
             unknown[text_atom] = ""
             for k, t in enumerate(sorted(unknown), 1):
-                unknown[t] = f"u{k}_{row['recipe']}"
+                unknown[t] = f"u{k}_{row.recipe}"
         out.append(text_atom)  # a step atom once every recording is read
     return out
 
