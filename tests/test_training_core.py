@@ -224,3 +224,21 @@ def test_a_new_run_over_a_finished_one_says_so(log, tmp_path) -> None:
     assert tleaf("train-task", "next-activity", data, *SMALL_FLAGS[:-1], "-o", out).exit_code == 0
     again = tleaf("train-task", "next-activity", data, *SMALL_FLAGS[:-1], "-o", out)
     assert again.exit_code == 0 and "replaces it" in again.output
+
+
+def test_eval_counts_the_predictions_the_rules_changed(log, tmp_path) -> None:
+    """Equal accuracies under the rules and without did not show whether any prediction
+    changed; eval now counts them."""
+    data, kb = log
+    run = tmp_path / "run"
+    settings = NextActivitySettings(epochs=8, hidden=16, layers=1, lr=1e-2)
+    train_next_activity(data, None, None, run, settings)
+    # half the cases end without d: the model predicts their end, which these rules forbid
+    rules = tmp_path / "some_d.ltl"
+    rules.write_text("eventually_d: F(d)\n")
+    result = tleaf("eval", "next-activity", run, data, "--rules", rules, "-o", tmp_path / "e")
+    assert result.exit_code == 0 and "under other rules" in result.output, result.output
+    accuracy = json.loads((tmp_path / "e" / "metrics.json").read_text())["accuracy"]
+    assert accuracy["changed_by_rules"] > 0
+    same = tleaf("eval", "next-activity", run, data, "--rules", kb, "-o", tmp_path / "f")
+    assert same.exit_code == 0, same.output

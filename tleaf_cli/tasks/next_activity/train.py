@@ -210,7 +210,7 @@ def accuracy(
     """Next-activity accuracy pooled over every prefix of length ≥ 1 of `cases` (the end of case
     a target), and its parts: on activities and on the end. With `rules`, also
     `accuracy_rules`: each prediction the most probable token that keeps the rules
-    satisfiable (`allowed_next`)."""
+    satisfiable (`allowed_next`), and `changed_by_rules`: how many predictions that changed."""
     log_probs = step_log_probs(model, encoder, cases, batch_size, device, cache)
     targets = [encoder.targets(c) for c in cases]
     hits = np.concatenate([p.argmax(-1) == t for p, t in zip(log_probs, targets, strict=True)])
@@ -223,9 +223,15 @@ def accuracy(
         "accuracy_end": float(hits[ends].mean()),
     }
     if rules is not None:
-        masked = [
-            np.where(allowed_next(rules, encoder.indices(c)), p, -np.inf).argmax(-1) == t
-            for c, p, t in zip(cases, log_probs, targets, strict=True)
+        under = [
+            np.where(allowed_next(rules, encoder.indices(c)), p, -np.inf).argmax(-1)
+            for c, p in zip(cases, log_probs, strict=True)
         ]
-        out["accuracy_rules"] = float(np.concatenate(masked).mean())
+        out["accuracy_rules"] = float(
+            np.concatenate([u == t for u, t in zip(under, targets, strict=True)]).mean()
+        )
+        # equal accuracies do not show that the rules changed nothing: count the changes
+        out["changed_by_rules"] = int(
+            sum((u != p.argmax(-1)).sum() for u, p in zip(under, log_probs, strict=True))
+        )
     return out
