@@ -152,14 +152,14 @@ def test_a_run_whose_inputs_changed_is_refused(runs: dict[str, Path], tmp_path: 
     shutil.copytree(runs["none"], moved)
     config = json.loads((moved / "config.json").read_text())
     kb = tmp_path / "kb.ltl"
-    kb.write_text(Path(config["inputs"][1]["path"]).read_text() + "\n")  # other bytes
-    config["inputs"][1]["path"] = str(kb)
+    kb.write_text(Path(config["trained_on"]["kb"]["path"]).read_text() + "\n")  # other bytes
+    config["trained_on"]["kb"]["path"] = str(kb)
     (moved / "config.json").write_text(json.dumps(config))
     with pytest.raises(InputError, match=re.escape(f"{moved}: its knowledge base ") + ".* changed"):
         violation_report([moved], tmp_path / "out")
 
     (moved / "weights.pt").write_bytes(b"not weights")
-    config["inputs"][1]["path"] = str(runs["none"].parent / "kb.ltl")
+    config["trained_on"]["kb"]["path"] = str(runs["none"].parent / "kb.ltl")
     (moved / "config.json").write_text(json.dumps(config))
     with pytest.raises(InputError, match=re.escape(f"{moved}: weights.pt does not load")):
         violation_report([moved], tmp_path / "out")
