@@ -10,7 +10,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).parent.parent / "tleaf_cli"
 CLI = PACKAGE / "cli"
 # Inside the cli package, what each kind of module may import of it.
-SHARED = {"options", "formatting", "common"}
+SHARED = {"options", "formatting", "common", "runs"}
 
 
 def _imports(path: Path) -> set[str]:

@@ -17,6 +17,7 @@ from tleaf_cli.cli.common import (
     given_flags,
     preset_option,
     refuse,
+    refuse_unused_lambda,
     targets,
 )
 from tleaf_cli.cli.options import TASK, given, setting_option, with_settings
@@ -24,7 +25,6 @@ from tleaf_cli.cli.runs import (
     EmbedderOption,
     Reference,
     RunOut,
-    refuse_unused_lambda,
     train_printing,
 )
 from tleaf_cli.settings.action_recognition import ReportSettings, TaskSettings

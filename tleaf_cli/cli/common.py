@@ -134,6 +134,12 @@ def refuse(given: list[str], reason: str) -> None:
         raise InputError(f"{', '.join(given)}: {reason}")
 
 
+def refuse_unused_lambda(ctx: typer.Context, settings: Any, why: str) -> None:
+    """Refuse --lambda and --lambdas where nothing is weighed by λ (`why`: what would be)."""
+    if not settings.uses_lambda:
+        refuse(given_flags(ctx, "lam", "lambdas"), why)
+
+
 def finish(failures: list[tuple[str, str]], summary: str, quiet: bool) -> None:
     """One stderr line per failure, the summary line, and exit status 1 if anything failed."""
     ui.failures(failures)

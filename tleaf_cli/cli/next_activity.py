@@ -8,13 +8,21 @@ from typing import Annotated
 import typer
 
 from tleaf_cli import ui
-from tleaf_cli.cli.common import Quiet, Resume, exits, given_flags, preset_option, refuse, targets
+from tleaf_cli.cli.common import (
+    Quiet,
+    Resume,
+    exits,
+    given_flags,
+    preset_option,
+    refuse,
+    refuse_unused_lambda,
+    targets,
+)
 from tleaf_cli.cli.options import NEXT, SUFFIX, given, with_settings
 from tleaf_cli.cli.runs import (
     EmbedderOption,
     Reference,
     RunOut,
-    refuse_unused_lambda,
     train_printing,
 )
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings

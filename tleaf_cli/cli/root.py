@@ -34,13 +34,12 @@ from tleaf_cli.cli.model_checking import eval_model_checking, eval_table, eval_t
 from tleaf_cli.cli.next_activity import eval_next_activity, train_task_next_activity
 from tleaf_cli.cli.procedures import (
     check_recordings,
-    eval_step_recognition,
     read_recordings,
     recipe_formulas,
-    recording_activities,
     recording_traces,
     task_graph,
 )
+from tleaf_cli.cli.step_recognition import eval_step_recognition, recording_activities
 
 app = typer.Typer(
     name="tleaf",

@@ -24,8 +24,8 @@ Reference = Annotated[
     typer.Option(
         "--reference",
         help="With --lambdas: a finished λ-0 run of the same settings and data (the "
-        "--logic-loss none run of the same seed, or another loss's lambda-choice/lambda-0), "
-        "taken as the λ-0 candidate instead of training it again.",
+        "--logic-loss none run of the same seed, or another loss's λ-0 candidate), taken as the "
+        "λ-0 candidate instead of training it again.",
     ),
 ]
 
@@ -86,14 +86,6 @@ def train_printing(
         )  # fmt: skip
     print_choice(metrics, quiet)
     return metrics
-
-
-def refuse_unused_lambda(ctx: typer.Context, settings: Any, why: str) -> None:
-    """Refuse --lambda and --lambdas where nothing is weighed by λ (`why`: what would be)."""
-    from tleaf_cli.cli.common import given_flags, refuse
-
-    if not settings.uses_lambda:
-        refuse(given_flags(ctx, "lam", "lambdas"), why)
 
 
 def print_choice(metrics: dict[str, Any], quiet: bool) -> None:
