@@ -10,6 +10,7 @@ names its activities by atoms a person can read back.
 
 from __future__ import annotations
 
+import hashlib
 import re
 import unicodedata
 from collections.abc import Iterable
@@ -61,3 +62,17 @@ def activity_atoms(names: Iterable[str]) -> dict[str, str]:
         out[name] = atom
         used.add(atom)
     return {name: out[name] for name in distinct}
+
+
+def attribute_atom(attribute: str, value: object) -> str:
+    """The atom of "this event's `attribute` is `value`" (MP-Declare's conditions, events with
+    attributes): the attribute's and the value's words joined by a double _, which no activity
+    atom holds ("org:resource", "Value 3" -> "org_resource__value_3"; "amount", 3 ->
+    "amount__3"). An event makes its activity atom and one such atom per attribute true."""
+    text = str(value)
+    value_words = activity_atom(text)
+    if value_words == _FALLBACK:  # no ASCII letter or digit ("-"): the value's bytes, hashed
+        value_words = "v" + hashlib.sha1(text.encode()).hexdigest()[:8]
+    elif text[:1].isdigit():
+        value_words = value_words[1:]  # "3" reads "a3" as an atom's start; here it follows "__"
+    return f"{activity_atom(attribute)}__{value_words}"
