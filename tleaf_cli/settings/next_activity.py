@@ -14,6 +14,7 @@ from tleaf_cli.settings import check_values, setting
 from tleaf_cli.settings.training import TrainingSettings
 
 NEXT_ACTIVITY_LOSSES = ("none", "exact", "tleaf")  # `tl.logic_loss` kinds with a gradient
+NEXT_ACTIVITY_MODELS = ("lstm", "transformer")  # model.py, transformer.py
 SCORED_CASES = ("all", "satisfying")  # eval next-activity: which test cases
 
 
@@ -29,8 +30,21 @@ class NextActivitySettings(TrainingSettings):
         "(the paper's loss: q's distance of the soft trace from the rules; needs --embedder).",
         choices=NEXT_ACTIVITY_LOSSES,
     )
-    hidden: int = setting(100, "Units of each LSTM layer (Tax et al.: 100).", min=1)
-    layers: int = setting(2, "Stacked LSTM layers (Tax et al.: one shared, one per output).", min=1)
+    model: str = setting(
+        "lstm",
+        "lstm (Tax et al.'s) or transformer (a small causal Transformer, ProcessTransformer's "
+        "size: e.g. --hidden 36 --layers 1 --heads 4).",
+        choices=NEXT_ACTIVITY_MODELS,
+    )
+    hidden: int = setting(
+        100, "Units of each LSTM layer, or the Transformer's width (Tax et al.: 100).", min=1
+    )
+    layers: int = setting(
+        2,
+        "Stacked LSTM layers (Tax et al.: one shared, one per output) or Transformer blocks.",
+        min=1,
+    )
+    heads: int = setting(4, "Attention heads of each Transformer block (transformer).", min=1)
     dropout: float = setting(0.2, "Dropout between the layers (Tax et al.: 0.2).")
     max_events: int | None = setting(
         1000,
@@ -56,6 +70,11 @@ class NextActivitySettings(TrainingSettings):
         super().check()
         if not 0 <= self.dropout < 1:
             raise SettingError("dropout", f"must be in [0, 1), not {self.dropout}")
+        if self.model == "transformer" and self.hidden % self.heads:
+            raise SettingError(
+                "hidden",
+                f"the Transformer's width {self.hidden} is not a multiple of {self.heads} heads",
+            )
 
 
 @dataclass(frozen=True)

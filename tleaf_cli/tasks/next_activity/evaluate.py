@@ -37,7 +37,7 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
-from tleaf_cli.tasks.next_activity.model import NextActivityLSTM
+from tleaf_cli.tasks.next_activity.model import NextActivityModel
 from tleaf_cli.tasks.next_activity.rules import Rules, read_rules
 from tleaf_cli.tasks.next_activity.similarity import dl_similarity
 from tleaf_cli.tasks.next_activity.suffix_search import Rows, SearchStats, predict_suffixes
@@ -47,7 +47,7 @@ from tleaf_cli.training.run_folder import read_run_config, recorded_input
 CHUNK = 1024  # rows per model forward in the suffix search
 
 
-def load_run(run_dir: str | Path) -> tuple[NextActivityLSTM, Encoder, NextActivitySettings]:
+def load_run(run_dir: str | Path) -> tuple[NextActivityModel, Encoder, NextActivitySettings]:
     """A train-task next-activity folder's best model (eval mode, CPU), encoder and settings;
     InputError naming the file when the folder is not such a run."""
     model, encoder, settings, _ = _load_run(run_dir)
@@ -56,7 +56,7 @@ def load_run(run_dir: str | Path) -> tuple[NextActivityLSTM, Encoder, NextActivi
 
 def _load_run(
     run_dir: str | Path,
-) -> tuple[NextActivityLSTM, Encoder, NextActivitySettings, dict]:
+) -> tuple[NextActivityModel, Encoder, NextActivitySettings, dict]:
     """`load_run`'s model, encoder and settings, and the run's config.json."""
     run_dir = Path(run_dir)
     weights_path = run_dir / "weights.pt"
@@ -205,7 +205,7 @@ def evaluate_next_activity(
 
 
 def suffix_scores(
-    model: NextActivityLSTM,
+    model: NextActivityModel,
     encoder: Encoder,
     cases: Sequence[Case],
     k: int,
@@ -250,7 +250,7 @@ def suffix_scores(
 
 
 def next_log_probs(
-    model: NextActivityLSTM, encoder: Encoder, stamps: Sequence[Sequence]
+    model: NextActivityModel, encoder: Encoder, stamps: Sequence[Sequence]
 ) -> Callable[[Rows], np.ndarray]:
     """The suffix search's model: log-probabilities [N, V + 1] of the token after each row, a
     row's times those of its prefix (`stamps[owner]`), the appended events' placed by the

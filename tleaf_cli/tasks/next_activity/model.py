@@ -14,6 +14,8 @@ import torch
 from torch import nn
 from torch.nn.utils.rnn import pack_padded_sequence, pad_packed_sequence
 
+from tleaf_cli.tasks.next_activity.transformer import NextActivityTransformer
+
 
 class NextActivityLSTM(nn.Module):
     """(activities [B, T] long, times [B, T, F], lengths [B]) -> logits [B, T, V + 1].
@@ -50,3 +52,7 @@ class NextActivityLSTM(nn.Module):
         h, _ = self.lstm(packed)
         h, _ = pad_packed_sequence(h, batch_first=True, total_length=x.shape[1])
         return self.out(self.dropout(h))
+
+
+# Every next-activity model: the same inputs, the same logits [B, T, V + 1] (settings' `model`)
+NextActivityModel = NextActivityLSTM | NextActivityTransformer

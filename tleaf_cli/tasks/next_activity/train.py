@@ -30,9 +30,10 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings
 from tleaf_cli.tasks.next_activity.batch import PAD, CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import TIME_FEATURES, Encoder
-from tleaf_cli.tasks.next_activity.model import NextActivityLSTM
+from tleaf_cli.tasks.next_activity.model import NextActivityLSTM, NextActivityModel
 from tleaf_cli.tasks.next_activity.objective import logic_term
 from tleaf_cli.tasks.next_activity.rules import Rules, allowed_next, read_rules
+from tleaf_cli.tasks.next_activity.transformer import NextActivityTransformer
 from tleaf_cli.training.loop import Step, chunks
 from tleaf_cli.training.task import EpochRecord, LossSetup, RunInputs, TaskTrainer, train_task
 
@@ -40,8 +41,9 @@ __all__ = ["EpochRecord", "NextActivityTrainer", "train_next_activity"]
 
 
 class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
-    """Tax et al.'s LSTM on a cases artifact's train split, scored on val and test by
-    next-activity accuracy pooled over prefixes."""
+    """The next-activity model (Tax et al.'s LSTM, or a small causal Transformer) on a cases
+    artifact's train split, scored on val and test by next-activity accuracy pooled over
+    prefixes."""
 
     kind = "next-activity"
     task = "next-activity"
@@ -89,7 +91,7 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         self.embedder.model.to(self.device)
         return LossSetup(recommended_lambda=self.embedder.recommended_lambda)
 
-    def model(self) -> NextActivityLSTM:
+    def model(self) -> NextActivityModel:
         self.net = new_model(self.encoder, self.settings).to(self.device)
         return self.net
 
@@ -170,15 +172,20 @@ def train_next_activity(
     )
 
 
-def new_model(encoder: Encoder, settings: NextActivitySettings) -> NextActivityLSTM:
-    """An untrained model of `settings`' shape over the encoder's activities."""
+def new_model(encoder: Encoder, settings: NextActivitySettings) -> NextActivityModel:
+    """An untrained model of `settings`' kind and shape over the encoder's activities."""
+    if settings.model == "transformer":
+        return NextActivityTransformer(
+            len(encoder.atoms), TIME_FEATURES, settings.hidden, settings.layers, settings.heads,
+            settings.dropout,
+        )  # fmt: skip
     return NextActivityLSTM(
         len(encoder.atoms), TIME_FEATURES, settings.hidden, settings.layers, settings.dropout
     )
 
 
 def step_log_probs(
-    model: NextActivityLSTM,
+    model: NextActivityModel,
     encoder: Encoder,
     cases: Sequence[Case],
     batch_size: int,
@@ -199,7 +206,7 @@ def step_log_probs(
 
 
 def accuracy(
-    model: NextActivityLSTM,
+    model: NextActivityModel,
     encoder: Encoder,
     cases: Sequence[Case],
     batch_size: int,
