@@ -124,7 +124,8 @@ def eval_next_activity(
 
     targets([run, cases, rules, scored_by], folders=[out])
     if values.get("prefix_lengths") is None:
-        refuse(given_flags(ctx, "beam_width", "max_suffix"), "only with --prefix-lengths")
+        flags = given_flags(ctx, "beam_width", "max_suffix", "temperature")
+        refuse(flags, "only with --prefix-lengths")
     if scored_by is None and scored_rule:
         refuse(["--scored-rule"], "only with --scored-by")
     settings = SuffixSettings(**values)
@@ -149,7 +150,7 @@ def eval_next_activity(
     for k, row in metrics["suffix"].items():
         if not row.get("cases"):
             continue
-        ways = [w for w in ("argmax", "beam", "rules") if w in row]
+        ways = [w for w, figures in row.items() if isinstance(figures, dict)]
         text = ", ".join(
             f"{w} {row[w]['dl_similarity']:.3f}"
             + (f" ({100 * row[w]['satisfying']:.0f}% satisfying)" if "satisfying" in row[w] else "")

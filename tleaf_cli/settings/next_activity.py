@@ -92,6 +92,13 @@ class SuffixSettings:
         "Suffixes predicted from the prefixes of these lengths ('2-5' or '2,3,4,5').",
         auto="none: accuracy only, no suffix prediction",
     )
+    temperature: float | None = setting(
+        None,
+        "Also sample each suffix token by token at this temperature (Mezini et al.: 0.7), "
+        "with and without the rules as a hard filter; the draws are seeded (0).",
+        min=0.0,
+        auto="none: argmax and beam only",
+    )
     scored: str = setting(
         "all",
         "The test cases scored: all, or those that satisfy --rules (Di Francescomarino et al.'s "
@@ -101,6 +108,8 @@ class SuffixSettings:
 
     def check(self) -> None:
         check_values(self)
+        if self.temperature is not None and not self.temperature > 0:
+            raise SettingError("temperature", f"must be above 0, not {self.temperature}")
         if self.prefix_lengths is not None:
             prefix_lengths(self.prefix_lengths)
 

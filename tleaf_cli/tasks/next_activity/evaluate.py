@@ -21,6 +21,7 @@ import json
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import asdict
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +41,7 @@ from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.model import NextActivityModel
 from tleaf_cli.tasks.next_activity.rules import Rules, read_rules
 from tleaf_cli.tasks.next_activity.similarity import dl_similarity
+from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
 from tleaf_cli.tasks.next_activity.suffix_search import Rows, SearchStats, predict_suffixes
 from tleaf_cli.tasks.next_activity.train import accuracy, new_model
 from tleaf_cli.training.run_folder import read_run_config, recorded_input
@@ -213,7 +215,9 @@ def suffix_scores(
     rules: Rules | None,
 ) -> dict:
     """Suffix prediction from the k-prefixes of the cases at least k long: per way (argmax,
-    beam, rules), mean DL similarity, share satisfying the rules, ms per case."""
+    beam, with a temperature sample; under rules each again with the rules a hard filter:
+    argmax_rules, rules (the beam), sample_rules), mean DL similarity, share satisfying the
+    rules, ms per case."""
     chosen = [c for c in cases if len(c) >= k]
     if not chosen:
         return {"cases": 0}
@@ -222,17 +226,22 @@ def suffix_scores(
     truth = [tuple(a[k:].tolist()) for a in indices]
     stamps = [c.timestamps[:k] for c in chosen]
     step = next_log_probs(model, encoder, stamps)
-    ways = {"argmax": (1, None), "beam": (settings.beam_width, None)}
-    if rules is not None:
-        ways["rules"] = (settings.beam_width, rules.parts)
+    v, longest = len(encoder.atoms), settings.max_suffix
+    searches = {
+        "argmax": partial(predict_suffixes, beam_width=1),
+        "beam": partial(predict_suffixes, beam_width=settings.beam_width),
+    }
+    if settings.temperature is not None:
+        searches["sample"] = partial(sample_suffixes, temperature=settings.temperature)
+    ways = {way: (search, None) for way, search in searches.items()}
+    if rules is not None:  # each way again, the rules a hard filter
+        ways.update({f"{way}_rules": (search, rules.parts) for way, search in searches.items()})
+        ways["rules"] = ways.pop("beam_rules")  # the beam search under the rules: its old name
     out: dict = {"cases": len(chosen)}
-    for way, (width, parts) in ways.items():
+    for way, (search, parts) in ways.items():
         stats = SearchStats()
         start = time.perf_counter()
-        found = predict_suffixes(
-            step, prefixes, len(encoder.atoms), rules=parts, beam_width=width,
-            max_length=settings.max_suffix, stats=stats,
-        )  # fmt: skip
+        found = search(step, prefixes, v, rules=parts, max_length=longest, stats=stats)
         seconds = time.perf_counter() - start
         similarity = [dl_similarity(f.activities, t) for f, t in zip(found, truth, strict=True)]
         out[way] = {

@@ -130,21 +130,11 @@ def predict_suffixes(
     """
     if not callable(next_log_probs):
         raise ArgumentTypeError("next_log_probs", f"must be callable, not {given(next_log_probs)}")
-    num_activities = _count(num_activities, "num_activities", 1)
-    beam_width = _count(beam_width, "beam_width", 1)
-    max_length = _count(max_length, "max_length", 0)
-    checked = _prefixes(prefixes, num_activities)
-    automaton = None
-    if rules is not None:
-        parts = arguments.rule_sets(rules, None, RuleSet)  # one, or parts: all must accept
-        for part in parts:
-            if len(part.vocabulary) != num_activities:
-                raise ArgumentError(
-                    "rules",
-                    f"rule set {part.name} is over {len(part.vocabulary)} items, not the "
-                    f"{num_activities} activities",
-                )
-        automaton = _Automaton(parts, num_activities)
+    num_activities = check_count(num_activities, "num_activities", 1)
+    beam_width = check_count(beam_width, "beam_width", 1)
+    max_length = check_count(max_length, "max_length", 0)
+    checked = check_prefixes(prefixes, num_activities)
+    automaton = rule_automaton(rules, num_activities)
     stats = stats if stats is not None else SearchStats()
     search = _Search(next_log_probs, num_activities, beam_width, max_length, stats)
     best = search.run(checked, automaton, list(range(len(checked))))
@@ -161,7 +151,26 @@ def predict_suffixes(
     return out
 
 
-class _Automaton:
+def rule_automaton(
+    rules: RuleSet | Sequence[RuleSet] | None, num_activities: int
+) -> RuleAutomaton | None:
+    """The rules (one rule set, or the parts of a conjunction: all must accept) as one
+    automaton over activity indices; None without rules. ArgumentError for a rule set over
+    another vocabulary size."""
+    if rules is None:
+        return None
+    parts = arguments.rule_sets(rules, None, RuleSet)
+    for part in parts:
+        if len(part.vocabulary) != num_activities:
+            raise ArgumentError(
+                "rules",
+                f"rule set {part.name} is over {len(part.vocabulary)} items, not the "
+                f"{num_activities} activities",
+            )
+    return RuleAutomaton(parts, num_activities)
+
+
+class RuleAutomaton:
     """The rules' DFAs (one per part) over activity indices, with each state's distance to
     acceptance. A branch's state is one state per part [..., K]; the distance of a combination
     is the largest of its parts' (a lower bound on the conjunction's, exact for one part), so
@@ -251,7 +260,7 @@ class _Search:
         self.stats = stats
 
     def run(
-        self, prefixes: list[tuple[int, ...]], automaton: _Automaton | None, owners: list[int]
+        self, prefixes: list[tuple[int, ...]], automaton: RuleAutomaton | None, owners: list[int]
     ) -> list[tuple[tuple[int, ...], float] | None]:
         """Per prefix, (continuation, score) of the best finished branch, or None when no
         branch can finish (only under rules: no accepted continuation within max_length);
@@ -329,27 +338,32 @@ class _Search:
         return best
 
     def _call(self, rows: Rows) -> np.ndarray:
-        """The model's log-probabilities [len(rows), V + 1] as float64, checked."""
-        out = np.asarray(self.model(rows), dtype=np.float64)
-        self.stats.model_calls += 1
-        self.stats.branches += len(rows)
-        if out.shape != (len(rows), self.v + 1):
-            raise ArgumentError(
-                "next_log_probs",
-                f"returned shape {list(out.shape)} for {len(rows)} sequences; expected "
-                f"[{len(rows)}, {self.v + 1}] (the activities, then the end of the case)",
-            )
-        if np.isnan(out).any():
-            raise ArgumentError("next_log_probs", "returned NaN")
-        if (out > _POSITIVE_TOLERANCE).any():
-            raise ArgumentError(
-                "next_log_probs",
-                f"returned {out.max():g} > 0: log-probabilities are <= 0 (log_softmax)",
-            )
-        return out
+        return call_model(self.model, rows, self.v, self.stats)
 
 
-def _count(value: object, argument: str, least: int) -> int:
+def call_model(model: NextLogProbs, rows: Rows, v: int, stats: SearchStats) -> np.ndarray:
+    """The model's log-probabilities [len(rows), V + 1] as float64, checked (shape, no NaN,
+    none above 0), the call counted in `stats`."""
+    out = np.asarray(model(rows), dtype=np.float64)
+    stats.model_calls += 1
+    stats.branches += len(rows)
+    if out.shape != (len(rows), v + 1):
+        raise ArgumentError(
+            "next_log_probs",
+            f"returned shape {list(out.shape)} for {len(rows)} sequences; expected "
+            f"[{len(rows)}, {v + 1}] (the activities, then the end of the case)",
+        )
+    if np.isnan(out).any():
+        raise ArgumentError("next_log_probs", "returned NaN")
+    if (out > _POSITIVE_TOLERANCE).any():
+        raise ArgumentError(
+            "next_log_probs",
+            f"returned {out.max():g} > 0: log-probabilities are <= 0 (log_softmax)",
+        )
+    return out
+
+
+def check_count(value: object, argument: str, least: int) -> int:
     """`value` as an int >= `least` (ArgumentTypeError / ArgumentError otherwise)."""
     try:
         if isinstance(value, bool):
@@ -362,7 +376,7 @@ def _count(value: object, argument: str, least: int) -> int:
     return number
 
 
-def _prefixes(prefixes: object, num_activities: int) -> list[tuple[int, ...]]:
+def check_prefixes(prefixes: object, num_activities: int) -> list[tuple[int, ...]]:
     """Each prefix as a tuple of ints, checked: non-empty, activities 0..num_activities-1."""
     if isinstance(prefixes, str | bytes) or not isinstance(prefixes, Sequence):
         raise ArgumentTypeError(
