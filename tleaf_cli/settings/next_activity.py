@@ -14,7 +14,7 @@ from tleaf_cli.settings import check_values, setting
 from tleaf_cli.settings.training import TrainingSettings
 
 NEXT_ACTIVITY_LOSSES = ("none", "exact", "tleaf")  # `tl.logic_loss` kinds with a gradient
-NEXT_ACTIVITY_MODELS = ("lstm", "transformer")  # model.py, transformer.py
+NEXT_ACTIVITY_MODELS = ("lstm", "transformer", "prefix-table")  # model.py, transformer.py, ...
 SCORED_CASES = ("all", "satisfying")  # eval next-activity: which test cases
 
 
@@ -32,8 +32,10 @@ class NextActivitySettings(TrainingSettings):
     )
     model: str = setting(
         "lstm",
-        "lstm (Tax et al.'s) or transformer (a small causal Transformer, ProcessTransformer's "
-        "size: e.g. --hidden 36 --layers 1 --heads 4).",
+        "lstm (Tax et al.'s), transformer (a small causal Transformer, ProcessTransformer's "
+        "size: e.g. --hidden 36 --layers 1 --heads 4) or prefix-table (the trivial baseline: the "
+        "next activity most often seen after the same prefix in training, backing off to its "
+        "suffixes; nothing to train).",
         choices=NEXT_ACTIVITY_MODELS,
     )
     hidden: int = setting(
@@ -70,6 +72,8 @@ class NextActivitySettings(TrainingSettings):
         super().check()
         if not 0 <= self.dropout < 1:
             raise SettingError("dropout", f"must be in [0, 1), not {self.dropout}")
+        if self.model == "prefix-table" and self.logic_loss != "none":
+            raise SettingError("logic_loss", "the prefix table learns nothing: no logic loss")
         if self.model == "transformer" and self.hidden % self.heads:
             raise SettingError(
                 "hidden",

@@ -36,7 +36,7 @@ from tleaf_cli.data.artifacts import check_writable, describe_inputs, relative_t
 from tleaf_cli.errors import SettingError
 from tleaf_cli.settings.training import TrainingSettings
 from tleaf_cli.training.lambdas import RunSetup, resolve_lambda, train_choosing_lambda
-from tleaf_cli.training.loop import LoopSettings, Step, device_for, fit
+from tleaf_cli.training.loop import WEIGHTS, LoopSettings, Step, device_for, fit, save_atomic
 from tleaf_cli.training.q_coverage import QCoverage
 from tleaf_cli.training.run_folder import CONFIG, METRICS, input_record, run_identity
 
@@ -177,18 +177,25 @@ def train_task(
                         figures)
         )  # fmt: skip
 
-    run = fit(
-        model,
-        task.batches,
-        task.step,
-        task.validate,
-        LoopSettings.of(settings),
-        out_dir,
-        score=trainer.score,
-        resume=resume,
-        on_epoch=None if on_epoch is None else record,
-        identity=run_identity(settings, read, inputs.embedder),
-    )
+    if any(p.requires_grad for p in model.parameters()):
+        run = fit(
+            model,
+            task.batches,
+            task.step,
+            task.validate,
+            LoopSettings.of(settings),
+            out_dir,
+            score=trainer.score,
+            resume=resume,
+            on_epoch=None if on_epoch is None else record,
+            identity=run_identity(settings, read, inputs.embedder),
+        )
+    else:  # nothing to train (a count, e.g. next activity's prefix table): scored as it is
+        model.eval()
+        with torch.no_grad():
+            run = {"best": {"epoch": 0, trainer.score: task.validate()}, "history": []}
+        out_dir.mkdir(parents=True, exist_ok=True)
+        save_atomic(model.state_dict(), out_dir / WEIGHTS)
     history = run["history"]
     metrics = {
         "task": trainer.task,
@@ -197,7 +204,7 @@ def train_task(
         **task.metrics(),
         "history": history,
         "best": run["best"],
-        "mean_epoch_seconds": float(np.mean([h["seconds"] for h in history])),
+        "mean_epoch_seconds": float(np.mean([h["seconds"] for h in history])) if history else 0.0,
         "setup_seconds": setup_seconds,
         "test": task.test(),
         "lambda": lam.as_dict(),

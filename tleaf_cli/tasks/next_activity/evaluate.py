@@ -39,6 +39,7 @@ from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSetting
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.model import NextActivityModel
+from tleaf_cli.tasks.next_activity.prefix_table import seen_in_training
 from tleaf_cli.tasks.next_activity.rules import Rules, read_rules
 from tleaf_cli.tasks.next_activity.similarity import dl_similarity
 from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
@@ -72,13 +73,28 @@ def _load_run(
         raise InputError(
             f"{run_dir / 'config.json'}: not a next-activity run's config ({e})"
         ) from None
-    model = new_model(encoder, settings)
+    model = new_model(encoder, settings, _train_sequences(run_dir, config, encoder, settings))
     try:
         model.load_state_dict(torch.load(weights_path, map_location="cpu", weights_only=True))
     except (RuntimeError, OSError, EOFError, ValueError) as e:
         first = str(e).splitlines()[0] if str(e) else type(e).__name__
         raise InputError(f"{weights_path}: not this run's model's weights ({first})") from None
     return model.eval(), encoder, settings, config
+
+
+def _train_sequences(
+    run_dir: str | Path, config: dict, encoder: Encoder, settings: NextActivitySettings
+) -> list:
+    """The run's training cases as activity indices, for a model counted from them (the prefix
+    table); none for the others."""
+    if settings.model != "prefix-table":
+        return []
+    return train_sequences(recorded_input(run_dir, config, "data"), encoder)
+
+
+def train_sequences(cases_path: str | Path, encoder: Encoder) -> list:
+    """The train split of a cases artifact as activity-index arrays."""
+    return [encoder.indices(c) for c in read_cases(cases_path).cases if c.split == "train"]
 
 
 def check_same_log(cases: Cases, encoder: Encoder, run_dir: str | Path) -> None:
@@ -191,7 +207,15 @@ def evaluate_next_activity(
         else {"path": rules.path, "names": list(rules.names), "source": source},
         "scored_by": None if judge is None else {"path": judge.path, "names": list(judge.names)},
         "settings": asdict(settings),
-        "accuracy": accuracy(model, encoder, scored, 256, device, rules),
+        "accuracy": accuracy(
+            model,
+            encoder,
+            scored,
+            256,
+            device,
+            rules,
+            seen=leakage(run_dir, config, encoder, scored),
+        ),
         "suffix": {},
         "warnings": warnings,
         "inputs": describe_inputs([p for p in (cases_path, rules_path) if p is not None]),
@@ -204,6 +228,21 @@ def evaluate_next_activity(
                 on_length(done, len(lengths))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
+
+
+def leakage(
+    run_dir: str | Path, config: dict, encoder: Encoder, scored: Sequence[Case]
+) -> np.ndarray | None:
+    """Per scored prefix, whether the same prefix with the same next token occurs in the run's
+    training cases (`prefix_table.seen_in_training`); None where the run's cases are gone."""
+    try:
+        trained = recorded_input(run_dir, config, "data")
+    except InputError:
+        return None
+    if trained is None:
+        return None
+    train = train_sequences(trained, encoder)
+    return seen_in_training(train, [encoder.indices(c) for c in scored], encoder.end)
 
 
 def suffix_scores(

@@ -14,6 +14,7 @@ import torch
 from torch import nn
 from torch.nn.utils.rnn import pack_padded_sequence, pad_packed_sequence
 
+from tleaf_cli.tasks.next_activity.prefix_table import PrefixTable
 from tleaf_cli.tasks.next_activity.transformer import NextActivityTransformer
 
 
@@ -55,4 +56,4 @@ class NextActivityLSTM(nn.Module):
 
 
 # Every next-activity model: the same inputs, the same logits [B, T, V + 1] (settings' `model`)
-NextActivityModel = NextActivityLSTM | NextActivityTransformer
+NextActivityModel = NextActivityLSTM | NextActivityTransformer | PrefixTable

@@ -32,6 +32,7 @@ from tleaf_cli.tasks.next_activity.batch import PAD, CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import TIME_FEATURES, Encoder
 from tleaf_cli.tasks.next_activity.model import NextActivityLSTM, NextActivityModel
 from tleaf_cli.tasks.next_activity.objective import logic_term
+from tleaf_cli.tasks.next_activity.prefix_table import PrefixTable
 from tleaf_cli.tasks.next_activity.rules import Rules, allowed_next, read_rules
 from tleaf_cli.tasks.next_activity.transformer import NextActivityTransformer
 from tleaf_cli.training.loop import Step, chunks
@@ -92,7 +93,8 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         return LossSetup(recommended_lambda=self.embedder.recommended_lambda)
 
     def model(self) -> NextActivityModel:
-        self.net = new_model(self.encoder, self.settings).to(self.device)
+        train = [self.encoder.indices(c) for c in self.splits["train"]]
+        self.net = new_model(self.encoder, self.settings, train).to(self.device)
         return self.net
 
     def batches(self, epoch: int, generator: torch.Generator) -> Iterator[CaseBatch]:
@@ -172,8 +174,15 @@ def train_next_activity(
     )
 
 
-def new_model(encoder: Encoder, settings: NextActivitySettings) -> NextActivityModel:
-    """An untrained model of `settings`' kind and shape over the encoder's activities."""
+def new_model(
+    encoder: Encoder,
+    settings: NextActivitySettings,
+    train: Sequence[Sequence[int]] = (),
+) -> NextActivityModel:
+    """An untrained model of `settings`' kind and shape over the encoder's activities (the
+    prefix table: counted from `train`, the training cases as activity indices)."""
+    if settings.model == "prefix-table":
+        return PrefixTable(train, len(encoder.atoms))
     if settings.model == "transformer":
         return NextActivityTransformer(
             len(encoder.atoms), TIME_FEATURES, settings.hidden, settings.layers, settings.heads,
@@ -213,11 +222,14 @@ def accuracy(
     device: torch.device,
     rules: Rules | None = None,
     cache: dict | None = None,
+    seen: np.ndarray | None = None,
 ) -> dict:
     """Next-activity accuracy pooled over every prefix of length ≥ 1 of `cases` (the end of case
     a target), and its parts: on activities and on the end. With `rules`, also
     `accuracy_rules`: each prediction the most probable token that keeps the rules
-    satisfiable (`allowed_next`), and `changed_by_rules`: how many predictions that changed."""
+    satisfiable (`allowed_next`), and `changed_by_rules`: how many predictions that changed.
+    With `seen` (bool per prefix, in order: `prefix_table.seen_in_training`), `leakage`: the
+    share of prefixes seen in training with their next token, and `accuracy_unseen`."""
     log_probs = step_log_probs(model, encoder, cases, batch_size, device, cache)
     targets = [encoder.targets(c) for c in cases]
     hits = np.concatenate([p.argmax(-1) == t for p, t in zip(log_probs, targets, strict=True)])
@@ -229,6 +241,9 @@ def accuracy(
         "accuracy_activities": float(hits[~ends].mean()) if (~ends).any() else None,
         "accuracy_end": float(hits[ends].mean()),
     }
+    if seen is not None:  # example leakage: prefixes (with their next token) seen in training
+        out["leakage"] = float(seen.mean())
+        out["accuracy_unseen"] = float(hits[~seen].mean()) if (~seen).any() else None
     if rules is not None:
         under = [
             np.where(allowed_next(rules, encoder.indices(c)), p, -np.inf).argmax(-1)
