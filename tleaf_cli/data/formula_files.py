@@ -1,4 +1,6 @@
-"""Formula inputs: `.ltl` text files and Parquet tables with `formula_id, formula`.
+"""Formula inputs: `.ltl` text files, Parquet tables with `formula_id, formula`, and Declare
+models (`.decl`, `knowledge/decl.py`: each constraint one formula, named
+`<template key>.<activity atoms>`).
 
 `.ltl` (docs/design.md): UTF-8 (a byte-order mark at the start is skipped), one formula per line,
 `#` starts a comment, blank lines skipped, an optional `name:` prefix (`[A-Za-z0-9_.-]+`) names
@@ -19,6 +21,7 @@ import pyarrow.parquet as pq
 
 from tleaf_cli.data.artifacts import read_text_file
 from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.decl import decl_path, read_decl
 
 _NAMED = re.compile(r"^\s*([^\s:][^:]*?)\s*:(.*)$")
 _VALID_NAME = re.compile(r"[A-Za-z0-9_.-]+")
@@ -66,12 +69,16 @@ def check_names(names: Iterable[str], what: str) -> None:
 
 
 def read_formulas(path: str | Path) -> list[FormulaSource]:
-    """Formulas from a `.ltl` file or a Parquet table; InputError when the file is unusable."""
+    """Formulas from a `.ltl` file, a Parquet table or a `.decl` Declare model (by suffix);
+    InputError when the file is unusable (for `.decl`: any line it cannot read or refuses)."""
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.suffix == ".parquet":
         return _read_parquet(path)
+    if decl_path(path):
+        rules = read_decl(path).rules()
+        return [FormulaSource(r.name, r.formula, str(path), f"line {r.line}") for r in rules]
     text = read_text_file(path)
     return parse_ltl_text(text, str(path))
 

@@ -1,0 +1,293 @@
+"""Declare models (`.decl`, knowledge/decl.py): every template as RuM writes it, MP-Declare
+conditions checked on hand-made traces by tleaf's LTLf evaluator, the peers' real files (when
+the shared data folder is there), the lines refused, `.decl` wherever a formula file is read,
+and docs/knowledge.md's template table against TEMPLATES."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from tleaf_cli.cli import app
+from tleaf_cli.data.activity_names import attribute_atom
+from tleaf_cli.data.formula_files import read_formulas
+from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.decl import parse_decl, read_decl
+from tleaf_cli.knowledge.templates import TEMPLATES
+from tleaf_cli.logic.formulas import parse
+from tleaf_cli.logic.semantics import satisfies
+
+ROOT = Path(__file__).resolve().parent.parent
+SHARED = ROOT.parent / "shared" / "data" / "knowledge-protocols"
+
+HEAD = """activity Resolve ticket
+bind Resolve ticket: org:resource
+activity Closed
+bind Closed: org:resource, amount
+activity Accepted_In Progress
+org:resource: Value 1, Value 2, Value 3,
+ Value 4
+amount: integer between 1 and 5
+"""
+
+
+def tleaf(*args: object):
+    return CliRunner().invoke(app, [str(a) for a in args])
+
+
+def rules(text: str) -> dict[str, str]:
+    return {r.name: r.formula for r in parse_decl(text, "m.decl").rules()}
+
+
+def event(activity: str, resource: str | None = None, amount: int | None = None) -> set[str]:
+    """An event as the atoms it makes true: its activity's and its attribute values'."""
+    out = {activity}
+    if resource is not None:
+        out.add(attribute_atom("org:resource", resource))
+    if amount is not None:
+        out.add(attribute_atom("amount", amount))
+    return out
+
+
+def holds(formula: str, *trace: set[str]) -> bool:
+    return satisfies(list(trace), parse(formula))
+
+
+# ---------------------------------------------------------------------- templates
+
+
+def rum_line(template, count: int = 1) -> str:
+    name = template.name + (str(count) if template.counting and count != 1 else "")
+    if template.arity == 1:
+        return f"{name}[Resolve ticket] | |"
+    return f"{name}[Resolve ticket, Accepted_In Progress] | | |"
+
+
+@pytest.mark.parametrize("key", list(TEMPLATES))
+def test_every_template_as_rum_writes_it(key: str) -> None:
+    template = TEMPLATES[key]
+    ((name, formula),) = rules(HEAD + rum_line(template) + "\n").items()
+    args = ["resolve_ticket"] + (["accepted_in_progress"] if template.arity == 2 else [])
+    assert name == ".".join([key, *args])
+    assert formula == template.ltlf(*args)
+    parse(formula)
+
+
+@pytest.mark.parametrize(
+    ("written", "name", "count"),
+    [
+        ("Existence2", "existence2", 2),
+        ("Absence3", "absence3", 3),
+        ("Exactly1", "exactly", 1),
+        ("Absence", "absence", 1),
+        ("Existence", "existence", 1),
+    ],
+)
+def test_counting_templates_take_their_count(written: str, name: str, count: int) -> None:
+    ((rule, formula),) = rules(HEAD + f"{written}[Closed] | |\n").items()
+    template = TEMPLATES[name.rstrip("0123456789")]
+    assert rule == f"{name}.closed"
+    assert formula == template.ltlf("closed", n=count)
+
+
+def test_a_name_that_repeats_gets_a_suffix_and_no_conditions_is_allowed() -> None:
+    text = HEAD + "Existence[Closed]\nExistence[Closed] |A.org:resource is Value 3 |\n"
+    assert list(rules(text)) == ["existence.closed", "existence.closed.2"]
+
+
+# ---------------------------------------------------------------------- MP-Declare semantics
+
+
+def test_existence_with_an_activation_condition() -> None:
+    f = rules(HEAD + "Existence[Closed] |A.org:resource is Value 3 |\n")["existence.closed"]
+    assert holds(f, event("resolve_ticket", "Value 1"), event("closed", "Value 3"))
+    assert not holds(f, event("resolve_ticket", "Value 3"), event("closed", "Value 1"))
+
+
+def test_chain_precedence_narrows_its_activation_the_second_activity() -> None:
+    """NeSy4PPM's rule: every Closed by Value 3 comes right after a Resolve ticket."""
+    f = rules(HEAD + "Chain Precedence[Resolve ticket, Closed] |A.org:resource is Value 3 | |\n")[
+        "chain_precedence.resolve_ticket.closed"
+    ]
+    assert holds(f, event("resolve_ticket", "Value 1"), event("closed", "Value 3"))
+    assert holds(f, event("accepted_in_progress"), event("closed", "Value 1"))  # not activated
+    assert not holds(f, event("accepted_in_progress"), event("closed", "Value 3"))
+    assert not holds(f, event("closed", "Value 3"))
+
+
+def test_response_with_activation_and_target_conditions() -> None:
+    text = HEAD + (
+        "Response[Resolve ticket, Closed] |A.org:resource in (Value 1, Value 2) "
+        "|T.org:resource is not Value 4 and T.amount >= 4 |\n"
+    )
+    f = rules(text)["response.resolve_ticket.closed"]
+    assert holds(f, event("resolve_ticket", "Value 3"))  # not an activation
+    assert not holds(f, event("resolve_ticket", "Value 2"))
+    assert not holds(f, event("resolve_ticket", "Value 2"), event("closed", "Value 4", 5))
+    assert not holds(f, event("resolve_ticket", "Value 2"), event("closed", "Value 1", 3))
+    assert holds(f, event("resolve_ticket", "Value 1"), event("closed", "Value 1", 4))
+
+
+@pytest.mark.parametrize(
+    ("condition", "meets"),
+    [
+        ("A.amount < 3", {1, 2}),
+        ("A.amount <= 3", {1, 2, 3}),
+        ("A.amount = 3", {3}),
+        ("A.amount != 3", {1, 2, 4, 5}),
+        ("A.amount >= 4", {4, 5}),
+        ("A.amount > 4.5", {5}),
+        ("A.amount is 2 or A.amount is 5", {2, 5}),
+        ("A.amount not in (1, 2)", {3, 4, 5}),
+        ("(A.amount < 2 or A.amount > 4) and A.org:resource is Value 1", {1, 5}),
+        ("not (A.amount in (1, 2, 3))", {4, 5}),
+        ("true", {1, 2, 3, 4, 5}),
+    ],
+)
+def test_numeric_and_combined_conditions(condition: str, meets: set[int]) -> None:
+    f = rules(HEAD + f"Existence[Closed] |{condition} |\n")["existence.closed"]
+    for amount in range(1, 6):
+        assert holds(f, event("closed", "Value 1", amount)) == (amount in meets), amount
+
+
+def test_a_value_holding_and_or_spaces_is_read_whole() -> None:
+    text = (
+        "activity A\nbind A: dept\ndept: Research and Development, Sales or Marketing, R\n"
+        "Existence[A] |A.dept is Research and Development or A.dept is R |\n"
+    )
+    f = rules(text)["existence.a"]
+    rd, r = attribute_atom("dept", "Research and Development"), attribute_atom("dept", "R")
+    assert holds(f, {"a", rd}) and holds(f, {"a", r})
+    assert not holds(f, {"a", attribute_atom("dept", "Sales or Marketing")})
+
+
+# ---------------------------------------------------------------------- files and stages
+
+
+def test_read_formulas_reads_decl_and_compile_dfa_runs_it(tmp_path: Path) -> None:
+    example = ROOT / "examples" / "helpdesk.decl"
+    sources = read_formulas(example)
+    assert [s.formula_id for s in sources][:3] == [
+        "init.assign_seriousness",
+        "end.closed",
+        "exactly.closed",
+    ]
+    assert all(s.problem is None and s.location.startswith("line ") for s in sources)
+    out = tmp_path / "d.parquet"
+    done = tleaf("compile-dfa", example, "-o", out)
+    assert done.exit_code == 0, done.output
+    assert out.exists()
+
+
+def test_bad_decl_exits_2_and_writes_nothing(tmp_path: Path) -> None:
+    bad = tmp_path / "kb.decl"
+    bad.write_text("activity A\nResponse[A, B] | | |\n")
+    out = tmp_path / "d.parquet"
+    done = tleaf("compile-dfa", bad, "-o", out)
+    assert done.exit_code == 2
+    assert f"{bad}: line 2: activity 'B' is not declared" in " ".join(done.output.split())
+    assert not out.exists()
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="the shared data folder is not there")
+def test_the_peers_real_files() -> None:
+    bk = read_decl(SHARED / "nesy4ppm" / "BK_helpdesk.decl")
+    assert len(bk.activities) == 5 and len(bk.domains["org:resource"].values) == 22
+    assert [r.name for r in bk.rules()] == [
+        "existence.closed",
+        "chain_precedence.resolve_ticket.closed",
+    ]
+    mezini = read_decl(SHARED / "mezini-bpic13-closed" / "test_all_85-100.decl")
+    assert "Accepted_In Progress" in mezini.activities
+    assert len(mezini.rules()) == 7
+    for rule in bk.rules() + mezini.rules():
+        parse(rule.formula)
+
+
+# ---------------------------------------------------------------------- refused lines
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("foo bar", "line 9: cannot read 'foo bar': expected 'activity NAME'"),
+        ("Response[Resolve ticket, Wait] | | |", "line 9: activity 'Wait' is not declared"),
+        ("Existence[Closed] |A.org:resource is Value 9 |", "'Value 9' is not a declared value"),
+        ("Response[Resolve ticket, Closed] | | |1,2,s", "LTLf has no clock"),
+        ("Response[Resolve ticket, Closed] | |same org:resource |", "'same' relates"),
+        ("Response[Resolve ticket, Closed] | |different amount |", "'different' relates"),
+        (
+            "Response[Resolve ticket, Closed] | |T.org:resource is A.org:resource |",
+            "comparing two events' attributes",
+        ),
+        (
+            "Response[Resolve ticket, Closed] | |A.org:resource is Value 1 |",
+            "a test on the activation there is not supported",
+        ),
+        ("Existence[Closed] |T.amount < 3 |", "the activation condition names T.amount"),
+        (
+            "Existence[Closed] |A.org:resource < 3 |",
+            "'Value 1' (declared on line 6) is not a number",
+        ),
+        ("Existence[Resolve ticket] |A.amount < 3 |", "not bound to activity 'Resolve ticket'"),
+        ("Existence[Closed] |A.amount is |", "expected a value"),
+        ("Existence[Closed] |A.amount < 3 and |", "expected 'A.attribute'"),
+        ("Existence[Closed] |A.amount ~ 3 |", "expected 'is', 'is not'"),
+        ("Existence[Closed] |(A.amount < 3 |", "expected ')'"),
+        ("Existence[Closed] |A.amount < 3 | | | |", "at most 2 condition fields"),
+        ("Choice[Closed, Resolve ticket] | | |", "'Choice' is not a Declare template"),
+        ("Co-Existence[Closed, Resolve ticket] |A.amount < 3 | |", "both its activities activate"),
+        ("Existence[Closed] x", "expected '|' before the conditions"),
+        ("activity Closed", "activity 'Closed' is already declared on line 3"),
+        ("bind Wait: org:resource", "bind names activity 'Wait'"),
+        ("amount: 1, 2", "attribute 'amount' already has its values, declared on line 8"),
+        ("size: integer between 5 and 1", "an empty range"),
+        ("size: integer between 1.5 and 3", "needs whole numbers"),
+        ("size: integer from 1 to 3", "expected 'integer between X and Y'"),
+        ("size: a, , b", "none empty"),
+    ],
+)
+def test_bad_lines_name_the_line_and_what_was_expected(text: str, message: str) -> None:
+    with pytest.raises(InputError) as caught:
+        parse_decl(HEAD + text + "\n", "m.decl")
+    assert str(caught.value).startswith("m.decl: line ")
+    assert message in str(caught.value)
+
+
+def test_large_and_float_ranges_are_refused_only_when_a_condition_reads_them() -> None:
+    text = "activity A\nbind A: n, w\nn: integer between 0 and 5000\nw: float between 0 and 1\n"
+    assert rules(text + "Existence[A]\n") == {"existence.a": "F (a)"}
+    for condition in ("A.n > 3", "A.w is 0.5"):
+        with pytest.raises(
+            InputError, match=r"line 5: .*declared on line \d as (more than|a float)"
+        ):
+            parse_decl(text + f"Existence[A] |{condition} |\n", "m.decl")
+
+
+def test_values_that_meet_on_one_atom_are_refused() -> None:
+    with pytest.raises(InputError, match="line 3: x = 'a_b' reads as the atom 'x__a_b'"):
+        parse_decl("activity A\nbind A: x\nx: a b, a_b\n", "m.decl")
+
+
+# ---------------------------------------------------------------------- the docs' table
+
+
+def template_table() -> list[str]:
+    """The rows of docs/knowledge.md's template table, from TEMPLATES."""
+    rows = []
+    for t in TEMPLATES.values():
+        formula = t.ltlf("a", "b" if t.arity == 2 else None).replace("|", "\\|")
+        activation = "—" if t.activation is None else "ab"[t.activation]
+        name = f"{t.name}, {t.name}2, ..." if t.counting else t.name
+        rows.append(f"| {name} | `{t.key}` | `{formula}` | {activation} |")
+    return rows
+
+
+def test_the_docs_template_table_matches_templates() -> None:
+    page = (ROOT / "docs" / "knowledge.md").read_text(encoding="utf-8")
+    section = page.split("## Declare models (.decl)", 1)[1].split("\n## ", 1)[0]
+    table = [line for line in section.splitlines() if re.match(r"\| \w.* \| `", line)]
+    assert table == template_table()
