@@ -238,7 +238,7 @@ def test_the_peers_real_files() -> None:
         ("Existence[Closed] |A.amount ~ 3 |", "expected 'is', 'is not'"),
         ("Existence[Closed] |(A.amount < 3 |", "expected ')'"),
         ("Existence[Closed] |A.amount < 3 | | | |", "at most 2 condition fields"),
-        ("Choice[Closed, Resolve ticket] | | |", "'Choice' is not a Declare template"),
+        ("Either[Closed, Resolve ticket] | | |", "'Either' is not a Declare template"),
         ("Co-Existence[Closed, Resolve ticket] |A.amount < 3 | |", "both its activities activate"),
         ("Existence[Closed] x", "expected '|' before the conditions"),
         ("activity Closed", "activity 'Closed' is already declared on line 3"),

@@ -41,6 +41,8 @@ def _alternate_precedence(w) -> bool:
 
 DEFINITIONS = {
     "init": lambda w: w[0] == "a",
+    "choice": lambda w: "a" in w or "b" in w,
+    "exclusive_choice": lambda w: ("a" in w) != ("b" in w),
     "end": lambda w: w[-1] == "a",
     "responded_existence": lambda w: "a" not in w or "b" in w,
     "co_existence": lambda w: ("a" in w) == ("b" in w),

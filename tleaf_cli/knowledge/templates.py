@@ -47,6 +47,8 @@ class Template:
     `arity`: 1 (an activity) or 2 (two). `activation`: the index of the activating argument
     (0 for a, 1 for b; None for a unary template, activated by every case). `counting`: the
     name takes a count (Existence2, Absence3, Exactly1). `negative`: a "Not ..." template.
+    Choice and Exclusive Choice are binary with no activation: like a unary template, every
+    case is bound by them.
     """
 
     name: str
@@ -90,6 +92,8 @@ def _templates() -> tuple[Template, ...]:
         t("Exactly", "exactly", 1, "", counting=True),
         t("Init", "init", 1, "{a}"),
         t("End", "end", 1, "F({a} & last)"),
+        t("Choice", "choice", 2, "F {a} | F {b}"),
+        t("Exclusive Choice", "exclusive_choice", 2, "(F {a} | F {b}) & !(F {a} & F {b})"),
         t("Responded Existence", "responded_existence", 2, "F {a} -> F {b}", activation=0),
         t("Co-Existence", "co_existence", 2, "F {a} <-> F {b}", activation=0),
         t("Response", "response", 2, "G({a} -> X F {b})", activation=0),
