@@ -15,12 +15,14 @@ from tleaf_cli import ui
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.dfa_table import KIND as DFA_KIND
 from tleaf_cli.data.dfa_table import read_dfas
+from tleaf_cli.data.event_logs import CASE_PREFIX, EVENT_PREFIX
 from tleaf_cli.data.event_logs import KIND as CASES_KIND
 from tleaf_cli.data.graphs import render_dot, row_to_dot
 from tleaf_cli.errors import InputError
 
 CELL_CHARS = 60
 TOP_ACTIVITIES = 10  # the most frequent activities a cases artifact's --stats lists
+TOP_VALUES = 5  # the most frequent values of each kept attribute it lists
 
 
 def show_artifact(path: Path, limit: int = 10) -> None:
@@ -119,6 +121,28 @@ def _show_cases_stats(table: pa.Table) -> None:
             for a, n in top
         ],
     )
+    _show_attribute_stats(table)
+
+
+def _show_attribute_stats(table: pa.Table) -> None:
+    """Each kept attribute (`read-log --attributes`, `--case-attributes`): how many events (or
+    cases) have a value, its distinct values, and the most frequent ones with their counts."""
+    for column in table.column_names:
+        if column.startswith(EVENT_PREFIX):
+            values = [v for vs in table.column(column).to_pylist() for v in vs]
+            what, name = "events", column[len(EVENT_PREFIX) :]
+        elif column.startswith(CASE_PREFIX):
+            values = table.column(column).to_pylist()
+            what, name = "cases", f"case attribute {column[len(CASE_PREFIX) :]}"
+        else:
+            continue
+        counts = Counter(v for v in values if v is not None)
+        held = sum(counts.values())
+        top = ", ".join(f"{v} ({n})" for v, n in counts.most_common(TOP_VALUES))
+        ui.text(
+            f"{name}: {len(counts)} distinct values, on {held} of {len(values)} {what}"
+            + (f"; most frequent: {top}" if top else "")
+        )
 
 
 def _median(ordered: list[int]) -> float:

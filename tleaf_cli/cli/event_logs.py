@@ -34,7 +34,8 @@ def read_log(
     that repeat a case id are kept apart as <id>#2, ... and counted; CSV rows of one case spread
     over the file are merged and counted. A malformed XML file, a truncated .gz, a NUL in a case
     id or activity, or a CSV row with more fields than its header exits 2 naming the file and
-    line, with nothing written.
+    line, with nothing written. --attributes / --case-attributes keep event / case attributes
+    (an attribute the log does not have exits 2 naming it).
     """
     from tleaf_cli.data.log_readers import LogReader
 
@@ -50,9 +51,11 @@ def read_log(
         cases = reader.read(tick)
     reader.write(cases, out)
     keys = ", ".join(f"{k}: {v}" for k, v in cases.params["keys"].items())
+    kept = ", ".join([*cases.attribute_names, *(f"case {n}" for n in cases.case_attribute_names)])
     ui.summary(
         f"{out}: {len(cases)} cases, {cases.events} events, {len(cases.activity_atoms)} "
-        f"activities ({keys}); skipped or repaired: {cases.skips.text()}",
+        f"activities ({keys}){'; attributes: ' + kept if kept else ''}; skipped or repaired: "
+        f"{cases.skips.text()}",
         quiet,
     )
 

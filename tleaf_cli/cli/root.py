@@ -24,6 +24,7 @@ from tleaf_cli.cli.action_recognition import (
     train_task_action_recognition,
 )
 from tleaf_cli.cli.compile import compile_dfa, inspect
+from tleaf_cli.cli.conformance import check_cases
 from tleaf_cli.cli.cooking import eval_cooking, train_task_cooking
 from tleaf_cli.cli.embedder import embed, train_edge, train_meta
 from tleaf_cli.cli.event_logs import mine_declare, peer_formulas, read_log, split_cases
@@ -84,6 +85,7 @@ for name, function in {
     "split-cases": split_cases,
     "mine-declare": mine_declare,
     "peer-formulas": peer_formulas,
+    "check-cases": check_cases,
     "task-graph": task_graph,
     "read-recordings": read_recordings,
     "check-recordings": check_recordings,

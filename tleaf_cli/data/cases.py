@@ -8,34 +8,68 @@ a `Case` with the recording's own fields), and a `cases` artifact read back
 activity's formula atom, their UTC times, and its split; `Cases` holds the cases in the source's
 order with the activity -> atom map, the source's path, its parameters (provenance) and what was
 skipped reading it (`SkipReport`).
+
+A case may keep event attributes (`read-log --attributes org:resource`: one value per event,
+None where the event has none) and case attributes (one value per case). An event's *letter* is
+the set of atoms true at it: its activity's atom and, for each kept attribute with a value, the
+atom of "attribute is value" (`activity_names.attribute_atom`), so a rule can speak of "Closed
+done by Value 3" as `closed & org_resource__value_3` (`Case.letters`).
 """
 
 from __future__ import annotations
 
+import functools
 import os
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 from typing import Any, Generic, TypeVar
 
+from tleaf_cli.data.activity_names import attribute_atom
 from tleaf_cli.data.skip_report import SkipReport
 from tleaf_cli.errors import ArgumentTypeError
+
+_attribute_atom = functools.lru_cache(maxsize=1 << 16)(attribute_atom)  # a log repeats its values
 
 
 @dataclass(frozen=True)
 class Case:
-    """One case: its activities in time order, their UTC timestamps, atoms and split."""
+    """One case: its activities in time order, their UTC timestamps, atoms and split; the event
+    attributes kept (attribute -> one value per event, None where an event has none) and the
+    case attributes kept (attribute -> value or None)."""
 
     case_id: str
     activities: tuple[str, ...]
     atoms: tuple[str, ...]
     timestamps: tuple[datetime, ...]
     split: str
+    attributes: dict[str, tuple[str | None, ...]] = field(
+        default_factory=dict, kw_only=True, hash=False
+    )
+    case_attributes: dict[str, str | None] = field(default_factory=dict, kw_only=True, hash=False)
 
     def __len__(self) -> int:
         return len(self.activities)
+
+    def letters(self, attributes: Sequence[str] | None = None) -> tuple[frozenset[str], ...]:
+        """Each event's atoms, true together: its activity's atom and, for each kept event
+        attribute (or only those named in `attributes`) with a value, `attribute_atom(attribute,
+        value)`. KeyError for a named attribute the case does not keep."""
+        names = list(self.attributes) if attributes is None else list(attributes)
+        columns = [(name, self.attributes[name]) for name in names]
+        return tuple(
+            frozenset(
+                [atom]
+                + [
+                    attribute_atom(name, values[i])
+                    for name, values in columns
+                    if values[i] is not None
+                ]
+            )
+            for i, atom in enumerate(self.atoms)
+        )
 
 
 C = TypeVar("C", bound=Case)
@@ -53,6 +87,8 @@ class Cases(Generic[C]):
     params: dict[str, Any] = field(default_factory=dict)
     skips: SkipReport = field(default_factory=SkipReport)
     inputs: list[Path] = field(default_factory=list)
+    attribute_names: tuple[str, ...] = ()  # the event attributes each case keeps, in order
+    case_attribute_names: tuple[str, ...] = ()  # the case attributes each case keeps
 
     def __len__(self) -> int:
         return len(self.cases)

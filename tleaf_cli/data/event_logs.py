@@ -10,8 +10,13 @@ case (docs/event_logs.md):
     split       string                   train | val | test
 
 with the usual provenance (data/artifacts.py), the counts of what was skipped, and the map
-activity -> atom under the key `tleaf.activity_atoms`. `read_cases` reads it back as `Cases`.
-Nothing is written until the whole log is read, and then atomically.
+activity -> atom under the key `tleaf.activity_atoms`; and, for each event attribute kept
+(`read-log --attributes`), a column `event:<attribute>` (list<string>, one value per event, null
+where the event has none), for each case attribute kept a column `case:<attribute>` (string),
+their names in order under `tleaf.attributes` (`{"event": [...], "case": [...]}`). Artifacts
+written before attributes existed have neither and read as cases without attributes.
+`read_cases` reads it back as `Cases`. Nothing is written until the whole log is read, and then
+atomically.
 """
 
 from __future__ import annotations
@@ -36,6 +41,9 @@ __all__ = ["Case", "Cases", "iter_sequences", "read_cases", "write_case_table", 
 KIND = "cases"
 SCHEMA_VERSION = 1
 ATOMS_KEY = f"{PREFIX}activity_atoms"
+ATTRIBUTES_KEY = f"{PREFIX}attributes"
+EVENT_PREFIX = "event:"  # an event attribute's column: event:org:resource
+CASE_PREFIX = "case:"  # a case attribute's column
 TIMESTAMP_TYPE = pa.timestamp("us", tz="UTC")
 _COLUMNS = ("case_id", "activities", "atoms", "timestamps", "split")
 
@@ -49,7 +57,10 @@ def split_cases(ids: list[str], fractions: tuple[float, float, float], order: st
 
 
 def cases_table(cases: Sequence[Case]) -> pa.Table:
-    """The artifact's columns, one row per case in the order given."""
+    """The artifact's columns, one row per case in the order given: the fixed ones, then each
+    kept event attribute's and case attribute's (the first case's names: every case keeps the
+    same ones)."""
+    events, kept = attribute_names(cases)
     return pa.table(
         {
             "case_id": pa.array([c.case_id for c in cases], pa.string()),
@@ -57,8 +68,25 @@ def cases_table(cases: Sequence[Case]) -> pa.Table:
             "atoms": pa.array([c.atoms for c in cases], pa.list_(pa.string())),
             "timestamps": pa.array([c.timestamps for c in cases], pa.list_(TIMESTAMP_TYPE)),
             "split": pa.array([c.split for c in cases], pa.string()),
+            **{
+                EVENT_PREFIX + name: pa.array(
+                    [c.attributes[name] for c in cases], pa.list_(pa.string())
+                )
+                for name in events
+            },
+            **{
+                CASE_PREFIX + name: pa.array([c.case_attributes[name] for c in cases], pa.string())
+                for name in kept
+            },
         }
     )
+
+
+def attribute_names(cases: Sequence[Case]) -> tuple[list[str], list[str]]:
+    """The event and the case attributes the cases keep (the first case's: all keep the same)."""
+    if not cases:
+        return [], []
+    return list(cases[0].attributes), list(cases[0].case_attributes)
 
 
 def write_cases(cases: Cases, out: str | os.PathLike, settings: LogSettings) -> dict[str, str]:
@@ -93,7 +121,11 @@ def write_case_table(
     artifact, atomically: the one writer of the artifact, for a log read (`write_cases`) and for
     a cases artifact split anew (data/case_folds.py)."""
     table = cases_table(cases)
-    table = table.replace_schema_metadata({ATOMS_KEY.encode(): json.dumps(atoms).encode()})
+    events, kept = attribute_names(cases)
+    meta = {ATOMS_KEY.encode(): json.dumps(atoms).encode()}
+    if events or kept:
+        meta[ATTRIBUTES_KEY.encode()] = json.dumps({"event": events, "case": kept}).encode()
+    table = table.replace_schema_metadata(meta)
     write_artifact(table, out, kind=KIND, schema=SCHEMA_VERSION, params=params, inputs=inputs)
 
 
@@ -107,12 +139,35 @@ def read_cases(path: str | os.PathLike) -> Cases:
         atoms = json.loads(meta[ATOMS_KEY.encode()])
     except (KeyError, ValueError):
         raise InputError(f"{path}: no activity -> atom map in its metadata") from None
+    try:
+        kept = json.loads(meta.get(ATTRIBUTES_KEY.encode(), b"{}"))
+        events, case_names = list(kept.get("event", [])), list(kept.get("case", []))
+        event_values = [table.column(EVENT_PREFIX + n).to_pylist() for n in events]
+        case_values = [table.column(CASE_PREFIX + n).to_pylist() for n in case_names]
+    except (ValueError, AttributeError, KeyError) as e:
+        raise InputError(f"{path}: its attributes do not match its columns ({e})") from None
     columns = {name: table.column(name).to_pylist() for name in _COLUMNS}
     cases = [
-        Case(case, tuple(acts), tuple(ats), tuple(times), split)
-        for case, acts, ats, times, split in zip(*columns.values(), strict=True)
+        Case(
+            case,
+            tuple(acts),
+            tuple(ats),
+            tuple(times),
+            split,
+            attributes={n: tuple(v[k]) for n, v in zip(events, event_values, strict=True)},
+            case_attributes={n: v[k] for n, v in zip(case_names, case_values, strict=True)},
+        )
+        for k, (case, acts, ats, times, split) in enumerate(zip(*columns.values(), strict=True))
     ]
-    return Cases(cases, atoms, str(path), prov.params, SkipReport.from_params(prov.params))
+    return Cases(
+        cases,
+        atoms,
+        str(path),
+        prov.params,
+        SkipReport.from_params(prov.params),
+        attribute_names=tuple(events),
+        case_attribute_names=tuple(case_names),
+    )
 
 
 def iter_sequences(cases: Cases, split: str | None = None) -> Iterator[tuple[str, ...]]:

@@ -23,6 +23,14 @@ One case id twice: in XES two `<trace>` elements with one id are two cases (as p
 the later ones renamed `<id>#2`, `#3`, ... and counted as duplicate case ids, the first few named;
 in CSV rows of one case spread over the file are one case (exports often interleave cases), and
 the cases whose rows are not contiguous are counted.
+
+Attributes (`LogSettings.attributes`, `case_attributes`): the named event attributes (XES: the
+event's attribute of that key; CSV: the column) are kept as one value per event, None where an
+event has none, following their events through lifecycle filtering and sorting; the named case
+attributes as one value per case (XES: the trace's attribute; CSV: the first non-empty cell of
+the case's rows). Values are kept as the log writes them (text). A name the log does not have at
+all (no event, or no trace, holds it; no such CSV column) is an InputError naming it and some
+that the log has.
 """
 
 from __future__ import annotations
@@ -42,6 +50,7 @@ from tleaf_cli.data.activity_names import activity_atoms
 from tleaf_cli.data.case_readers import Progress
 from tleaf_cli.data.cases import Case, Cases
 from tleaf_cli.data.event_logs import split_cases, write_cases
+from tleaf_cli.data.log_columns import attribute_column, cell, check_met, key_column
 from tleaf_cli.data.skip_report import EXAMPLES, SkipReport
 from tleaf_cli.errors import InputError
 from tleaf_cli.settings.event_logs import (
@@ -162,15 +171,24 @@ class _Builder:
         # None: keep every event; AUTO: decided in `finish`; else the transition kept
         self.lifecycle = None if settings.lifecycle == "all" else settings.lifecycle.lower()
         self.any_complete = False  # some event's transition is 'complete' (AUTO)
-        # case -> activities, times, and whether each event has a transition but not 'complete'
-        self.events: dict[str, tuple[list[str], list[datetime], list[bool]]] = {}
+        # case -> activities, times, whether each event has a transition but not 'complete', and
+        # each event's kept attribute values (settings.event_attributes, in order)
+        self.events: dict[str, tuple[list[str], list[datetime], list[bool], list[tuple]]] = {}
+        self.case_values: dict[str, list[str | None]] = {}  # case -> its kept case attributes
+        self.values: dict[str, str] = {}  # each attribute value once, shared by its events
         self.seen: dict[str, str] = {}  # every case id met -> where it was first met
         self.names: dict[str, str] = {}  # each activity name once, shared by its events
         self.duplicates: list[str] = []  # XES: ids of traces met again (renamed)
         self.spread = 0  # CSV: cases whose rows are not contiguous in the file (merged)
 
     def event(
-        self, case: str | None, activity: str | None, stamp: str | None, life: str | None, at: str
+        self,
+        case: str | None,
+        activity: str | None,
+        stamp: str | None,
+        life: str | None,
+        at: str,
+        values: tuple[str | None, ...] = (),
     ) -> None:
         for what, name in (("case id", case), ("activity", activity)):
             if name and "\x00" in name:
@@ -196,10 +214,20 @@ class _Builder:
         if time is None:
             skips.skip(BAD_TIMESTAMP, f"{where}: '{stamp[:40]}'")
             return
-        activities, times, other = self.events.setdefault(case, ([], [], []))
+        activities, times, other, kept = self.events.setdefault(case, ([], [], [], []))
         activities.append(self.names.setdefault(activity, activity))  # one str per name
         times.append(time)
         other.append(phase is not None and phase != COMPLETE)
+        if values:
+            values = tuple(None if v is None else self.values.setdefault(v, v) for v in values)
+        kept.append(values)
+
+    def case_attributes(self, case: str, values: tuple[str | None, ...]) -> None:
+        """A case's kept case attributes: the first non-empty value of each is kept."""
+        held = self.case_values.setdefault(case, [None] * len(values))
+        for k, value in enumerate(values):
+            if held[k] is None and value:
+                held[k] = value
 
     def case(self, case: str | None, at: str) -> None:
         """A case met (XES: a trace, even one without events)."""
@@ -221,32 +249,45 @@ class _Builder:
     def finish(self) -> Cases:
         skips = self.skips
         if self.lifecycle == AUTO and self.any_complete:  # a log with lifecycle: complete only
-            for case, (activities, times, other) in list(self.events.items()):
+            for case, (activities, times, other, kept) in list(self.events.items()):
                 if any(other):
                     skips.skip(LIFECYCLE, count=sum(other))
                     keep = [i for i, o in enumerate(other) if not o]
                     activities[:] = [activities[i] for i in keep]
                     times[:] = [times[i] for i in keep]
+                    kept[:] = [kept[i] for i in keep]
                     if not keep:
                         del self.events[case]
         for case, at in self.seen.items():
             if case not in self.events:  # no event, or none kept
                 skips.skip(EMPTY_CASE, f"case {case}, {at}")
         rows, reordered = [], 0
-        for case, (activities, times, _) in self.events.items():
+        for case, (activities, times, _, kept) in self.events.items():
             if any(b < a for a, b in itertools.pairwise(times)):
                 reordered += 1
                 order = sorted(range(len(times)), key=times.__getitem__)  # stable
                 activities = [activities[i] for i in order]
                 times = [times[i] for i in order]
-            rows.append((case, tuple(activities), tuple(times)))
+                kept = [kept[i] for i in order]
+            rows.append((case, tuple(activities), tuple(times), kept))
         self._repairs(reordered)
-        atoms = activity_atoms(a for _, acts, _ in rows for a in acts)
+        atoms = activity_atoms(a for _, acts, _, _ in rows for a in acts)
         s = self.settings
-        split_of = split_cases([c for c, _, _ in rows], s.split, s.split_order, s.seed)
+        split_of = split_cases([c for c, _, _, _ in rows], s.split, s.split_order, s.seed)
+        names, case_names = s.event_attributes, s.trace_attributes
         cases = [
-            Case(c, acts, tuple(atoms[a] for a in acts), times, split_of[c])
-            for c, acts, times in rows
+            Case(
+                c,
+                acts,
+                tuple(atoms[a] for a in acts),
+                times,
+                split_of[c],
+                attributes={n: tuple(v[k] for v in kept) for k, n in enumerate(names)},
+                case_attributes=dict(
+                    zip(case_names, self.case_values.get(c, [None] * len(case_names)), strict=True)
+                ),
+            )
+            for c, acts, times, kept in rows
         ]
         params = {
             "keys": self.keys,
@@ -257,7 +298,7 @@ class _Builder:
             },
             "spread_cases": self.spread,
         }
-        return Cases(cases, atoms, str(self.path), params, skips, [self.path])
+        return Cases(cases, atoms, str(self.path), params, skips, [self.path], names, case_names)
 
     def _repairs(self, reordered: int) -> None:
         """What was repaired, as the phrases that lead the skip report's text."""
@@ -281,6 +322,9 @@ def _read_xes(path: Path, settings: LogSettings, tick: Progress) -> Cases:
         "timestamp": settings.timestamp_key or XES_TIMESTAMP_KEY,
     }
     build = _Builder(path, keys, settings)
+    names, case_names = settings.event_attributes, settings.trace_attributes
+    met: set[str] = set()  # the event attributes met (where some were asked for)
+    case_met: set[str] = set()  # the trace attributes met (where some were asked for)
     parser = expat.ParserCreate()
     stack: list[str] = []  # local tag names from the root down
     trace: dict[str, str] = {}
@@ -317,13 +361,19 @@ def _read_xes(path: Path, settings: LogSettings, tick: Progress) -> Cases:
                 return
             case = build.trace_id(case)
             build.case(case, f"line {trace_line}")
+            if case_names:
+                case_met.update(trace)
+                build.case_attributes(case, tuple(trace.get(n) for n in case_names))
             for attrs, line in events:
+                if names:
+                    met.update(attrs)
                 build.event(
                     case,
                     attrs.get(keys["activity"]),
                     attrs.get(keys["timestamp"]),
                     attrs.get(LIFECYCLE_KEY),
                     f"line {line}",
+                    tuple(attrs.get(n) or None for n in names),
                 )
 
     parser.StartElementHandler = start
@@ -341,23 +391,9 @@ def _read_xes(path: Path, settings: LogSettings, tick: Progress) -> Cases:
         ) from None
     finally:
         source.close()
+    check_met(path, names, met, "event")
+    check_met(path, case_names, case_met, "trace")
     return build.finish()
-
-
-def _column(header: list[str], given: str | None, candidates: tuple[str, ...], what: str) -> str:
-    """The column holding `what`: the given name, else the first candidate in the header."""
-    if given is not None:
-        if given not in header:
-            raise InputError(f"no column '{given}' for the {what} (columns: {', '.join(header)})")
-        return given
-    lowered = {h.lower(): h for h in header}
-    for name in candidates:
-        if name.lower() in lowered:
-            return lowered[name.lower()]
-    raise InputError(
-        f"no {what} column: none of {', '.join(candidates)} in the header "
-        f"({', '.join(header)}); name it with the {what} key setting"
-    )
 
 
 def _read_csv(path: Path, settings: LogSettings, tick: Progress) -> Cases:
@@ -378,14 +414,16 @@ def _read_csv_rows(path: Path, rows, settings: LogSettings, source: _Counted) ->
         raise InputError(f"{path}: line 1: {e}") from None
     try:
         keys = {
-            "case": _column(header, settings.case_key, CASE_COLUMNS, "case"),
-            "activity": _column(header, settings.activity_key, ACTIVITY_COLUMNS, "activity"),
-            "timestamp": _column(header, settings.timestamp_key, TIMESTAMP_COLUMNS, "timestamp"),
+            "case": key_column(header, settings.case_key, CASE_COLUMNS, "case"),
+            "activity": key_column(header, settings.activity_key, ACTIVITY_COLUMNS, "activity"),
+            "timestamp": key_column(header, settings.timestamp_key, TIMESTAMP_COLUMNS, "timestamp"),
         }
     except InputError as e:
         raise InputError(f"{path}: {e}") from None
     build = _Builder(path, keys, settings)
     at = [header.index(keys[k]) for k in ("case", "activity", "timestamp")]
+    columns = [attribute_column(path, header, n) for n in settings.event_attributes]
+    case_columns = [attribute_column(path, header, n) for n in settings.trace_attributes]
     life = header.index(LIFECYCLE_KEY) if LIFECYCLE_KEY in header else None
     last, met, spread = None, set(), set()  # previous row's case; cases met; met again
     try:
@@ -406,7 +444,10 @@ def _read_csv_rows(path: Path, rows, settings: LogSettings, source: _Counted) ->
                 met.add(case)
                 last = case
             phase = row[life] if life is not None and life < len(row) else None
-            build.event(case, activity, stamp, phase, f"line {rows.line_num}")
+            values = tuple(cell(row, i) for i in columns)
+            build.event(case, activity, stamp, phase, f"line {rows.line_num}", values)
+            if case_columns and case:
+                build.case_attributes(case, tuple(cell(row, i) for i in case_columns))
     except csv.Error as e:
         raise InputError(f"{path}: line {rows.line_num}: {e}") from None
     build.spread = len(spread)

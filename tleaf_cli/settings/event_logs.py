@@ -6,6 +6,7 @@ Pure Python: the command line builds read-log's options from this module.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from tleaf_cli.errors import SettingError
@@ -23,6 +24,19 @@ TIMESTAMP_COLUMNS = ("time:timestamp", "CompleteTimestamp", "Complete Timestamp"
 XES_CASE_KEY = "concept:name"
 XES_ACTIVITY_KEY = "concept:name"
 XES_TIMESTAMP_KEY = "time:timestamp"
+
+
+def attribute_names(setting_name: str) -> Callable[[str], tuple[str, ...]]:
+    """The parser of a list of attribute names as written on the command line
+    ("org:resource,amount"); a SettingError naming `setting_name` for an empty name."""
+
+    def parse(text: str) -> tuple[str, ...]:
+        parts = tuple(p.strip() for p in text.split(","))
+        if not all(parts):
+            raise SettingError(setting_name, f"takes names separated by commas, not '{text}'")
+        return parts
+
+    return parse
 
 
 @dataclass(frozen=True)
@@ -63,6 +77,30 @@ class LogSettings:
         choices=SPLIT_ORDERS,
     )
     seed: int = setting(0, SEED_HELP)
+    attributes: tuple[str, ...] | None = setting(
+        None,
+        "Event attributes (XES) or columns (CSV) to keep beside the activity, separated by "
+        "commas (org:resource,...): one value per event, empty where an event has none.",
+        auto="none",
+        parse=attribute_names("attributes"),
+    )
+    case_attributes: tuple[str, ...] | None = setting(
+        None,
+        "Case attributes (XES: the trace's; CSV: columns, the first value in a case's rows) to "
+        "keep, separated by commas.",
+        auto="none",
+        parse=attribute_names("case_attributes"),
+    )
+
+    @property
+    def event_attributes(self) -> tuple[str, ...]:
+        """The event attributes to keep (none when none were named)."""
+        return self.attributes or ()
+
+    @property
+    def trace_attributes(self) -> tuple[str, ...]:
+        """The case attributes to keep (none when none were named)."""
+        return self.case_attributes or ()
 
     def check(self) -> None:
         check_values(self)
@@ -76,6 +114,14 @@ class LogSettings:
         for name in ("case_key", "activity_key", "timestamp_key", "lifecycle"):
             if getattr(self, name) == "":
                 raise SettingError(name, "must not be empty")
+        for name in ("attributes", "case_attributes"):
+            chosen = getattr(self, name)
+            if chosen is None:
+                continue
+            if not isinstance(chosen, tuple) or not all(isinstance(a, str) and a for a in chosen):
+                raise SettingError(name, f"is a tuple of attribute names, not {chosen!r}")
+            if len(set(chosen)) < len(chosen):
+                raise SettingError(name, f"names an attribute twice: {','.join(chosen)}")
 
 
 # split-cases: the protocols, and the orders k-fold cross-validation may take the cases in.
