@@ -12,7 +12,8 @@ from hypothesis import strategies as st
 from tleaf_cli.data.formula_files import parse_ltl_text
 from tleaf_cli.errors import ArgumentError, InputError, SettingError
 from tleaf_cli.knowledge.declare import (
-    TEMPLATES,
+    ALL_TEMPLATES,
+    DEFAULT_TEMPLATES,
     Constraint,
     declare_text,
     holding_shares,
@@ -149,7 +150,8 @@ def test_bad_inputs_are_errors() -> None:
         mine_declare([["a"]], templates=["respond"])
     with pytest.raises(ArgumentError, match=r"min_joint_support: .* 0 to 1, not 1\.5"):
         mine_declare([["a"]], min_joint_support=1.5)
-    assert set(TEMPLATES) >= {"existence", "succession", "not_coexistence"}
+    with pytest.raises(ArgumentError, match="templates: names 'exactly_once' twice"):
+        mine_declare([["a"]], templates=["exactly", "exactly_once"])  # the old name of exactly
 
 
 @pytest.mark.parametrize(
@@ -295,9 +297,21 @@ def test_peer_formulas_command(tmp_path, chain_cli) -> None:
 
 
 def test_the_settings_know_the_templates() -> None:
-    from tleaf_cli.settings.declare import DECLARE_TEMPLATES
+    """settings/declare.py names the templates of templates.py (it may not import it), in its
+    order; the old names are find_template's aliases; the default set is the ten of before."""
+    from tleaf_cli.knowledge.templates import TEMPLATES, find_template
+    from tleaf_cli.settings.declare import DECLARE_TEMPLATES, TEMPLATE_ALIASES
 
-    assert DECLARE_TEMPLATES == TEMPLATES
+    assert tuple(TEMPLATES) == DECLARE_TEMPLATES
+    assert set(DEFAULT_TEMPLATES) < set(ALL_TEMPLATES) < set(DECLARE_TEMPLATES)
+    assert len(ALL_TEMPLATES) == 21 and "end" in ALL_TEMPLATES and "choice" in ALL_TEMPLATES
+    for old, key in TEMPLATE_ALIASES.items():
+        assert find_template(old) == (TEMPLATES[key], 1)
+    assert [Constraint(t, ("a", "b")[: TEMPLATES[t].arity]).name.split(".")[0]
+            for t in DEFAULT_TEMPLATES] == [
+        "existence", "absence", "exactly_once", "init", "end", "response", "precedence",
+        "succession", "chain_response", "not_coexistence",
+    ]  # fmt: skip
 
 
 def test_mine_declare_says_no_rule_was_mined_and_counts_the_test_cases(tmp_path) -> None:

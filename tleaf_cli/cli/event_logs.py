@@ -106,15 +106,24 @@ def mine_declare(
     cases: Annotated[Path, typer.Argument(help="A cases artifact (tleaf read-log).")],
     out: Annotated[
         Path,
-        typer.Option("--out", "-o", parser=file_path, help="The knowledge base (.ltl) to write."),
+        typer.Option(
+            "--out",
+            "-o",
+            parser=file_path,
+            help="The knowledge base to write: .ltl (tleaf's rules), or .decl (a Declare model "
+            "in RuM's format).",
+        ),
     ] = Path("declare.ltl"),
     quiet: Quiet = False,
     **values,
 ) -> None:
-    """Mine Declare constraints from the cases' train split into a knowledge base (.ltl).
+    """Mine Declare constraints from the cases' train split into a knowledge base (.ltl, .decl).
 
-    One named rule per constraint (template.a[.b]), its support and confidence on the train
-    split in a comment; OUT with .tsv (beside it) gives each rule's support on the test split too.
+    A .ltl has one named rule per constraint (template.a[.b]), its support and confidence on the
+    train split in a comment; a .decl (OUT ending so) the constraints as RuM writes them, the
+    activities by their names in the log. OUT with .tsv (beside it) gives each rule's measures
+    and its support on the test split. --templates all mines every template that does not
+    repeat another's formula.
     """
     from tleaf_cli.knowledge.log_knowledge import mine_log, support_table_path
 

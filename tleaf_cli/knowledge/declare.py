@@ -1,40 +1,36 @@
-"""Declare constraints: the process-mining field's rule templates, as LTLf, mined from cases.
+"""Declare constraints mined from cases: every template of `knowledge/templates.py` that applies
+to one activity or a pair, measured on a log's cases, kept by support and confidence.
 
 A case is a finite sequence of activities, one per step; here each activity is a formula atom
-(`data.activity_names.activity_atoms`), so a step makes exactly one atom true (one-hot). The
-templates, in tleaf's syntax, on finite traces (LTLf; the standard Declare-as-LTLf reading of
-De Giacomo, Maggi et al.), for activities a ≠ b:
+(`data.activity_names.activity_atoms`), so a step makes exactly one atom true (one-hot). A
+template's meaning is its LTLf formula in templates.py; a constraint (`declare_constraints`) is
+a template on its activities, checked on a case by one direct check per template, tested
+against the formula.
 
-    existence(a)          F a                      a happens
-    absence(a)            G !a                     a never happens
-    exactly_once(a)       F a & G(a -> WX G !a)    a happens once
-    init(a)               a                        the case starts with a
-    end(a)                F(a & last)              the case ends with a
-    response(a, b)        G(a -> F b)              every a is followed, later, by some b
-    precedence(a, b)      (!b U a) | G !b          no b before the first a
-    succession(a, b)      response & precedence
-    chain_response(a, b)  G(a -> X b)              every a is immediately followed by b
-    not_coexistence(a, b) !(F a & F b)             never both in one case
-
-Response is Declare's □(a → ◇b) with ◇ including the present; since a and b are different
-activities and a step holds one activity, `F b` at a step where a holds is `X F b` (strictly
-later): the two formulas agree on every case. `X` is the strong next: a case whose last step is
-a violates chain_response(a, b).
+**Templates.** By default the ten tleaf has always mined (settings/declare.py's
+DEFAULT_TEMPLATES): existence, absence, exactly (rule name `exactly_once.a`), init, end,
+response, precedence, succession, chain_response, not_co_existence (`not_coexistence.a.b`).
+`ALL_TEMPLATES` adds choice, exclusive_choice, responded_existence, co_existence, the
+alternate and chain templates, not_succession and not_chain_succession: pm4py's 18 discovery
+templates, end and the two choices. The five negative templates that repeat another's formula on
+two activities are mined only when named. Counting templates are mined at count 1 (Existence,
+Absence, Exactly1): at least once, never, exactly once.
 
 **Measures.** A constraint's *support* is the share of cases that satisfy it (vacuously too: a
-case without a satisfies response(a, b)). A relational constraint is *activated* by a case in
-which its activating activity occurs (response, chain_response: a; precedence: b; succession,
-not_coexistence: a or b), and its *confidence* is the share of the activated cases that satisfy
-it. Unary templates have no activation: their confidence is their support.
+case without a satisfies response(a, b)). A relational constraint is *activated* by a case that
+contains an activating activity (`declare_constraints.activating`: response: a, precedence: b,
+succession and the co-existences: a or b), and its *confidence* is the share of the activated
+cases that satisfy it. Unary templates have no activation: their confidence is their support.
 
 **Mining** (`mine_declare`) measures every template on every activity (every ordered pair of
-different activities; unordered for not_coexistence) over the training cases, checking the
-sequences directly (first/last positions, successors: no automata), and keeps a constraint when
-its support ≥ `min_support`, its confidence ≥ `min_confidence` and (relational) it is activated
-by at least `min_activated` cases: a rule no case activates is satisfied trivially. Then it drops
-rules implied by another kept rule on every case, keeping the strongest: response and precedence
-under succession, response under chain_response or end(b), precedence under init(a), existence
-under init, end or exactly_once, not_coexistence under absence of either activity.
+different activities; unordered for the symmetric choices and co-existences) over the cases,
+in one pass: each case is read once (`CaseView`) and checked on the pairs of activities it
+contains; a case that lacks one of the pair settles it by presence alone (the checks' verdict on
+a one-activity case). It keeps a constraint when its support ≥ `min_support`, its confidence ≥
+`min_confidence` and (relational) it is activated by at least `min_activated` cases: a rule no
+case activates is satisfied trivially. Then it drops rules implied by another kept rule on every
+case, keeping the strongest (`declare_implied`: response and precedence under succession,
+response under chain_response or end(b), ...).
 
 Rules that each hold on most cases can together hold on few: on a log of hundreds of activities
 thousands of rules pass 90 % support, and their conjunction holds on under a tenth of the cases,
@@ -46,7 +42,7 @@ still holds on that share of the cases (greedy: not the largest such set, a simp
 `declare_text` gives the rules as the text of a `.ltl` formula file (docs/formulas.md): one
 named rule a line, `template.a[.b]: formula`, its measured support and confidence in a comment
 on its line; `holding_shares` measures mined rules on other cases (a test split). Writing the
-file, with its header, is `log_knowledge.mine_log`'s.
+file, with its header, is `log_knowledge.mine_log`'s (a `.decl` is `decl_writer`'s).
 
 Every public function checks its arguments first (`mining_arguments`): ArgumentError or
 ArgumentTypeError naming the argument, never a rule set mined from a wrong value.
@@ -60,112 +56,31 @@ from dataclasses import dataclass
 
 from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge import mining_arguments as check
-
-UNARY = ("existence", "absence", "exactly_once", "init", "end")
-BINARY = (
-    "response",
-    "precedence",
-    "succession",
-    "chain_response",
-    "not_coexistence",
+from tleaf_cli.knowledge.declare_constraints import (
+    CHECKS,
+    SYMMETRIC,
+    CaseView,
+    Constraint,
+    activating,
 )
-TEMPLATES = UNARY + BINARY
+from tleaf_cli.knowledge.declare_implied import redundant
+from tleaf_cli.knowledge.templates import TEMPLATES
+from tleaf_cli.settings.declare import (
+    ALL_TEMPLATES,
+    DECLARE_TEMPLATES,
+    DEFAULT_TEMPLATES,
+    TEMPLATE_ALIASES,
+)
 
-_FORMULAS = {
-    "existence": "F {a}",
-    "absence": "G !{a}",
-    "exactly_once": "F {a} & G({a} -> WX G !{a})",
-    "init": "{a}",
-    "end": "F({a} & last)",
-    "response": "G({a} -> F {b})",
-    "precedence": "(!{b} U {a}) | G !{b}",
-    "succession": "G({a} -> F {b}) & ((!{b} U {a}) | G !{b})",
-    "chain_response": "G({a} -> X {b})",
-    "not_coexistence": "!(F {a} & F {b})",
-}
-# Which activities activate a relational template (the case must contain one of them).
-_ACTIVATORS = {
-    "response": "a",
-    "precedence": "b",
-    "succession": "ab",
-    "chain_response": "a",
-    "not_coexistence": "ab",
-}
-
-
-@dataclass(frozen=True)
-class Constraint:
-    """One template applied to its activities (atoms): `activities` has one atom for a unary
-    template, two (a, b) for a relational one."""
-
-    template: str
-    activities: tuple[str, ...]
-
-    @property
-    def name(self) -> str:
-        """The rule's name in a `.ltl` file: `response.assign_seriousness.take_in_charge`."""
-        return ".".join((self.template, *self.activities))
-
-    @property
-    def formula(self) -> str:
-        """The LTLf formula in tleaf's syntax (the module docstring's table)."""
-        a, *rest = self.activities
-        return _FORMULAS[self.template].format(a=a, b=rest[0] if rest else "")
-
-    @property
-    def activation(self) -> str | None:
-        """The formula of 'this case activates the constraint' (None for a unary template)."""
-        who = _ACTIVATORS.get(self.template)
-        if who is None:
-            return None
-        return " | ".join(f"F {self.activities['ab'.index(x)]}" for x in who)
-
-    def activated(self, case: Sequence[str]) -> bool:
-        """True when `case` activates the constraint (always, for a unary template)."""
-        who = _ACTIVATORS.get(self.template)
-        if who is None:
-            return True
-        return any(self.activities["ab".index(x)] in case for x in who)
-
-    def holds(self, case: Sequence[str]) -> bool:
-        """True when the non-empty `case` (one atom per step) satisfies the constraint; checked
-        on the sequence, without automata."""
-        if not case:
-            raise InputError("a case has at least one event")
-        t, a = self.template, self.activities[0]
-        if t == "existence":
-            return a in case
-        if t == "absence":
-            return a not in case
-        if t == "exactly_once":
-            return case.count(a) == 1
-        if t == "init":
-            return case[0] == a
-        if t == "end":
-            return case[-1] == a
-        b = self.activities[1]
-        first, last = _first_last(case)
-        if t == "response":
-            return a not in last or last[a] < last.get(b, -1)
-        if t == "precedence":
-            return b not in first or first[b] > first.get(a, len(case))
-        if t == "succession":
-            return Constraint("response", (a, b)).holds(case) and Constraint(
-                "precedence", (a, b)
-            ).holds(case)
-        if t == "chain_response":
-            return all(case[i + 1] == b for i in range(len(case) - 1) if case[i] == a) and (
-                case[-1] != a
-            )
-        if t == "not_coexistence":
-            return not (a in first and b in first)
-        raise InputError(f"unknown Declare template '{t}' (known: {', '.join(TEMPLATES)})")
+# ALL_TEMPLATES, DEFAULT_TEMPLATES and Constraint are this module's too (imported from here)
+__all__ = ["ALL_TEMPLATES", "DEFAULT_TEMPLATES", "Constraint"]
 
 
 @dataclass(frozen=True)
 class Measured:
     """A constraint and what the cases say of it: `cases` in all, `activated` of them, and
-    `satisfied` (all cases that satisfy it, vacuously too)."""
+    `satisfied` (all cases that satisfy it, vacuously too: every case that does not activate
+    it)."""
 
     constraint: Constraint
     cases: int
@@ -179,128 +94,83 @@ class Measured:
     @property
     def confidence(self) -> float:
         """Share of the activated cases that satisfy it (its support for a unary template)."""
-        if self.constraint.template in UNARY:
+        if self.constraint.declare.arity == 1:
             return self.support
         vacuous = self.cases - self.activated
         return (self.satisfied - vacuous) / self.activated if self.activated else 1.0
 
 
-def _first_last(case: Sequence[str]) -> tuple[dict[str, int], dict[str, int]]:
-    first: dict[str, int] = {}
-    last: dict[str, int] = {}
-    for i, x in enumerate(case):
-        first.setdefault(x, i)
-        last[x] = i
-    return first, last
-
-
 def measure_declare(
     cases: Sequence[Sequence[str]],
-    templates: Iterable[str] = TEMPLATES,
+    templates: Iterable[str] = DEFAULT_TEMPLATES,
     activities: Iterable[str] | None = None,
 ) -> list[Measured]:
-    """Every constraint of `templates` over `activities` (default: those in `cases`, sorted)
-    measured on `cases`: one pass over the cases, each looking only at the pairs of activities
+    """Every constraint of `templates` (keys of templates.TEMPLATES, or the old names
+    exactly_once, not_coexistence) over `activities` (default: those in `cases`, sorted),
+    measured on `cases`: one pass over the cases, each checked only on the activities and pairs
     it contains (a pair a case lacks is settled by the per-activity counts)."""
     cases = check.cases(cases)
-    templates = check.templates(templates, TEMPLATES)
+    keys = check.templates(templates, DECLARE_TEMPLATES, TEMPLATE_ALIASES)
     if activities is not None:
         activities = check.names(activities, "activities", "activities (str)")
     if not cases:
         raise InputError("no cases to mine constraints from")
     if any(len(c) == 0 for c in cases):
         raise InputError("a case has at least one event")
-    n = len(cases)
+    unary = [(k, CHECKS[k]) for k in keys if TEMPLATES[k].arity == 1]
+    binary = [(k, CHECKS[k], k in SYMMETRIC) for k in keys if TEMPLATES[k].arity == 2]
     has = Counter[str]()  # cases containing a
-    once = Counter[str]()
-    starts = Counter[str]()
-    ends = Counter[str]()
     both = Counter[tuple[str, str]]()  # cases containing a and b
-    resp = Counter[tuple[str, str]]()  # ... with the last a before the last b
-    prec = Counter[tuple[str, str]]()  # ... with the first a before the first b
-    succ = Counter[tuple[str, str]]()  # ... both
-    chain = Counter[tuple[str, str]]()  # cases where every a is followed at once by b
+    held = {k: Counter[str | tuple[str, str]]() for k in keys}  # ... that satisfy k
     for case in cases:
-        first, last = _first_last(case)
-        counts = Counter(case)
-        starts[case[0]] += 1
-        ends[case[-1]] += 1
-        nexts: dict[str, set[str | None]] = {}
-        for i, x in enumerate(case):
-            nexts.setdefault(x, set()).add(case[i + 1] if i + 1 < len(case) else None)
-        for a, k in counts.items():
-            has[a] += 1
-            once[a] += k == 1
-            following = nexts[a]
-            if len(following) == 1:
-                (b,) = following
-                if b is not None and b != a:
-                    chain[a, b] += 1
-            for b in first:
-                if b == a:
+        view = CaseView.of(case)
+        present = list(view.positions)
+        has.update(present)
+        for k, holds in unary:
+            held[k].update(a for a in present if holds(view, a, ""))
+        if not binary:
+            continue
+        for a in present:
+            for b in present:
+                if a == b:
                     continue
                 both[a, b] += 1
-                r = last[a] < last[b]
-                p = first[a] < first[b]
-                resp[a, b] += r
-                prec[a, b] += p
-                succ[a, b] += r and p
+                for k, holds, symmetric in binary:
+                    if not (symmetric and b < a) and holds(view, a, b):
+                        held[k][a, b] += 1
+    n = len(cases)
     names = sorted(has) if activities is None else sorted(set(activities))
     out: list[Measured] = []
-    for t in templates:
-        if t in UNARY:
+    for k in keys:
+        lone = _lone_verdicts(k)
+        if TEMPLATES[k].arity == 1:
             for a in names:
-                sat = {
-                    "existence": has[a],
-                    "absence": n - has[a],
-                    "exactly_once": once[a],
-                    "init": starts[a],
-                    "end": ends[a],
-                }[t]
-                out.append(Measured(Constraint(t, (a,)), n, n, sat))
+                sat = held[k][a] + (n - has[a]) * lone[0]
+                out.append(Measured(Constraint(k, (a,)), n, n, sat))
             continue
+        who = activating(k)
         for a in names:
             for b in names:
-                if a == b or (t == "not_coexistence" and b < a):
+                if a == b or (k in SYMMETRIC and b < a):
                     continue
                 na, nb, nab = has[a], has[b], both[a, b]
-                if t == "response":
-                    act, ok = na, resp[a, b]
-                elif t == "precedence":
-                    act, ok = nb, prec[a, b]
-                elif t == "succession":
-                    act, ok = na + nb - nab, succ[a, b]
-                elif t == "chain_response":
-                    act, ok = na, chain[a, b]
-                else:  # not_coexistence
-                    act, ok = na + nb - nab, na + nb - 2 * nab
-                out.append(Measured(Constraint(t, (a, b)), n, act, n - act + ok))
+                sat = (
+                    held[k][a, b]
+                    + (n - na - nb + nab) * lone[0]
+                    + (na - nab) * lone[1]
+                    + (nb - nab) * lone[2]
+                )
+                act = {(): n, (0,): na, (1,): nb, (0, 1): na + nb - nab}[who]
+                out.append(Measured(Constraint(k, (a, b)), n, act, sat))
     return out
 
 
-def _redundant(kept: set[Constraint]) -> set[Constraint]:
-    """The kept constraints that another kept constraint implies on every case."""
-    out: set[Constraint] = set()
-    for c in kept:
-        t, acts = c.template, c.activities
-        a = acts[0]
-        b = acts[1] if len(acts) > 1 else None
-        stronger: list[Constraint] = []
-        if t == "existence":
-            stronger = [Constraint(s, (a,)) for s in ("init", "end", "exactly_once")]
-        elif t == "response":
-            stronger = [
-                Constraint("succession", (a, b)),
-                Constraint("chain_response", (a, b)),
-                Constraint("end", (b,)),
-            ]
-        elif t == "precedence":
-            stronger = [Constraint("succession", (a, b)), Constraint("init", (a,))]
-        elif t == "not_coexistence":
-            stronger = [Constraint("absence", (a,)), Constraint("absence", (b,))]
-        if any(s in kept for s in stronger):
-            out.add(c)
-    return out
+def _lone_verdicts(key: str) -> tuple[bool, bool, bool]:
+    """The template's verdict on a case that holds neither of its activities, only a, only b:
+    set by presence alone (the check on a one-activity case)."""
+    holds = CHECKS[key]
+    neither, only_a, only_b = (holds(CaseView.of((x,)), "a", "b") for x in ("z", "a", "b"))
+    return neither, only_a, only_b
 
 
 def passing(
@@ -314,7 +184,7 @@ def passing(
     activated = [
         m
         for m in confident
-        if m.constraint.template in UNARY or m.activated >= max(min_activated, 1)
+        if m.constraint.declare.arity == 1 or m.activated >= max(min_activated, 1)
     ]
     return supported, confident, activated
 
@@ -326,7 +196,7 @@ def mine_declare(
     min_confidence: float = 0.9,
     min_activated: int = 1,
     min_joint_support: float = 0.0,
-    templates: Iterable[str] = TEMPLATES,
+    templates: Iterable[str] = DEFAULT_TEMPLATES,
     activities: Iterable[str] | None = None,
 ) -> list[Measured]:
     """The Declare constraints that `cases` support (module docstring), in template order, then
@@ -339,7 +209,7 @@ def mine_declare(
     check.count(min_activated, "min_activated", 0)
     measured = measure_declare(cases, templates, activities)
     kept = passing(measured, min_support, min_confidence, min_activated)[-1]
-    drop = _redundant({m.constraint for m in kept})
+    drop = redundant(m.constraint for m in kept)
     kept = [m for m in kept if m.constraint not in drop]
     if min_joint_support > 0:
         jointly = _jointly_holding(kept, cases, min_joint_support)
@@ -353,10 +223,10 @@ def _jointly_holding(
     """The rules of `mined` kept by falling support (stable: ties in their order) while the
     kept rules' conjunction holds on at least `share` of `cases`."""
     need = share * len(cases)
-    alive = list(cases)  # the cases every kept rule holds on
+    alive = [CaseView.of(c) for c in cases]  # the cases every kept rule holds on
     kept: set[Constraint] = set()
     for m in sorted(mined, key=lambda m: -m.support):
-        still = [c for c in alive if m.constraint.holds(c)]
+        still = [c for c in alive if m.constraint.holds_on(c)]
         if len(still) >= need:
             kept.add(m.constraint)
             alive = still
@@ -372,7 +242,8 @@ def holding_shares(
     cases = check.cases(cases)
     if not cases:
         return [float("nan")] * len(rules), float("nan")
-    holds = [[r.holds(c) for c in cases] for r in rules]
+    views = [CaseView.of(c) for c in cases]
+    holds = [[r.holds_on(v) for v in views] for r in rules]
     every = sum(all(column) for column in zip(*holds, strict=True)) if rules else len(cases)
     return [sum(row) / len(cases) for row in holds], every / len(cases)
 
@@ -385,7 +256,7 @@ def declare_text(mined: Sequence[Measured], header: Iterable[str] = ()) -> str:
     for m in mined:
         c = m.constraint
         note = f"support {m.support:.4f}"
-        if c.template in BINARY:
+        if c.declare.arity == 2:
             note += f", confidence {m.confidence:.4f}, activated {m.activated}/{m.cases}"
         lines.append(f"{c.name + ':':<{width + 1}} {c.formula}  # {note}")
     return "\n".join(lines) + "\n"

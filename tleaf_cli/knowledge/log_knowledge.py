@@ -2,10 +2,12 @@
 (`mine_log`, for `tleaf mine-declare`) and the peers' formulas.tsv as a `.ltl`
 (`convert_peer_file`, for `tleaf peer-formulas`).
 
-`mine_log` writes the knowledge base (`knowledge/declare.py`'s `.ltl`, with a header saying where
-it comes from, the settings, and which activity each atom names) and, beside it, a TSV with
-every rule's measures on the train split and its support on the test split: the share of test
-cases the rule holds on, i.e. how well the mined knowledge carries over to unseen cases.
+`mine_log` writes the knowledge base — `knowledge/declare.py`'s `.ltl`, with a header saying where
+it comes from, the settings, and which activity each atom names; or, for an `out` ending in
+`.decl`, a Declare model in RuM's format (`decl_writer`), the activities by their names in the
+log — and, beside it, a TSV with every rule's measures on the train split and its support on the
+test split: the share of test cases the rule holds on, i.e. how well the mined knowledge carries
+over to unseen cases.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from pathlib import Path
 from tleaf_cli.data.artifacts import read_text_file, write_text_atomic
 from tleaf_cli.data.event_logs import iter_sequences, read_cases
 from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.decl_writer import decl_text
 from tleaf_cli.knowledge.declare import (
     Measured,
     declare_text,
@@ -67,7 +70,9 @@ def mine_log(
     cases_path: str | os.PathLike, out: str | os.PathLike, settings: DeclareSettings
 ) -> MinedLog:
     """Mine Declare rules from the train split of the cases artifact `cases_path`, write them to
-    `out` (`.ltl`) and their measures to `support_table_path(out)`."""
+    `out` (a `.decl` when its name ends so, else a `.ltl`) and their measures to
+    `support_table_path(out)`. InputError, nothing written, for an activity a `.decl` cannot
+    name."""
     settings.check()
     cases = read_cases(cases_path)
     train = list(iter_sequences(cases, "train"))
@@ -96,7 +101,10 @@ def mine_log(
         *(f"atom {a} = activity {activity_of.get(a, a)!r}" for a in sorted(named)),
         "",
     ]
-    text = declare_text(mined, header)
+    if Path(out).suffix.lower() == ".decl":
+        text = decl_text(mined, activity_of, cases.activity_atoms)
+    else:
+        text = declare_text(mined, header)
     rows = ["rule\tformula\ttrain_support\ttrain_confidence\ttrain_activated\ttest_support"]
     for m, share in zip(mined, shares, strict=True):
         rows.append(

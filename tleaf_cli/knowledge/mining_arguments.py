@@ -11,7 +11,7 @@ given and what to pass; the command line checks its settings before it calls the
 from __future__ import annotations
 
 import numbers
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 from tleaf_cli.arguments import given, sequence
@@ -44,21 +44,25 @@ def names(value: Any, argument: str, what: str) -> tuple[str, ...]:
     return out
 
 
-def templates(value: Any, known: Sequence[str]) -> tuple[str, ...]:
-    """Declare template names among `known`, each once (a template named twice would be mined,
-    and written, twice)."""
+def templates(
+    value: Any, known: Sequence[str], aliases: Mapping[str, str] | None = None
+) -> tuple[str, ...]:
+    """Declare template names among `known` (or `aliases`' keys, replaced by their values), each
+    once (a template named twice would be mined, and written, twice)."""
+    aliases = aliases or {}
     chosen = names(value, "templates", "Declare template names, e.g. ('init', 'end')")
     for t in chosen:
-        if t not in known:
+        if t not in known and t not in aliases:
             raise ArgumentError(
                 "templates", f"unknown Declare template '{t}' (known: {', '.join(known)})"
             )
-    twice = next((t for i, t in enumerate(chosen) if t in chosen[:i]), None)
+    keys = tuple(aliases.get(t, t) for t in chosen)
+    twice = next((chosen[i] for i, t in enumerate(keys) if t in keys[:i]), None)
     if twice is not None:
         raise ArgumentError("templates", f"names '{twice}' twice; name each template once")
     if not chosen:
         raise ArgumentError("templates", f"is empty; name one or more of {', '.join(known)}")
-    return chosen
+    return keys
 
 
 def share(value: Any, argument: str) -> float:
