@@ -18,7 +18,7 @@ MOST_BROKEN_RULES = 10  # the rules broken by most cases the command prints
 def check_cases(
     cases: Annotated[Path, typer.Argument(help="A cases artifact (tleaf read-log).")],
     knowledge: Annotated[
-        Path, typer.Argument(help="The rules: a knowledge base (.ltl, or a formula table).")
+        Path, typer.Argument(help="The rules: a knowledge base (.ltl, .decl, or a formula table).")
     ],
     out: Annotated[
         Path,
