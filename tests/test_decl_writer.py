@@ -19,7 +19,7 @@ from tleaf_cli.knowledge.log_knowledge import mine_log, support_table_path
 from tleaf_cli.logic.formulas import parse
 from tleaf_cli.settings.declare import DeclareSettings
 
-# a constraint line as RuM writes them (../shared/data/knowledge-protocols/*/*.decl)
+# a constraint line as RuM writes them (the peers' published models)
 UNARY = re.compile(r"^[A-Z][A-Za-z -]*\d*\[[^],|]+\] \| \|$")
 BINARY = re.compile(r"^[A-Z][A-Za-z -]*\[[^],|]+, [^],|]+\] \| \| \|$")
 
@@ -53,16 +53,21 @@ def test_mine_declare_writes_a_decl_that_reads_back(tmp_path: Path) -> None:
         assert parse(read.formula(model.atoms)) == parse(c.formula)
 
 
-def test_the_real_files_lines_are_of_that_form() -> None:
-    """The writer's line forms are those of the protocols' models, where they are here."""
-    shared = Path(__file__).resolve().parents[2] / "shared" / "data" / "knowledge-protocols"
-    files = sorted(shared.glob("*/*.decl"))
-    if not files:
-        pytest.skip("no .decl of the knowledge protocols here")
-    for path in files:
-        for line in path.read_text(encoding="utf-8").splitlines():
-            if "[" in line and "|A." not in line:  # a constraint without conditions
-                assert (UNARY if ", " not in line else BINARY).match(line.strip()), line
+def test_the_peers_line_forms_are_of_that_form() -> None:
+    """The writer's line forms are those of the peers' published models (their constraint
+    lines without conditions, as tests/test_decl.py's PEER_FORMS and examples/helpdesk.decl
+    write them)."""
+    from tests.test_decl import PEER_FORMS
+
+    example = (Path(__file__).resolve().parents[1] / "examples" / "helpdesk.decl").read_text()
+    lines = [
+        line.strip()
+        for line in (PEER_FORMS + example).splitlines()
+        if "[" in line and "|A." not in line  # a constraint without conditions
+    ]
+    assert lines
+    for line in lines:
+        assert (UNARY if ", " not in line else BINARY).match(line), line
 
 
 def test_an_activity_a_decl_cannot_name_is_refused() -> None:

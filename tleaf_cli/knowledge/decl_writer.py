@@ -1,7 +1,7 @@
 """Mined Declare constraints as a Declare model in RuM's `.decl` format (Declare4Py reads it too):
 what `tleaf mine-declare -o kb.decl` writes, for the field's tools and tleaf's `.decl` reader.
 
-The file, as RuM writes it (the models of the knowledge protocols in ../shared/data show it):
+The file, as RuM writes it (and as the models NeSy4PPM and Mezini et al. publish are):
 
     activity Assign seriousness
     activity Closed
