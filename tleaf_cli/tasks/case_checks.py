@@ -2,8 +2,8 @@
 checked against every rule, exactly, and a summary of who breaks what.
 
 Input: a `cases` artifact (`read-log`, with or without kept attributes) and a knowledge base read
-by `read_formulas` (`.ltl`, a formula table, or any format it reads: Declare's `.decl` once its
-reader lands there), each rule named. Each rule is compiled once to its minimal DFA (compile-dfa's
+by `read_formulas` (`.ltl`, a formula table, or a Declare model `.decl` with its MP-Declare
+conditions), each rule named. Each rule is compiled once to its minimal DFA (compile-dfa's
 stage, `compile_sources`: formula progression, MONA past its limits, through the disk cache) and
 the cases go through the batched exact checker (`PackedDFAs`, logic/checker.py), one event a
 letter.

@@ -19,7 +19,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from tleaf_cli.data.artifacts import describe_inputs, file_sha256, read_json_file
+from tleaf_cli.data.artifacts import file_sha256, read_json_file
 from tleaf_cli.errors import InputError
 
 CONFIG, METRICS = "config.json", "metrics.json"
@@ -28,14 +28,15 @@ RESUMABLE = ("epochs", "patience", "device", "max_minutes")  # may differ when r
 
 
 def run_identity(
-    settings: object, inputs: Sequence[str | os.PathLike], embedder: str | os.PathLike | None
+    settings: object, inputs: Sequence[dict[str, str]], embedder: str | os.PathLike | None
 ) -> dict[str, Any]:
     """What makes a run this run: its settings (but those a resumed run may change), its
-    inputs' sha256s in order (data, knowledge base), its embedder's folder. JSON-ready."""
+    inputs' sha256s in order (data, knowledge base: `describe_inputs`' records), its embedder's
+    folder. JSON-ready."""
     values = json.loads(json.dumps(asdict(settings)))
     return {
         "settings": {k: v for k, v in values.items() if k not in RESUMABLE},
-        "inputs": [i["sha256"] for i in describe_inputs(inputs)],
+        "inputs": [i["sha256"] for i in inputs],
         "embedder": None if embedder is None else str(Path(embedder).resolve()),
     }
 
@@ -87,13 +88,6 @@ def read_run_config(folder: str | os.PathLike, kind: str) -> dict[str, Any]:
         found = config.get("kind") if isinstance(config, dict) else None
         raise InputError(f"{path}: not a {kind} run (kind {found})")
     return config
-
-
-def input_record(path: str | os.PathLike | None) -> dict[str, str] | None:
-    """An input as config.json names it (absolute path and sha256), None for no file."""
-    if path is None:
-        return None
-    return {"path": str(Path(path).resolve()), "sha256": describe_inputs([path])[0]["sha256"]}
 
 
 ROLES = {"data": 0, "kb": 1}  # a run's inputs in config.json's "inputs" list, by position

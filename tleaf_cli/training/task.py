@@ -38,7 +38,7 @@ from tleaf_cli.settings.training import TrainingSettings
 from tleaf_cli.training.lambdas import RunSetup, resolve_lambda, train_choosing_lambda
 from tleaf_cli.training.loop import WEIGHTS, LoopSettings, Step, device_for, fit, save_atomic
 from tleaf_cli.training.q_coverage import QCoverage
-from tleaf_cli.training.run_folder import CONFIG, METRICS, input_record, run_identity
+from tleaf_cli.training.run_folder import CONFIG, METRICS, run_identity
 
 B = TypeVar("B")  # a task's training batch
 S = TypeVar("S", bound=TrainingSettings)
@@ -153,7 +153,7 @@ def train_task(
         )
         # the chosen candidate may be a reference trained without rules: this run names its own
         config = json.loads((out_dir / CONFIG).read_text())
-        config.update(_named_inputs(inputs))
+        config.update(_named_inputs(inputs, _described(inputs)))
         write_text_atomic(out_dir / CONFIG, json.dumps(config, indent=2))
         return metrics
     device = device_for(settings.device)
@@ -168,7 +168,7 @@ def train_task(
 
     torch.manual_seed(settings.seed)  # after q is loaded: the model starts the same for every loss
     model = task.model()
-    read = [p for p in (inputs.data, inputs.kb) if p is not None]
+    described = _described(inputs)  # each input hashed once: identity and config.json
 
     def record(values: dict[str, Any]) -> None:
         figures = {k: v for k, v in values.items() if k not in ("epoch", "seconds", trainer.score)}
@@ -188,7 +188,7 @@ def train_task(
             score=trainer.score,
             resume=resume,
             on_epoch=None if on_epoch is None else record,
-            identity=run_identity(settings, read, inputs.embedder),
+            identity=run_identity(settings, described, inputs.embedder),
         )
     else:  # nothing to train (a count, e.g. next activity's prefix table): scored as it is
         model.eval()
@@ -213,7 +213,7 @@ def train_task(
         "kind": trainer.kind,
         "settings": asdict(settings),
         **task.config(),
-        **_named_inputs(inputs),
+        **_named_inputs(inputs, described),
         # absolute, and relative to this folder (docs/artifacts.md: portable run folders)
         "embedder": None if inputs.embedder is None else str(Path(inputs.embedder).resolve()),
         "embedder_relative": None
@@ -225,11 +225,15 @@ def train_task(
     return metrics
 
 
-def _named_inputs(inputs: RunInputs) -> dict[str, Any]:
-    """config.json's record of a run's inputs: as a list (data, knowledge base), and by role
-    (`run_folder.recorded_input` reads them back)."""
-    read = [p for p in (inputs.data, inputs.kb) if p is not None]
+def _described(inputs: RunInputs) -> list[dict[str, str]]:
+    """The run's input files (the data, then the knowledge base) with their sha256s."""
+    return describe_inputs([p for p in (inputs.data, inputs.kb) if p is not None])
+
+
+def _named_inputs(inputs: RunInputs, described: list[dict[str, str]]) -> dict[str, Any]:
+    """config.json's record of a run's inputs (`_described`): as a list (data, knowledge
+    base), and by role (`run_folder.recorded_input` reads them back)."""
     return {
-        "inputs": describe_inputs(read),
-        "trained_on": {"data": input_record(inputs.data), "kb": input_record(inputs.kb)},
+        "inputs": described,
+        "trained_on": {"data": described[0], "kb": described[1] if inputs.kb else None},
     }
