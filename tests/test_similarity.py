@@ -7,7 +7,11 @@ import itertools
 import numpy as np
 import pytest
 
-from tleaf_cli.tasks.next_activity.similarity import damerau_levenshtein, dl_similarity
+from tleaf_cli.tasks.next_activity.similarity import (
+    damerau_levenshtein,
+    dl_similarity,
+    trace_dl_similarity,
+)
 
 
 def unrestricted_dl(a: tuple[int, ...], b: tuple[int, ...]) -> int:
@@ -89,3 +93,12 @@ def test_similarity_is_one_minus_normalised_distance():
 
 def test_accepts_lists_and_numpy_arrays():
     assert damerau_levenshtein([1, 2, 3], np.array([1, 3, 2])) == 1
+
+
+def test_trace_similarity_counts_the_prefix_and_the_end():
+    # suffix-only: nothing shared; whole trace: prefix (3) and end shared of 5 symbols
+    assert dl_similarity([4], [5]) == 0.0
+    assert trace_dl_similarity([1, 2, 3], [4], [5]) == pytest.approx(1 - 1 / 5)
+    # a predicted suffix that stops early: one deletion over max(3 + 0 + 1, 3 + 1 + 1)
+    assert trace_dl_similarity([1, 2, 3], [], [4]) == pytest.approx(1 - 1 / 5)
+    assert trace_dl_similarity([], [], []) == 1.0

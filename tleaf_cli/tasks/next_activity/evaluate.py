@@ -8,7 +8,8 @@
   no rules) and, with rules, `rules` (the most probable continuation whose completed case
   satisfies them, searched in the product of the model and the rules' DFA:
   suffix_search.py). Each: the mean Damerau-Levenshtein similarity of the predicted and the
-  true suffix (similarity.py), the share of predicted cases that satisfy the rules, and
+  true suffix (similarity.py; and Mezini et al.'s over the whole trace with an end symbol,
+  `trace_dl_similarity`), the share of predicted cases that satisfy the rules, and
   milliseconds per case.
 
 With `scored="satisfying"`, only the test cases that satisfy the rules are scored (Di
@@ -41,7 +42,7 @@ from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.model import NextActivityModel
 from tleaf_cli.tasks.next_activity.prefix_table import seen_in_training
 from tleaf_cli.tasks.next_activity.rules import Rules, read_rules
-from tleaf_cli.tasks.next_activity.similarity import dl_similarity
+from tleaf_cli.tasks.next_activity.similarity import dl_similarity, trace_dl_similarity
 from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
 from tleaf_cli.tasks.next_activity.suffix_search import Rows, SearchStats, predict_suffixes
 from tleaf_cli.tasks.next_activity.train import accuracy, new_model
@@ -283,8 +284,13 @@ def suffix_scores(
         found = search(step, prefixes, v, rules=parts, max_length=longest, stats=stats)
         seconds = time.perf_counter() - start
         similarity = [dl_similarity(f.activities, t) for f, t in zip(found, truth, strict=True)]
+        whole = [
+            trace_dl_similarity(p, f.activities, t)
+            for p, f, t in zip(prefixes, found, truth, strict=True)
+        ]
         out[way] = {
             "dl_similarity": float(np.mean(similarity)),
+            "trace_dl_similarity": float(np.mean(whole)),
             "ms_per_case": 1000 * seconds / len(chosen),
             "model_calls": stats.model_calls,
         }

@@ -14,6 +14,11 @@ further), not the optimal-string-alignment variant: DL("CA", "ABC") = 2, where O
 `rapidfuzz.distance.DamerauLevenshtein` computes the same unrestricted distance, in C++, on any
 sequences of hashables — activity indices directly, with no character encoding — so it is the
 one used here (jellyfish ≥ 1 takes strs only).
+
+Mezini et al. (Information Systems 2026) score the whole trace instead: the same similarity
+between prefix + predicted suffix + an end symbol and prefix + true suffix + the end
+(`trace_dl_similarity`). The shared prefix raises it: a wrong suffix after a long prefix
+still scores high.
 """
 
 from __future__ import annotations
@@ -36,3 +41,12 @@ def dl_similarity(a: Sequence[int], b: Sequence[int]) -> float:
     if longest == 0:
         return 1.0
     return 1.0 - damerau_levenshtein(a, b) / longest
+
+
+def trace_dl_similarity(
+    prefix: Sequence[int], predicted: Sequence[int], true: Sequence[int]
+) -> float:
+    """Mezini et al.'s measure: `dl_similarity` of prefix + predicted + end and prefix + true +
+    end, the end a symbol no activity is (-1)."""
+    head = list(prefix)
+    return dl_similarity([*head, *predicted, -1], [*head, *true, -1])
