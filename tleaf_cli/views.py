@@ -100,7 +100,8 @@ def _show_cases_stats(table: pa.Table) -> None:
     most frequent activities with their share of events and of cases."""
     sequences = [tuple(a) for a in table.column("activities").to_pylist()]
     splits = Counter(table.column("split").to_pylist())
-    ui.text("cases: " + ", ".join(f"{k} {splits.get(k, 0)}" for k in ("train", "val", "test")))
+    shown = ("train", "val", "test", *sorted(set(splits) - {"train", "val", "test"}))  # unused
+    ui.text("cases: " + ", ".join(f"{k} {splits.get(k, 0)}" for k in shown))
     lengths = sorted(len(s) for s in sequences)
     events = sum(lengths)
     counts = Counter(a for s in sequences for a in s)

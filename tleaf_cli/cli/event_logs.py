@@ -76,15 +76,19 @@ def split_cases(
 
     Only the split changes. kfold (Rama-Maneiro et al.): fold --fold of --folds is the test
     split, the last --val of its training cases validation. thirds (Tax et al.): the first two
-    thirds of the cases in file order train.
+    thirds of the cases in file order train. --train-share F keeps a seeded draw of F of the
+    training cases (the others split 'unused'), for a learning curve.
     """
     from tleaf_cli.data.case_folds import split_anew
+    from tleaf_cli.data.train_share import UNUSED
 
     if values["protocol"] == "thirds":
         refuse(
             given_flags(ctx, "folds", "fold", "seed", "case_order"),
             "only with --protocol kfold (thirds draws nothing)",
         )
+    if values["train_share"] == 1:
+        refuse(given_flags(ctx, "share_seed"), "only with --train-share below 1 (1 draws nothing)")
     settings = FoldSettings(**values)
     settings.check()
     counts = split_anew(cases, out, settings)
@@ -93,9 +97,14 @@ def split_cases(
         if settings.protocol == "kfold"
         else "the first two thirds train"
     )
+    shown = ("train", "val", "test", UNUSED) if counts[UNUSED] else ("train", "val", "test")
+    share = (
+        f" (--train-share {settings.train_share:g} of the training cases)" if counts[UNUSED] else ""
+    )
     ui.summary(
         f"{out}: {sum(counts.values())} cases, {what}: "
-        + ", ".join(f"{counts[s]} {s}" for s in ("train", "val", "test")),
+        + ", ".join(f"{counts[s]} {s}" for s in shown)
+        + share,
         quiet,
     )
 

@@ -17,7 +17,8 @@ Two protocols (docs/event_logs.md#protocols):
 `split_anew` writes the result as a new cases artifact through the artifact's one writer
 (`event_logs.write_case_table`): the same cases, activities, timestamps and activity -> atom map,
 only `split` changed; its provenance holds the protocol's settings and the source artifact's own
-parameters, its inputs the source's path and SHA-256.
+parameters, its inputs the source's path and SHA-256. `train_share` below 1 keeps only a seeded
+draw of the training cases (data/train_share.py), the others split `unused`.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import numpy as np
 
 from tleaf_cli.data.artifacts import check_targets, describe_inputs
 from tleaf_cli.data.event_logs import read_cases, write_case_table
+from tleaf_cli.data.train_share import keep_train_share
 from tleaf_cli.errors import SettingError
 from tleaf_cli.settings.event_logs import FoldSettings
 
@@ -105,6 +107,7 @@ def split_anew(
     split_of = splits_for(ids, settings)
     if "train" not in split_of.values():
         raise SettingError("val", f"leaves no train case of the {len(ids)} in {cases_path}")
+    split_of = keep_train_share(split_of, ids, settings.train_share, settings.share_seed)
     rows = [replace(case, split=split_of[case.case_id]) for case in source.cases]
     params = {**asdict(settings), "source": source.params}
     inputs = describe_inputs([cases_path])

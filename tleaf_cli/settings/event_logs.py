@@ -162,11 +162,25 @@ class FoldSettings:
         "is one (Rama-Maneiro et al.'s code sorts the ids); file: as the artifact holds them.",
         choices=CASE_ORDERS,
     )
+    train_share: float = setting(
+        1.0,
+        "Keep only this share of the training cases (0 < F <= 1; at least one case), drawn by "
+        "--share-seed; the others get the split 'unused', val and test stay as they are. For "
+        "one --share-seed, a smaller share's cases are among a larger one's (a learning curve).",
+    )
+    share_seed: int = setting(
+        0, "The draw of --train-share's cases: the same seed draws the same (nested) cases."
+    )
 
     def check(self) -> None:
         check_values(self)
         if not 0 <= self.val < 1:
             raise SettingError("val", f"must be at least 0 and below 1, not {self.val}")
+        share = self.train_share
+        if isinstance(share, bool) or not isinstance(share, int | float) or not 0 < share <= 1:
+            raise SettingError(
+                "train_share", f"must be a share above 0 and at most 1, not {share!r}"
+            )
         if self.protocol == "kfold":
             if self.fold is None:
                 raise SettingError("fold", f"is required: 0 to {self.folds - 1}")
