@@ -6,6 +6,7 @@ the rest of a running case. Pure Python: the command line builds the options fro
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -48,6 +49,13 @@ class NextActivitySettings(TrainingSettings):
     )
     heads: int = setting(4, "Attention heads of each Transformer block (transformer).", min=1)
     dropout: float = setting(0.2, "Dropout between the layers (Tax et al.: 0.2).")
+    attributes: str | None = setting(
+        None,
+        "Event attributes the model reads and predicts beside the activity, separated by "
+        "commas (org:resource): each event's value an input, the next event's a second output "
+        "(given the next activity). The cases must keep them (read-log --attributes).",
+        auto="none: activities and times only",
+    )
     max_events: int | None = setting(
         1000,
         "Train on at most the first N events of a case (its later targets left out, and the "
@@ -72,6 +80,10 @@ class NextActivitySettings(TrainingSettings):
         super().check()
         if not 0 <= self.dropout < 1:
             raise SettingError("dropout", f"must be in [0, 1), not {self.dropout}")
+        if self.model == "prefix-table" and self.attributes:
+            raise SettingError("attributes", "the prefix table reads activities only")
+        if self.attributes is not None and not self.attribute_names:
+            raise SettingError("attributes", f"names no attribute: {self.attributes!r}")
         if self.model == "prefix-table" and self.logic_loss != "none":
             raise SettingError("logic_loss", "the prefix table learns nothing: no logic loss")
         if self.model == "transformer" and self.hidden % self.heads:
@@ -79,6 +91,14 @@ class NextActivitySettings(TrainingSettings):
                 "hidden",
                 f"the Transformer's width {self.hidden} is not a multiple of {self.heads} heads",
             )
+
+
+    @property
+    def attribute_names(self) -> tuple[str, ...]:
+        """The event attributes of `attributes`, in order."""
+        if self.attributes is None:
+            return ()
+        return tuple(a.strip() for a in self.attributes.split(",") if a.strip())
 
 
 @dataclass(frozen=True)
@@ -103,6 +123,20 @@ class SuffixSettings:
         min=0.0,
         auto="none: argmax and beam only",
     )
+    rule_weight: float | None = setting(
+        None,
+        "Also search with the rules as a soft score instead of a filter (NeSy4PPM's "
+        "knowledge-contextualised mode): each rule a token leaves unable to accept costs this "
+        "weight μ in log-probability (argmax_soft, beam_soft).",
+        min=0.0,
+        auto="none: the rules a hard filter only",
+    )
+    min_suffix: int = setting(
+        0,
+        "Score only the prefixes whose true suffix has at least this many activities "
+        "(NeSy4PPM: 1, no prefix that is already the whole case).",
+        min=0,
+    )
     scored: str = setting(
         "all",
         "The test cases scored: all, or those that satisfy --rules (Di Francescomarino et al.'s "
@@ -112,6 +146,8 @@ class SuffixSettings:
 
     def check(self) -> None:
         check_values(self)
+        if self.rule_weight is not None and not math.isfinite(self.rule_weight):
+            raise SettingError("rule_weight", f"must be finite, not {self.rule_weight}")
         if self.temperature is not None and not self.temperature > 0:
             raise SettingError("temperature", f"must be above 0, not {self.temperature}")
         if self.prefix_lengths is not None:

@@ -11,6 +11,12 @@ Time features of event t (divisors are means over the training split, so they ar
 position t / mean case length; seconds since event t−1 / mean gap; seconds since the case's
 first event / mean elapsed time; seconds since midnight / 86400; weekday / 7 (all UTC).
 
+With `attributes` (event attributes the cases artifact keeps, `read-log --attributes
+org:resource`), each event also reads its value of each, an index into the values the training
+split has (`values[k]`; index 0: none, or a value training never saw), and each step's targets
+add the next event's values (`attribute_targets`; PAD where the next event has none or an
+unseen one, and at the last step).
+
 Suffix prediction appends activities whose times are not known: an appended event is placed
 its activity's mean gap (training split) after the event before it (`Encoder.features` with
 fewer timestamps than activities). No torch here: arrays in, arrays out.
@@ -41,15 +47,30 @@ class Encoder:
     mean_gap: float  # seconds between consecutive events
     mean_elapsed: float  # seconds since the case's first event
     activity_gap: tuple[float, ...]  # per activity: mean seconds since the event before it
+    attributes: tuple[str, ...] = ()  # event attributes read and predicted, in order
+    values: tuple[tuple[str, ...], ...] = ()  # per attribute: its training values (index i + 1)
 
     @property
     def end(self) -> int:
         """The end-of-case token's index (= the number of activities)."""
         return len(self.atoms)
 
+    @property
+    def value_counts(self) -> tuple[int, ...]:
+        """Per attribute, the indices its values take: its training values and 0 (none)."""
+        return tuple(len(v) + 1 for v in self.values)
+
     @classmethod
-    def fit(cls, cases: Cases, split: str = "train") -> Encoder:
-        """The encoder of a cases artifact, its time scales measured on `split`."""
+    def fit(cls, cases: Cases, split: str = "train", attributes: Sequence[str] = ()) -> Encoder:
+        """The encoder of a cases artifact, its time scales and attribute values measured on
+        `split`; InputError for an attribute the artifact does not keep."""
+        missing = [a for a in attributes if a not in cases.attribute_names]
+        if missing:
+            kept = ", ".join(cases.attribute_names) or "none"
+            raise InputError(
+                f"{cases.path}: keeps no event attribute {missing[0]!r} (it keeps: {kept}); "
+                "read the log with read-log --attributes"
+            )
         atom_of = cases.activity_atoms
         pairs = sorted((atom, name) for name, atom in atom_of.items())
         atoms = tuple(a for a, _ in pairs)
@@ -73,6 +94,11 @@ class Encoder:
             mean_gap=mean_gap,
             mean_elapsed=float(np.mean(elapsed)),
             activity_gap=tuple(float(np.mean(g)) if g else mean_gap for g in per_activity),
+            attributes=tuple(attributes),
+            values=tuple(
+                tuple(sorted({v for c in train for v in c.attributes[a] if v is not None}))
+                for a in attributes
+            ),
         )
 
     def as_dict(self) -> dict:
@@ -80,13 +106,37 @@ class Encoder:
 
     @classmethod
     def from_dict(cls, d: dict) -> Encoder:
-        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
+        out = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
+        out["values"] = tuple(tuple(v) for v in d.get("values", ()))
+        return cls(**out)
 
-    def indices(self, case: Case) -> np.ndarray:
-        """int64 [n]: the case's activity indices; InputError for an activity the encoder has
-        not seen (a cases artifact other than the run's)."""
+    def value_indices(self, case: Case) -> np.ndarray:
+        """int64 [n, K]: each event's index of each attribute's value (0: none or unseen)."""
+        out = np.zeros((len(case), len(self.attributes)), dtype=np.int64)
+        for k, (name, values) in enumerate(zip(self.attributes, self.values, strict=True)):
+            index = {v: i + 1 for i, v in enumerate(values)}
+            out[:, k] = [index.get(v, 0) for v in case.attributes[name]]
+        return out
+
+    def value_targets(self, values: np.ndarray) -> np.ndarray:
+        """int64 [n, K]: step t's next event's value indices, from `value_indices` [n, K]; the
+        loss ignores (PAD = -100) none, unseen and the last step (no next event)."""
+        out = np.full_like(values, -100)
+        out[:-1] = np.where(values[1:] > 0, values[1:], -100)
+        return out
+
+    def knows(self, case: Case) -> bool:
+        """Whether every activity of the case is in the vocabulary."""
+        return set(case.atoms) <= set(self.atoms)
+
+    def indices(self, case: Case, unknown: int | None = None) -> np.ndarray:
+        """int64 [n]: the case's activity indices; an activity the encoder has not seen is
+        `unknown` where given (an index no prediction has: a test case's activity training
+        never saw), else an InputError (a cases artifact other than the run's)."""
         index = {a: i for i, a in enumerate(self.atoms)}
         try:
+            if unknown is not None:
+                return np.array([index.get(a, unknown) for a in case.atoms], dtype=np.int64)
             return np.array([index[a] for a in case.atoms], dtype=np.int64)
         except KeyError as missing:
             raise InputError(

@@ -39,13 +39,28 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
+from tleaf_cli.tasks.next_activity.joint_tokens import (
+    JointRules,
+    JointTokens,
+    joint_log_probs,
+    joint_rules,
+)
 from tleaf_cli.tasks.next_activity.model import NextActivityModel
 from tleaf_cli.tasks.next_activity.prefix_table import seen_in_training
 from tleaf_cli.tasks.next_activity.rules import Rules, read_rules
-from tleaf_cli.tasks.next_activity.similarity import dl_similarity, trace_dl_similarity
+from tleaf_cli.tasks.next_activity.similarity import (
+    dl_similarity,
+    jaccard_similarity,
+    trace_dl_similarity,
+)
 from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
-from tleaf_cli.tasks.next_activity.suffix_search import Rows, SearchStats, predict_suffixes
-from tleaf_cli.tasks.next_activity.train import accuracy, new_model
+from tleaf_cli.tasks.next_activity.suffix_search import (
+    Rows,
+    SearchStats,
+    predict_suffixes,
+    rule_automaton,
+)
+from tleaf_cli.tasks.next_activity.train import accuracy, attribute_accuracy, new_model
 from tleaf_cli.training.run_folder import read_run_config, recorded_input
 
 CHUNK = 1024  # rows per model forward in the suffix search
@@ -188,7 +203,27 @@ def evaluate_next_activity(
     test = [c for c in cases.cases if c.split == "test"]
     if not test:
         raise InputError(f"{cases_path}: no cases in the test split")
-    rules = None if rules_path is None else read_rules(rules_path, encoder.atoms, rule_names)
+    strange = [c for c in test if not encoder.knows(c)]
+    if strange:
+        warnings.append(
+            f"{len(strange)} test case(s) have activities the run never saw in training "
+            f"(first: {strange[0].case_id}): left out of next-activity accuracy; suffix "
+            "prediction scores them where the prefix is known"
+        )
+    joint = None  # with attributes: the suffixes are events (joint_tokens.py)
+    if encoder.attributes and rules_path is not None:
+        joint = joint_rules(rules_path, JointTokens(encoder), rule_names)
+        if joint.unseen:
+            warnings.append(
+                f"the rules name {len(joint.unseen)} atom(s) no event of the model can have "
+                f"({', '.join(joint.unseen[:5])}): rules on them are not met by any prediction"
+            )
+    activity_rules = joint is None or joint.activities_only
+    rules = None
+    if rules_path is not None and activity_rules:
+        rules = read_rules(rules_path, encoder.atoms, rule_names)
+    elif settings.scored == "satisfying" and scored_by is None:
+        raise SettingError("scored", "'satisfying' reads rules on activities only")
     scored = test
     judge = rules
     if scored_by is not None:
@@ -198,25 +233,32 @@ def evaluate_next_activity(
         scored = [c for c, k in zip(test, keep, strict=True) if k]
         if not scored:
             raise InputError(f"{cases_path}: no test case satisfies the rules of {judge.path}")
+    known = [c for c in scored if encoder.knows(c)]
     metrics: dict = {
         "task": "next-activity",
         "run": str(run_dir),
         "test_cases": len(test),
         "scored_cases": len(scored),
         "rules": None
-        if rules is None
-        else {"path": rules.path, "names": list(rules.names), "source": source},
+        if rules is None and joint is None
+        else {
+            "path": (rules or joint).path,
+            "names": list((rules or joint).names),
+            "source": source,
+            "attributes": not activity_rules,
+        },
         "scored_by": None if judge is None else {"path": judge.path, "names": list(judge.names)},
         "settings": asdict(settings),
         "accuracy": accuracy(
             model,
             encoder,
-            scored,
+            known,
             256,
             device,
             rules,
-            seen=leakage(run_dir, config, encoder, scored),
-        ),
+            seen=leakage(run_dir, config, encoder, known),
+        )
+        | attribute_accuracy(model, encoder, known, 256, device),
         "suffix": {},
         "warnings": warnings,
         "inputs": describe_inputs([p for p in (cases_path, rules_path) if p is not None]),
@@ -224,7 +266,9 @@ def evaluate_next_activity(
     if settings.prefix_lengths is not None:
         lengths = prefix_lengths(settings.prefix_lengths)
         for done, k in enumerate(lengths, start=1):
-            metrics["suffix"][str(k)] = suffix_scores(model, encoder, scored, k, settings, rules)
+            metrics["suffix"][str(k)] = suffix_scores(
+                model, encoder, scored, k, settings, rules, joint
+            )
             if on_length is not None:
                 on_length(done, len(lengths))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
@@ -253,20 +297,47 @@ def suffix_scores(
     k: int,
     settings: SuffixSettings,
     rules: Rules | None,
+    joint: JointRules | None = None,
 ) -> dict:
-    """Suffix prediction from the k-prefixes of the cases at least k long: per way (argmax,
-    beam, with a temperature sample; under rules each again with the rules a hard filter:
-    argmax_rules, rules (the beam), sample_rules), mean DL similarity, share satisfying the
-    rules, ms per case."""
-    chosen = [c for c in cases if len(c) >= k]
+    """Suffix prediction from the k-prefixes of the cases with at least `settings.min_suffix`
+    more activities: per way (argmax, beam, with a temperature sample; under rules each again
+    with the rules a hard filter: argmax_rules, rules (the beam), sample_rules; with a rule
+    weight, argmax_soft and beam_soft), the mean DL similarity (of the suffix, and Mezini et
+    al.'s of the whole trace), Jaccard similarity, the share satisfying the rules, ms per case;
+    with attributes, DL and Jaccard similarity of each attribute's values too.
+
+    With event attributes (`encoder.attributes`) the search runs over events, each an activity
+    and its values (joint_tokens.py), under `joint`: rules that may name attribute values."""
+    chosen = [c for c in cases if len(c) >= k + settings.min_suffix]
+    if encoder.attributes:
+        space = JointTokens(encoder)
+        of_case, v, split = space.of_case, space.size, space.decode
+    else:
+        of_case, v, split = (
+            partial(encoder.indices, unknown=-1),
+            len(encoder.atoms),
+            _activities_only,
+        )
+    # an activity the model does not know: a true suffix may have it (no prediction matches
+    # it), a prefix the model reads may not
+    sequences = [of_case(c) for c in chosen]
+    readable = [bool((s[:k] >= 0).all()) for s in sequences]
+    unreadable = len(chosen) - sum(readable)
+    chosen = [c for c, r in zip(chosen, readable, strict=True) if r]
+    sequences = [s for s, r in zip(sequences, readable, strict=True) if r]
     if not chosen:
-        return {"cases": 0}
-    indices = [encoder.indices(c) for c in chosen]
-    prefixes = [tuple(a[:k].tolist()) for a in indices]
-    truth = [tuple(a[k:].tolist()) for a in indices]
+        return {"cases": 0, "unknown_prefixes": unreadable}
     stamps = [c.timestamps[:k] for c in chosen]
-    step = next_log_probs(model, encoder, stamps)
-    v, longest = len(encoder.atoms), settings.max_suffix
+    if encoder.attributes:
+        step = joint_log_probs(model, encoder, space, stamps)
+        automaton = None if joint is None else joint.automaton
+        search_rules = automaton
+    else:
+        step = next_log_probs(model, encoder, stamps)
+        search_rules = None if rules is None else rules.parts
+        automaton = rule_automaton(search_rules, v)
+    prefixes = [tuple(a[:k].tolist()) for a in sequences]
+    truth = [tuple(a[k:].tolist()) for a in sequences]
     searches = {
         "argmax": partial(predict_suffixes, beam_width=1),
         "beam": partial(predict_suffixes, beam_width=settings.beam_width),
@@ -274,33 +345,57 @@ def suffix_scores(
     if settings.temperature is not None:
         searches["sample"] = partial(sample_suffixes, temperature=settings.temperature)
     ways = {way: (search, None) for way, search in searches.items()}
-    if rules is not None:  # each way again, the rules a hard filter
-        ways.update({f"{way}_rules": (search, rules.parts) for way, search in searches.items()})
+    if automaton is not None:  # each way again, the rules a hard filter
+        ways.update({f"{way}_rules": (s, search_rules) for way, s in searches.items()})
         ways["rules"] = ways.pop("beam_rules")  # the beam search under the rules: its old name
-    out: dict = {"cases": len(chosen)}
+        if settings.rule_weight is not None:  # and as a soft score
+            for way in ("argmax", "beam"):
+                soft = partial(searches[way], rule_weight=settings.rule_weight)
+                ways[f"{way}_soft"] = (soft, search_rules)
+    out: dict = {"cases": len(chosen), "unknown_prefixes": unreadable}
+    true_parts = [split(t) for t in truth]
     for way, (search, parts) in ways.items():
         stats = SearchStats()
         start = time.perf_counter()
-        found = search(step, prefixes, v, rules=parts, max_length=longest, stats=stats)
+        found = search(step, prefixes, v, rules=parts, max_length=settings.max_suffix, stats=stats)
         seconds = time.perf_counter() - start
-        similarity = [dl_similarity(f.activities, t) for f, t in zip(found, truth, strict=True)]
-        whole = [
-            trace_dl_similarity(p, f.activities, t)
-            for p, f, t in zip(prefixes, found, truth, strict=True)
-        ]
+        parts_found = [split(f.activities) for f in found]
+        pairs = list(zip(parts_found, true_parts, strict=True))
+        activity_prefixes = [split(p)[0] for p in prefixes]
         out[way] = {
-            "dl_similarity": float(np.mean(similarity)),
-            "trace_dl_similarity": float(np.mean(whole)),
+            "dl_similarity": _mean(dl_similarity(f[0], t[0]) for f, t in pairs),
+            "trace_dl_similarity": _mean(
+                trace_dl_similarity(p, f[0], t[0])
+                for p, (f, t) in zip(activity_prefixes, pairs, strict=True)
+            ),
+            "jaccard": _mean(jaccard_similarity(f[0], t[0]) for f, t in pairs),
             "ms_per_case": 1000 * seconds / len(chosen),
             "model_calls": stats.model_calls,
         }
-        if rules is not None:
-            completed = [np.array(p + f.activities) for p, f in zip(prefixes, found, strict=True)]
-            broken = rules.broken(completed)
-            out[way]["satisfying"] = float(1 - broken.mean())
-        if parts is not None:
+        for a, name in enumerate(encoder.attributes):
+            out[way][f"dl_similarity_{name}"] = _mean(
+                dl_similarity(f[1][:, a], t[1][:, a]) for f, t in pairs
+            )
+            out[way][f"jaccard_{name}"] = _mean(
+                jaccard_similarity(f[1][:, a], t[1][:, a]) for f, t in pairs
+            )
+        if automaton is not None:
+            kept = [
+                automaton.accepts(p + f.activities) for p, f in zip(prefixes, found, strict=True)
+            ]
+            out[way]["satisfying"] = float(np.mean(kept))
+        if parts is not None and not way.endswith("_soft"):
             out[way]["not_found"] = stats.fallbacks
     return out
+
+
+def _activities_only(tokens: Sequence[int]) -> tuple[list[int], np.ndarray]:
+    """A suffix of activity tokens as (activities, no attribute values)."""
+    return list(tokens), np.zeros((len(tokens), 0), dtype=np.int64)
+
+
+def _mean(values) -> float:
+    return float(np.mean(list(values)))
 
 
 def next_log_probs(
@@ -318,7 +413,7 @@ def next_log_probs(
                 part = rows[i : i + CHUNK]
                 owners = rows.owners[i : i + CHUNK]
                 batch = CaseBatch.of_sequences(part, [stamps[o] for o in owners], encoder, device)
-                logits = model(batch.activities, batch.times, batch.lengths)
+                logits = batch.logits(model)
                 last = batch.lengths - 1
                 picked = logits[torch.arange(len(part)), last]
                 out.append(torch.log_softmax(picked.double(), dim=-1).numpy())

@@ -69,8 +69,13 @@ class PrefixTable(nn.Module):
         return np.log(row / row.sum())
 
     def forward(
-        self, activities: torch.Tensor, times: torch.Tensor, lengths: torch.Tensor
+        self,
+        activities: torch.Tensor,
+        times: torch.Tensor,
+        lengths: torch.Tensor,
+        values: torch.Tensor | None = None,
     ) -> torch.Tensor:
+        """Log-probabilities [B, T, V + 1] (the attribute `values` are not read)."""
         out = np.zeros((*activities.shape, self.num_activities + 1))
         for b, (row, n) in enumerate(zip(activities.tolist(), lengths.tolist(), strict=True)):
             for t in range(n):

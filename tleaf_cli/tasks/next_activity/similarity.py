@@ -50,3 +50,12 @@ def trace_dl_similarity(
     end, the end a symbol no activity is (-1)."""
     head = list(prefix)
     return dl_similarity([*head, *predicted, -1], [*head, *true, -1])
+
+
+def jaccard_similarity(a: Sequence[int], b: Sequence[int]) -> float:
+    """|A ∩ B| / |A ∪ B| of the sets of symbols in a and b (1.0 when both are empty): how much
+    of what happens is predicted, order and repeats aside. NeSy4PPM's measure (`1 −
+    distance.jaccard`) on suffixes."""
+    left, right = set(a), set(b)
+    union = left | right
+    return len(left & right) / len(union) if union else 1.0

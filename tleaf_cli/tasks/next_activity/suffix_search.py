@@ -58,6 +58,7 @@ import numpy as np
 from tleaf_cli import arguments
 from tleaf_cli.arguments import given
 from tleaf_cli.errors import ArgumentError, ArgumentTypeError
+from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.rule_set import RuleSet
 
 NextLogProbs = Callable[[Sequence[Sequence[int]]], np.ndarray]
@@ -110,6 +111,7 @@ def predict_suffixes(
     beam_width: int = 5,
     max_length: int = 50,
     stats: SearchStats | None = None,
+    rule_weight: float | None = None,
 ) -> list[Suffix]:
     """Per prefix, the most probable continuation the beam finds, under `rules` when given.
 
@@ -124,6 +126,14 @@ def predict_suffixes(
         beam_width: branches kept per prefix and step (1: greedy argmax).
         max_length: the most activities a continuation may add (0: only the end).
         stats: counters to add this call's model calls, branches and pruning to.
+        rule_weight: None: the rules are a hard filter (above). A number μ ≥ 0: a soft score
+            instead (the knowledge as evidence, not law; NeSy4PPM's knowledge-contextualised
+            beam ranks by the rules' state the same way): nothing is pruned; a token costs μ
+            for each rule part whose state after it does not accept (temporarily violated)
+            and μ more for each that can no longer accept within the budget (violated for
+            good), the end 2μ for each part that does not accept. So a branch that meets the
+            rules sooner ranks higher, by μ per step and part. μ = 0 ignores the rules; every
+            prefix is found.
 
     Raises ArgumentTypeError / ArgumentError for arguments that cannot be used and for model
     outputs of the wrong shape, with NaN or with positive log-probabilities.
@@ -136,7 +146,11 @@ def predict_suffixes(
     checked = check_prefixes(prefixes, num_activities)
     automaton = rule_automaton(rules, num_activities)
     stats = stats if stats is not None else SearchStats()
-    search = _Search(next_log_probs, num_activities, beam_width, max_length, stats)
+    if rule_weight is not None and not (
+        isinstance(rule_weight, int | float) and np.isfinite(rule_weight) and rule_weight >= 0
+    ):
+        raise ArgumentError("rule_weight", f"must be a finite number >= 0, not {rule_weight!r}")
+    search = _Search(next_log_probs, num_activities, beam_width, max_length, stats, rule_weight)
     best = search.run(checked, automaton, list(range(len(checked))))
     missing = [i for i, b in enumerate(best) if b is None]
     again = search.run([checked[i] for i in missing], None, missing)
@@ -159,6 +173,13 @@ def rule_automaton(
     another vocabulary size."""
     if rules is None:
         return None
+    if isinstance(rules, RuleAutomaton):
+        if rules.num_tokens != num_activities:
+            raise ArgumentError(
+                "rules",
+                f"the rule automaton reads {rules.num_tokens} tokens, not {num_activities}",
+            )
+        return rules
     parts = arguments.rule_sets(rules, None, RuleSet)
     for part in parts:
         if len(part.vocabulary) != num_activities:
@@ -177,18 +198,60 @@ class RuleAutomaton:
     pruning by it never cuts a branch that can still finish accepted."""
 
     def __init__(self, parts: Sequence[RuleSet], num_activities: int) -> None:
-        self.following: list[np.ndarray] = []  # per part: state after each activity [S_k, V]
+        dfas = [part.dfa for part in parts]
+        letters = [part.letters(np.arange(num_activities)) for part in parts]
+        self._build(dfas=dfas, letters=letters)
+
+    @classmethod
+    def of_letters(
+        cls, dfas: Sequence[DFA], letters: Sequence[np.ndarray], max_states: int = 100_000
+    ) -> RuleAutomaton:
+        """The automaton of DFAs over any alphabet whose tokens are letters: `letters[k][t]`,
+        the column of DFA k that token t reads (e.g. an (activity, resource) event's letter
+        in a powerset alphabet: joint_tokens.py). The DFAs are conjoined into one part, their
+        product's reachable states, where it has at most `max_states`: the distance to
+        acceptance is then exact, so the search never walks into a state where two rules
+        contradict each other (a lower bound over parts would let it)."""
+        self = cls.__new__(cls)
+        tables = [
+            dfa.table[:, np.asarray(columns, dtype=np.int64)].astype(np.int64)
+            for dfa, columns in zip(dfas, letters, strict=True)
+        ]
+        accepting = [dfa.accepting for dfa in dfas]
+        initial = [dfa.initial for dfa in dfas]
+        if len(tables) > 1:
+            product = _product(tables, accepting, initial, max_states)
+            if product is not None:
+                tables, accepting, initial = [product[0]], [product[1]], [0]
+        self._build(tables, accepting, initial)
+        return self
+
+    def _build(
+        self,
+        tables: Sequence[np.ndarray] | None = None,
+        accepting: Sequence[np.ndarray] = (),
+        initial: Sequence[int] = (),
+        dfas: Sequence[DFA] = (),
+        letters: Sequence[np.ndarray] = (),
+    ) -> None:
+        if tables is None:  # from DFAs and each token's letter
+            tables = [
+                dfa.table[:, np.asarray(columns, dtype=np.int64)].astype(np.int64)
+                for dfa, columns in zip(dfas, letters, strict=True)
+            ]
+            accepting = [dfa.accepting for dfa in dfas]
+            initial = [dfa.initial for dfa in dfas]
+        self.following: list[np.ndarray] = []  # per part: state after each token [S_k, V]
         self.accepting: list[np.ndarray] = []
         self.distance: list[np.ndarray] = []
-        self.initial = np.array([part.dfa.initial for part in parts], dtype=np.int64)
+        self.initial = np.array(initial, dtype=np.int64)
+        self.num_tokens = tables[0].shape[1] if len(tables) else 0
         never = np.iinfo(np.int64).max // 2
-        for part in parts:
-            dfa = part.dfa
-            following = dfa.table[:, part.letters(np.arange(num_activities))].astype(np.int64)
+        for following, accepts in zip(tables, accepting, strict=True):
             # fewest activities from each state to an accepting state (`never`: unreachable);
             # only through activities that exist (letter 0 has none when every activity is an
             # atom), so a finite distance implies `dfa.live()`
-            distance = np.where(dfa.accepting, 0, never).astype(np.int64)
+            distance = np.where(accepts, 0, never).astype(np.int64)
             while True:
                 step = np.minimum(distance, distance[following].min(axis=1) + 1)
                 step = np.minimum(step, never)
@@ -196,7 +259,7 @@ class RuleAutomaton:
                     break
                 distance = step
             self.following.append(following)
-            self.accepting.append(dfa.accepting)
+            self.accepting.append(np.asarray(accepts, dtype=bool))
             self.distance.append(distance)
 
     def run(self, activities: Sequence[int]) -> np.ndarray:
@@ -233,12 +296,74 @@ class RuleAutomaton:
             out = ok if out is None else out & ok
         return out
 
+    def next_missing(self, states: np.ndarray, budget: int) -> np.ndarray:
+        """int [..., V]: per token, how many parts' next state cannot reach acceptance in
+        `budget` more tokens (the soft score's count of rules out of reach)."""
+        out = None
+        for k, (following, distance) in enumerate(zip(self.following, self.distance, strict=True)):
+            late = (distance[following[states[..., k]]] > budget).astype(np.int64)
+            out = late if out is None else out + late
+        return out
+
+    def next_rejecting(self, states: np.ndarray) -> np.ndarray:
+        """int [..., V]: per token, how many parts' next state does not accept."""
+        out = None
+        for k, (following, accepting) in enumerate(
+            zip(self.following, self.accepting, strict=True)
+        ):
+            rejects = (~accepting[following[states[..., k]]]).astype(np.int64)
+            out = rejects if out is None else out + rejects
+        return out
+
+    def rejecting(self, states: np.ndarray) -> np.ndarray:
+        """int [...]: how many parts do not accept, for states [..., K]."""
+        out = np.zeros(states.shape[:-1], dtype=np.int64)
+        for k, accepting in enumerate(self.accepting):
+            out += ~accepting[states[..., k]]
+        return out
+
     def advance(self, states: np.ndarray, tokens: np.ndarray) -> np.ndarray:
         """int64 [n, K]: each part's state after activity tokens[i] from states [n, K]."""
         out = np.empty_like(states)
         for k, following in enumerate(self.following):
             out[:, k] = following[states[:, k], tokens]
         return out
+
+
+def _product(
+    tables: Sequence[np.ndarray],
+    accepting: Sequence[np.ndarray],
+    initial: Sequence[int],
+    max_states: int,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The reachable product of token-level DFAs (tables [S_k, T]): its table [S, T] from
+    state 0, and its accepting states (every DFA accepts); None past `max_states`."""
+    sizes = np.array([t.shape[0] for t in tables], dtype=np.int64)
+    radix = np.cumprod(np.concatenate([[1], sizes[:-1]]))
+    start = int(np.dot(initial, radix))
+    number = {start: 0}  # a combination's mixed-radix code -> its state
+    rows: list[np.ndarray] = []
+    frontier = [start]
+    while frontier:
+        codes = np.array(frontier, dtype=np.int64)
+        parts = (codes[:, None] // radix[None, :]) % sizes[None, :]  # [n, K]
+        nxt = sum(t[parts[:, k]] * radix[k] for k, t in enumerate(tables))  # [n, T] codes
+        frontier = []
+        for code in np.unique(nxt).tolist():
+            if code not in number:
+                number[code] = len(number)
+                frontier.append(code)
+        if len(number) > max_states:
+            return None
+        rows.extend(nxt)
+    lookup = np.vectorize(number.__getitem__, otypes=[np.int64])
+    table = lookup(np.stack(rows)) if rows else np.zeros((1, 0), dtype=np.int64)
+    codes = np.array(sorted(number, key=number.__getitem__), dtype=np.int64)
+    parts = (codes[:, None] // radix[None, :]) % sizes[None, :]
+    accepts = np.ones(len(codes), dtype=bool)
+    for k, acc in enumerate(accepting):
+        accepts &= np.asarray(acc, dtype=bool)[parts[:, k]]
+    return table, accepts
 
 
 class _Search:
@@ -252,12 +377,14 @@ class _Search:
         beam_width: int,
         max_length: int,
         stats: SearchStats,
+        rule_weight: float | None = None,
     ) -> None:
         self.model = model
         self.v = num_activities
         self.width = beam_width
         self.max_length = max_length
         self.stats = stats
+        self.weight = rule_weight  # None: the rules a hard filter; μ: a soft score
 
     def run(
         self, prefixes: list[tuple[int, ...]], automaton: RuleAutomaton | None, owners: list[int]
@@ -269,10 +396,13 @@ class _Search:
         best: list[tuple[tuple[int, ...], float] | None] = [None] * len(prefixes)
         parts = 1 if automaton is None else len(automaton.following)
         start = np.zeros((len(prefixes), parts), dtype=np.int64)
+        soft = automaton is not None and self.weight is not None
         if automaton is not None:
             start = np.array([automaton.run(p) for p in prefixes], dtype=np.int64)
             start = start.reshape(len(prefixes), parts)
             reachable = automaton.within(start, max_length)  # not dead, and in time
+            if soft:  # the rules cost, they do not cut: every prefix searches
+                reachable = np.ones(len(prefixes), dtype=bool)
         else:
             reachable = np.ones(len(prefixes), dtype=bool)
         ids = np.flatnonzero(reachable)  # the prefixes still searching
@@ -301,11 +431,20 @@ class _Search:
             if step < max_length:
                 if automaton is None:
                     valid[..., :v] = opened[..., None]
+                elif soft:  # a rule part not met costs μ, one out of reach μ more
+                    valid[..., :v] = opened[..., None]
+                    late = automaton.next_missing(states, max_length - step - 1)
+                    unmet = automaton.next_rejecting(states)
+                    candidates[..., :v] -= self.weight * (late + unmet)
                 else:  # the activity's state still reaches acceptance in the budget left
                     in_time = automaton.next_within(states, max_length - step - 1)
                     valid[..., :v] = opened[..., None] & in_time
                     self.stats.pruned += int((opened[..., None] & ~in_time).sum())
-            ends = opened if automaton is None else opened & automaton.accepted(states)
+            if soft:  # ending with a rule unmet leaves it out of reach for good: 2μ
+                ends = opened
+                candidates[..., v] -= 2 * self.weight * automaton.rejecting(states)
+            else:
+                ends = opened if automaton is None else opened & automaton.accepted(states)
             valid[..., v] = ends | (present & finished)
             candidates[..., v] = np.where(finished, scores, candidates[..., v])
             flat = candidates.reshape(len(ids), -1)

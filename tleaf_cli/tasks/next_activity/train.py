@@ -61,7 +61,7 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         empty = [s for s, part in self.splits.items() if not part]
         if empty:
             raise InputError(f"{inputs.data}: no cases in split(s) {', '.join(empty)}")
-        self.encoder = Encoder.fit(cases)
+        self.encoder = Encoder.fit(cases, attributes=settings.attribute_names)
         self.arrays: dict = {}  # each case's arrays, built once
         self.rules: Rules | None = None
         self.embedder = None
@@ -108,11 +108,17 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
             yield CaseBatch.of_parts(parts, part, self.device)
 
     def step(self, batch: CaseBatch) -> Step:
-        logits = self.net(batch.activities, batch.times, batch.lengths)
+        h = self.net.states(batch.activities, batch.times, batch.lengths, batch.attributes)
+        logits = self.net.out(h)
         task = F.cross_entropy(logits.flatten(0, 1), batch.targets.flatten(), ignore_index=PAD)
+        logged = {}
+        if self.encoder.attributes:  # the next event's values, given its activity
+            values = attribute_loss(self.net.heads(h, batch.targets), batch.attribute_targets)
+            task = task + values
+            logged["attribute_loss"] = values.item()
         term = logic_term(self.logic, batch, logits, self.rules, self.embedder).mean()
         loss = task + self.settings.lam * term
-        return Step(loss, {"task_loss": task.item(), "logic_loss": term.item()})
+        return Step(loss, {"task_loss": task.item(), "logic_loss": term.item(), **logged})
 
     def validate(self) -> float:
         return accuracy(
@@ -120,7 +126,10 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         )["accuracy"]
 
     def test(self) -> dict[str, Any]:
-        return accuracy(
+        out = accuracy(
+            self.net, self.encoder, self.splits["test"], self.settings.batch_size, self.device
+        )
+        return out | attribute_accuracy(
             self.net, self.encoder, self.splits["test"], self.settings.batch_size, self.device
         )
 
@@ -183,14 +192,59 @@ def new_model(
     prefix table: counted from `train`, the training cases as activity indices)."""
     if settings.model == "prefix-table":
         return PrefixTable(train, len(encoder.atoms))
+    values = encoder.value_counts
     if settings.model == "transformer":
         return NextActivityTransformer(
             len(encoder.atoms), TIME_FEATURES, settings.hidden, settings.layers, settings.heads,
-            settings.dropout,
+            settings.dropout, value_counts=values,
         )  # fmt: skip
     return NextActivityLSTM(
-        len(encoder.atoms), TIME_FEATURES, settings.hidden, settings.layers, settings.dropout
-    )
+        len(encoder.atoms), TIME_FEATURES, settings.hidden, settings.layers, settings.dropout,
+        values,
+    )  # fmt: skip
+
+
+def attribute_loss(logits: Sequence[torch.Tensor], targets: torch.Tensor) -> torch.Tensor:
+    """Cross-entropy of the next event's values: per attribute k, logits[k] [B, T, R_k + 1]
+    against targets [B, T, K] (PAD ignored), the mean over the scored steps, summed over the
+    attributes; 0 where no step has a value to predict."""
+    total = targets.new_zeros((), dtype=torch.float32)
+    for k, scores in enumerate(logits):
+        target = targets[..., k].flatten()
+        scored = (target != PAD).sum()
+        if scored:
+            ce = F.cross_entropy(scores.flatten(0, 1), target, ignore_index=PAD, reduction="sum")
+            total = total + ce / scored
+    return total
+
+
+def attribute_accuracy(
+    model: NextActivityModel,
+    encoder: Encoder,
+    cases: Sequence[Case],
+    batch_size: int,
+    device: torch.device,
+) -> dict:
+    """Per event attribute, `accuracy_<attribute>`: how often the most probable value of the
+    next event, given its true activity, is its value (over the steps whose next event has a
+    value training knows); nothing without attributes."""
+    if not encoder.attributes:
+        return {}
+    hits = [[] for _ in encoder.attributes]
+    model.eval()
+    with torch.no_grad():
+        for i in range(0, len(cases), batch_size):
+            batch = CaseBatch.of(cases[i : i + batch_size], encoder, device)
+            h = model.states(batch.activities, batch.times, batch.lengths, batch.attributes)
+            for k, scores in enumerate(model.heads(h, batch.targets)):
+                target = batch.attribute_targets[..., k]
+                scored = target != PAD
+                hits[k].append((scores.argmax(-1) == target)[scored].cpu().numpy())
+    out = {}
+    for name, parts in zip(encoder.attributes, hits, strict=True):
+        joined = np.concatenate(parts) if parts else np.zeros(0, dtype=bool)
+        out[f"accuracy_{name}"] = float(joined.mean()) if len(joined) else None
+    return out
 
 
 def step_log_probs(
@@ -208,8 +262,7 @@ def step_log_probs(
     with torch.no_grad():
         for i in range(0, len(cases), batch_size):
             batch = CaseBatch.of(cases[i : i + batch_size], encoder, device, cache)
-            logits = model(batch.activities, batch.times, batch.lengths)
-            log_probs = torch.log_softmax(logits, dim=-1).cpu().numpy()
+            log_probs = torch.log_softmax(batch.logits(model), dim=-1).cpu().numpy()
             out += [log_probs[b, :n] for b, n in enumerate(batch.lengths.tolist())]
     return out
 

@@ -12,9 +12,12 @@ rules and the suffix search read it alike.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import torch
 from torch import nn
+
+from tleaf_cli.tasks.next_activity.attribute_heads import AttributeHeads, AttributeInputs
 
 
 class NextActivityTransformer(nn.Module):
@@ -28,6 +31,9 @@ class NextActivityTransformer(nn.Module):
         heads: attention heads per block.
         dropout: dropout on the input and inside the blocks.
         feedforward: the blocks' feed-forward width (default 2 · width).
+        value_counts: per event attribute read and predicted, its value indices (R_k + 1,
+            attribute_heads.py): each value's embedding is added to the event's, and `heads`
+            predict the next event's. Empty: activities and times only.
     """
 
     def __init__(
@@ -39,6 +45,7 @@ class NextActivityTransformer(nn.Module):
         heads: int,
         dropout: float,
         feedforward: int | None = None,
+        value_counts: Sequence[int] = (),
     ) -> None:
         super().__init__()
         if width % heads:
@@ -54,6 +61,8 @@ class NextActivityTransformer(nn.Module):
         self.blocks = nn.TransformerEncoder(block, layers, enable_nested_tensor=False)
         self.norm = nn.LayerNorm(width)
         self.out = nn.Linear(width, num_activities + 1)
+        self.values = AttributeInputs(value_counts, width)
+        self.heads = AttributeHeads(width, num_activities, value_counts)
 
     def positions(self, steps: int, device: torch.device) -> torch.Tensor:
         """The sinusoidal encoding of positions 0..steps-1 [steps, width]."""
@@ -67,13 +76,27 @@ class NextActivityTransformer(nn.Module):
         out[:, 1::2] = torch.cos(position * rate[: self.width // 2])
         return out
 
-    def forward(
-        self, activities: torch.Tensor, times: torch.Tensor, lengths: torch.Tensor
+    def states(
+        self,
+        activities: torch.Tensor,
+        times: torch.Tensor,
+        lengths: torch.Tensor,
+        values: torch.Tensor | None = None,
     ) -> torch.Tensor:
+        """h [B, T, width]: the state after each event, what `out` and `heads` read."""
         steps = activities.shape[1]
         x = self.activity(activities.clamp(min=0)) + self.time(times.to(self.time.weight.dtype))
-        x = self.dropout(x + self.positions(steps, x.device))
+        x = self.dropout(x + self.values(values, x) + self.positions(steps, x.device))
         causal = torch.ones(steps, steps, dtype=torch.bool, device=x.device).triu(1)
         padded = torch.arange(steps, device=x.device)[None, :] >= lengths.to(x.device)[:, None]
         h = self.blocks(x, mask=causal, src_key_padding_mask=padded, is_causal=True)
-        return self.out(self.dropout(self.norm(h)))
+        return self.dropout(self.norm(h))
+
+    def forward(
+        self,
+        activities: torch.Tensor,
+        times: torch.Tensor,
+        lengths: torch.Tensor,
+        values: torch.Tensor | None = None,
+    ) -> torch.Tensor:
+        return self.out(self.states(activities, times, lengths, values))

@@ -1,0 +1,178 @@
+"""Suffix prediction of events with attributes: an event is one **joint token**, its activity and
+its value of each attribute the model predicts (`Encoder.attributes`), so the suffix search and
+sampling (suffix_search.py, suffix_sampling.py) run over events unchanged.
+
+- **Tokens.** Every combination: token = a · Π_k (R_k + 1) + the values in mixed radix (value
+  index 0: none, or a value training never saw). Helpdesk's 14 activities and 22 resources give
+  14 · 23 = 322 tokens; more than `MAX_TOKENS` is refused (predict fewer attributes).
+- **Scores.** log p(a, v | prefix) = log p(a | prefix) + Σ_k log p(v_k | prefix, a), the model's
+  activity output and attribute heads (attribute_heads.py) in one call per step; the end of the
+  case is the activity output's end.
+- **Rules.** A knowledge base may speak of attributes (MP-Declare: `Existence[Closed] |A.org:
+  resource is Value 3|` is `F(closed & org_resource__value_3)`). Each rule is compiled alone, as
+  check-cases compiles it (case_checks.py: one-hot where it names activities only, else over the
+  powerset of its atoms), and token t reads, in rule k's DFA, the letter of its atoms: its
+  activity's and "attribute is value" for each value it has (`Case.letters`). The rules are the
+  parts of one `RuleAutomaton`: a suffix keeps them when every rule accepts.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from tleaf_cli.data.activity_names import attribute_atom
+from tleaf_cli.data.cases import Case
+from tleaf_cli.errors import InputError, SettingError
+from tleaf_cli.tasks.case_checks import compile_rules, read_case_rules
+from tleaf_cli.tasks.next_activity.batch import CaseBatch
+from tleaf_cli.tasks.next_activity.encoding import Encoder
+from tleaf_cli.tasks.next_activity.suffix_search import Rows, RuleAutomaton
+
+MAX_TOKENS = 20_000  # joint tokens a search may score per step and branch
+CHUNK = 1024  # rows per model forward
+
+
+@dataclass(frozen=True)
+class JointTokens:
+    """The joint tokens of an encoder's activities and attribute values (module docstring)."""
+
+    encoder: Encoder
+
+    def __post_init__(self) -> None:
+        if self.size > MAX_TOKENS:
+            raise SettingError(
+                "attributes",
+                f"{len(self.encoder.atoms)} activities × the values of "
+                f"{', '.join(self.encoder.attributes)} make {self.size} events to choose from "
+                f"(at most {MAX_TOKENS}): predict fewer attributes",
+            )
+
+    @property
+    def per_activity(self) -> int:
+        """Tokens per activity: Π_k (R_k + 1)."""
+        return math.prod(self.encoder.value_counts)
+
+    @property
+    def size(self) -> int:
+        return len(self.encoder.atoms) * self.per_activity
+
+    def encode(self, activities: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """int64 [n]: the tokens of activities [n] with value indices [n, K]."""
+        out = np.asarray(activities, dtype=np.int64) * self.per_activity
+        radix = 1
+        for k in reversed(range(len(self.encoder.attributes))):
+            out = out + values[:, k] * radix
+            radix *= self.encoder.value_counts[k]
+        return out
+
+    def decode(self, tokens: Sequence[int] | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(activities [n], value indices [n, K]) of tokens [n]."""
+        rest = np.asarray(tokens, dtype=np.int64)
+        activities, rest = np.divmod(rest, self.per_activity)
+        values = np.zeros((len(rest), len(self.encoder.attributes)), dtype=np.int64)
+        for k in reversed(range(len(self.encoder.attributes))):
+            rest, values[:, k] = np.divmod(rest, self.encoder.value_counts[k])
+        return activities, values
+
+    def of_case(self, case: Case) -> np.ndarray:
+        """int64 [n]: the case's events as tokens; an event of an activity the model does not
+        know is negative (`decode`: activity −1)."""
+        activities = self.encoder.indices(case, unknown=-1)
+        return self.encode(activities, self.encoder.value_indices(case))
+
+    def letters(self) -> list[frozenset[str]]:
+        """Per token, the atoms true at such an event."""
+        activities, values = self.decode(np.arange(self.size))
+        names = list(zip(self.encoder.attributes, self.encoder.values, strict=True))
+        return [
+            frozenset(
+                [self.encoder.atoms[a]]
+                + [attribute_atom(n, vs[i - 1]) for (n, vs), i in zip(names, row, strict=True) if i]
+            )
+            for a, row in zip(activities.tolist(), values.tolist(), strict=True)
+        ]
+
+
+@dataclass(frozen=True)
+class JointRules:
+    """A knowledge base over joint tokens: its rules' names, the automaton the searches read,
+    whether it names activities only, and the atoms it names that no token has (values
+    training never saw, activities the model does not know)."""
+
+    path: str
+    names: tuple[str, ...]
+    automaton: RuleAutomaton
+    activities_only: bool
+    unseen: tuple[str, ...]
+
+
+def joint_rules(
+    path: str | os.PathLike, tokens: JointTokens, names: Sequence[str] = ()
+) -> JointRules:
+    """The rules of `path` (all, or those named) over `tokens`; InputError naming the file and
+    line of a rule that does not read or compile, or a name the file does not have."""
+    rules = read_case_rules(path)
+    if names:
+        by_name = {r.name: r for r in rules}
+        unknown = [n for n in names if n not in by_name]
+        if unknown:
+            raise InputError(f"{path}: no rule named {', '.join(unknown)}")
+        rules = [by_name[n] for n in names]
+    activity_atoms = set(tokens.encoder.atoms)
+    activities_only = all(a in activity_atoms for r in rules for a in r.atoms)
+    dfas = compile_rules(rules, "one-hot" if activities_only else "powerset")
+    letters = tokens.letters()
+    known = set().union(*letters)
+    columns = [np.array([d.alphabet.index(ls) for ls in letters], dtype=np.int64) for d in dfas]
+    unseen = sorted({a for r in rules for a in r.atoms if a not in known})
+    return JointRules(
+        os.fspath(path),
+        tuple(r.name for r in rules),
+        RuleAutomaton.of_letters(dfas, columns),
+        activities_only,
+        tuple(unseen),
+    )
+
+
+def joint_log_probs(
+    model, encoder: Encoder, tokens: JointTokens, stamps: Sequence[Sequence]
+) -> Callable[[Rows], np.ndarray]:
+    """The search's model over joint tokens: log-probabilities [N, tokens + 1] of the event
+    after each row (the last column: the end of the case), a row's times those of its prefix
+    (`stamps[owner]`)."""
+    device = torch.device("cpu")
+    v = len(encoder.atoms)
+
+    def call(rows: Rows) -> np.ndarray:
+        out = []
+        with torch.no_grad():
+            for i in range(0, len(rows), CHUNK):
+                part = rows[i : i + CHUNK]
+                owners = rows.owners[i : i + CHUNK]
+                decoded = [tokens.decode(row) for row in part]
+                batch = CaseBatch.of_sequences(
+                    [a for a, _ in decoded],
+                    [stamps[o] for o in owners],
+                    encoder,
+                    device,
+                    values=[vs for _, vs in decoded],
+                )
+                h = model.states(batch.activities, batch.times, batch.lengths, batch.attributes)
+                last = h[torch.arange(len(part)), batch.lengths - 1]
+                activity = torch.log_softmax(model.out(last).double(), dim=-1)
+                joint = activity[:, :v]
+                for values in model.heads.every(last):  # [N, V, R_k + 1]
+                    joint = joint[..., None] + values.double().reshape(
+                        len(part), v, *([1] * (joint.dim() - 2)), -1
+                    )
+                flat = joint.reshape(len(part), -1)
+                out.append(torch.cat([flat, activity[:, v:]], dim=1).numpy())
+        return np.concatenate(out)
+
+    return call
