@@ -228,3 +228,18 @@ def test_train_and_eval_with_the_resource(tmp_path, cases_path):
     assert row["rules"]["satisfying"] == 1.0  # the filter keeps the rules
     assert row["beam_soft"]["satisfying"] == 1.0  # a heavy weight too, here
     assert row["beam"]["satisfying"] < 1.0  # the model alone closes by r3 mostly
+
+
+def test_the_logic_loss_refuses_rules_on_attributes(tmp_path, cases_path):
+    kb = tmp_path / "kb.decl"
+    kb.write_text(DECL, encoding="utf-8")
+    result = runner.invoke(
+        app,
+        [
+            "train-task", "next-activity", str(cases_path), "-o", str(tmp_path / "run"),
+            "--attributes", "org:resource", "--kb", str(kb), "--logic-loss", "exact", "-q",
+        ],
+    )  # fmt: skip
+    assert result.exit_code == 2
+    assert "org_resource__r4" in result.output and "apply at decoding" in result.output
+    assert not (tmp_path / "run" / "weights.pt").exists()

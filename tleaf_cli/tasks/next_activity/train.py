@@ -28,6 +28,7 @@ from torch.nn import functional as F
 from tleaf_cli.data.event_logs import Case, read_cases
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings
+from tleaf_cli.tasks.case_checks import read_case_rules
 from tleaf_cli.tasks.next_activity.batch import PAD, CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import TIME_FEATURES, Encoder
 from tleaf_cli.tasks.next_activity.model import NextActivityLSTM, NextActivityModel
@@ -74,6 +75,7 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         settings, kb = self.settings, self.inputs.kb
         self.logic = "none" if settings.lam == 0 else settings.logic_loss
         if kb is not None and self.logic != "none":
+            refuse_attribute_rules(kb)
             self.rules = read_rules(kb, self.encoder.atoms)
         if self.logic != "tleaf":
             return LossSetup()
@@ -181,6 +183,20 @@ def train_next_activity(
     return train_task(
         NextActivityTrainer, inputs, out_dir, settings, on_epoch, resume, on_setup, reference
     )
+
+
+def refuse_attribute_rules(kb: Path) -> None:
+    """SettingError where the knowledge base names attribute values (`attribute_atom`'s double
+    _, which no activity atom holds): the logic loss reads a soft trace of activities, so such
+    rules apply at decoding only (eval next-activity --rules)."""
+    named = sorted({a for rule in read_case_rules(kb) for a in rule.atoms if "__" in a})
+    if named:
+        raise SettingError(
+            "kb",
+            f"{kb} names attribute values ({', '.join(named[:3])}"
+            f"{', ...' if len(named) > 3 else ''}): the logic loss reads the activities' soft "
+            "trace only; rules on attributes apply at decoding (eval next-activity --rules)",
+        )
 
 
 def new_model(
