@@ -21,6 +21,7 @@ from tleaf_cli.tasks.next_activity.attribute_heads import AttributeHeads
 from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.joint_tokens import JointTokens, joint_rules
 from tleaf_cli.tasks.next_activity.similarity import jaccard_similarity
+from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
 from tleaf_cli.tasks.next_activity.suffix_search import RuleAutomaton, predict_suffixes
 from tleaf_cli.tasks.next_activity.train import new_model
 
@@ -243,3 +244,30 @@ def test_the_logic_loss_refuses_rules_on_attributes(tmp_path, cases_path):
     assert result.exit_code == 2
     assert "org_resource__r4" in result.output and "apply at decoding" in result.output
     assert not (tmp_path / "run" / "weights.pt").exists()
+
+
+def test_soft_sampling_follows_the_weight(tmp_path, encoder):
+    kb = tmp_path / "kb.decl"
+    kb.write_text(DECL, encoding="utf-8")
+    tokens = JointTokens(encoder)
+    auto = joint_rules(kb, tokens).automaton
+    c = encoder.atoms.index("c")
+    b = encoder.atoms.index("b")
+    r2 = encoder.values[0].index("r2") + 1
+    a = encoder.atoms.index("a")
+    r1 = encoder.values[0].index("r1") + 1
+    tok = lambda act, val: int(tokens.encode(np.array([act]), np.array([[val]]))[0])  # noqa: E731
+    r3 = encoder.values[0].index("r3") + 1
+    model = _model_preferring([tok(b, r2), tok(c, r3)], tokens.size)
+    prefixes = [(tok(a, r1),)] * 200
+
+    def kept(weight):
+        drawn = sample_suffixes(
+            model, prefixes, tokens.size, rules=auto, max_length=4, rule_weight=weight, seed=1
+        )
+        return np.mean(
+            [auto.accepts(p + d.activities) for p, d in zip(prefixes, drawn, strict=True)]
+        )
+
+    assert kept(0.0) < 0.2  # the model alone: c by r3
+    assert kept(20.0) > 0.9  # heavily weighted rules: c by r4 after b

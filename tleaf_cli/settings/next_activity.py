@@ -127,7 +127,7 @@ class SuffixSettings:
         None,
         "Also search with the rules as a soft score instead of a filter (NeSy4PPM's "
         "knowledge-contextualised mode): each rule a token leaves unable to accept costs this "
-        "weight μ in log-probability (argmax_soft, beam_soft).",
+        "weight μ in log-probability (argmax_soft, beam_soft, sample_soft).",
         min=0.0,
         auto="none: the rules a hard filter only",
     )

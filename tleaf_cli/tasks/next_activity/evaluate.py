@@ -302,9 +302,10 @@ def suffix_scores(
     """Suffix prediction from the k-prefixes of the cases with at least `settings.min_suffix`
     more activities: per way (argmax, beam, with a temperature sample; under rules each again
     with the rules a hard filter: argmax_rules, rules (the beam), sample_rules; with a rule
-    weight, argmax_soft and beam_soft), the mean DL similarity (of the suffix, and Mezini et
-    al.'s of the whole trace), Jaccard similarity, the share satisfying the rules, ms per case;
-    with attributes, DL and Jaccard similarity of each attribute's values too.
+    weight, each again with the rules a soft score: argmax_soft, beam_soft, sample_soft), the
+    mean DL similarity (of the suffix, and Mezini et al.'s of the whole trace), Jaccard
+    similarity, the share satisfying the rules, ms per case; with attributes, DL and Jaccard
+    similarity of each attribute's values too.
 
     With event attributes (`encoder.attributes`) the search runs over events, each an activity
     and its values (joint_tokens.py), under `joint`: rules that may name attribute values."""
@@ -349,7 +350,7 @@ def suffix_scores(
         ways.update({f"{way}_rules": (s, search_rules) for way, s in searches.items()})
         ways["rules"] = ways.pop("beam_rules")  # the beam search under the rules: its old name
         if settings.rule_weight is not None:  # and as a soft score
-            for way in ("argmax", "beam"):
+            for way in searches:
                 soft = partial(searches[way], rule_weight=settings.rule_weight)
                 ways[f"{way}_soft"] = (soft, search_rules)
     out: dict = {"cases": len(chosen), "unknown_prefixes": unreadable}

@@ -11,7 +11,10 @@ an activity only where each rule part's next DFA state still reaches acceptance 
 activities left (`RuleAutomaton.next_within`), the end only in an accepting state — the same
 filter as the beam search's pruning, so every continuation drawn is accepted. A prefix that
 already cannot meet the rules in time (a dead state) is sampled without them and counted in
-`SearchStats.fallbacks`. The draws are reproducible: one `numpy` generator seeded by `seed`.
+`SearchStats.fallbacks`. With a rule weight the rules are a soft score instead (as the beam
+search's, suffix_search.py): the draw is from the model's distribution times e^(−μ · cost), so
+continuations that meet the rules sooner are likelier and none is impossible. The draws are
+reproducible: one `numpy` generator seeded by `seed`.
 """
 
 from __future__ import annotations
@@ -45,11 +48,15 @@ def sample_suffixes(
     max_length: int = 50,
     seed: int = 0,
     stats: SearchStats | None = None,
+    rule_weight: float | None = None,
 ) -> list[Suffix]:
     """Per prefix, one continuation drawn token by token at `temperature`, under `rules` when
     given (arguments as `suffix_search.predict_suffixes`'; `log_prob` is the drawn tokens'
     log-probabilities under the model, untempered). A continuation reaching `max_length`
-    activities ends there. ArgumentError for a temperature that is not a finite number above 0.
+    activities ends there. `rule_weight` μ: the rules as a soft score instead of a filter, as
+    `predict_suffixes`' (each token's log-probability lowered by μ per rule part it leaves
+    unmet and μ more per part out of reach, the end by 2μ per part unmet) before tempering.
+    ArgumentError for a temperature that is not a finite number above 0.
     """
     v = check_count(num_activities, "num_activities", 1)
     max_length = check_count(max_length, "max_length", 0)
@@ -66,10 +73,14 @@ def sample_suffixes(
     scores = np.zeros(n)
     states = None
     ruled = np.zeros(n, dtype=bool)  # sampled under the rules (not a fallback)
+    soft = automaton is not None and rule_weight is not None
     if automaton is not None:
         states = np.array([automaton.run(p) for p in checked], dtype=np.int64).reshape(n, -1)
         ruled = automaton.within(states, max_length)
-        stats.fallbacks += int((~ruled).sum())
+        if soft:  # the rules cost, they do not cut: nothing falls back
+            ruled = np.ones(n, dtype=bool)
+        else:
+            stats.fallbacks += int((~ruled).sum())
     open_ = list(range(n))
     for step in range(max_length + 1):
         if not open_:
@@ -79,7 +90,17 @@ def sample_suffixes(
         allowed = np.ones_like(log_probs, dtype=bool)
         if step == max_length:
             allowed[:, :v] = False  # the budget is spent: only the end
-        if automaton is not None:
+        weights = log_probs
+        if soft:
+            here = states[open_]
+            cost = np.zeros_like(log_probs)
+            if step < max_length:
+                budget = max_length - step - 1
+                late = automaton.next_missing(here, budget) + automaton.next_rejecting(here)
+                cost[:, :v] = rule_weight * late
+            cost[:, v] = 2 * rule_weight * automaton.rejecting(here)
+            weights = log_probs - cost
+        elif automaton is not None:
             mine = ruled[open_]
             here = states[open_]
             if step < max_length:
@@ -87,7 +108,7 @@ def sample_suffixes(
                     here, max_length - step - 1
                 )
             allowed[:, v] &= ~mine | automaton.accepted(here)
-        tokens = _draw(log_probs, allowed, temperature, rng)
+        tokens = _draw(weights, allowed, temperature, rng)
         still = []
         for row, (i, token) in enumerate(zip(open_, tokens.tolist(), strict=True)):
             scores[i] += log_probs[row, token]
