@@ -414,11 +414,12 @@ def section(out: Path, published: Path | None, settings: str = "", command: str 
     say(
         "**Prefix 3 as their code counts it** (trace similarity over all test cases: the "
         "cases with fewer than 3 events score 1, their prefix holding the whole trace; above, "
-        "prefix 3 scores only the cases with at least 3 events), greedy:"
+        "prefix 3 scores only the cases with at least 3 events), greedy, then sampled:"
     )
-    say("")
-    variants = [("λ 0", "none", "argmax"), *knowledge_variants(losses, GREEDY)]
-    lines.extend(table(runs_by_noise, variants, means, "greedy", noises, their_count=True))
+    for strategy, ways in (("greedy", GREEDY), ("temperature", SAMPLED)):
+        say("")
+        variants = [("λ 0", "none", ways[0]), *knowledge_variants(losses, ways)]
+        lines.extend(table(runs_by_noise, variants, means, strategy, noises, their_count=True))
     say("")
     say(
         "**Seeds where a knowledge variant beats its own seed's reference** (λ 0, greedy argmax) "
