@@ -122,3 +122,30 @@ def test_names_as_declare_writes_them(name, key, count) -> None:
 def test_an_unknown_template_names_the_known_ones() -> None:
     with pytest.raises(InputError, match="Chain Response"):
         find_template("Eventually Maybe")
+
+
+def test_symmetric_templates_mean_the_same_with_their_arguments_swapped():
+    """`Template.symmetric` (the miner takes such templates over unordered pairs) holds where
+    swapping a and b gives the same language, on every trace of up to 4 events. The one other
+    template whose language is symmetric, Not Responded Existence (F a -> G !b, i.e. not both),
+    is activated by a in Declare and pm4py, which mine it per ordered pair: so does tleaf."""
+    import itertools
+
+    from tleaf_cli.knowledge.templates import TEMPLATES
+    from tleaf_cli.logic.formulas import parse
+    from tleaf_cli.logic.semantics import satisfies
+
+    traces = [
+        [frozenset({x}) for x in word]
+        for n in range(1, 5)
+        for word in itertools.product("abc", repeat=n)
+    ]
+    swapped_alike = set()
+    for key, template in TEMPLATES.items():
+        if template.arity != 2:
+            continue
+        one, other = parse(template.ltlf("a", "b")), parse(template.ltlf("b", "a"))
+        if all(satisfies(t, one) == satisfies(t, other) for t in traces):
+            swapped_alike.add(key)
+    symmetric = {k for k, t in TEMPLATES.items() if t.symmetric}
+    assert swapped_alike == symmetric | {"not_responded_existence"}

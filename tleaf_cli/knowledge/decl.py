@@ -22,7 +22,8 @@ a numeric condition on values that are not numbers or on a domain that is not fi
 between`, or `integer between` of more than MAX_ENUMERATED values), a time condition (LTLf has
 no clock), a condition relating the activation to the target (`same`, `different`, `A.x is
 T.x`, an `A.` test in the correlation field), and any condition on a template both of whose
-arguments activate it (`SYMMETRIC`: Declare4Py, the reference, has no checker for them).
+arguments activate it (`Template.activated_by_both`: Declare4Py, the reference, has no checker
+for them).
 """
 
 from __future__ import annotations
@@ -40,15 +41,6 @@ from tleaf_cli.knowledge import decl_grammar as grammar
 from tleaf_cli.knowledge.templates import Template, find_template
 
 MAX_ENUMERATED = 1000  # the most values an `integer between X and Y` domain is enumerated to
-
-# Templates both of whose arguments activate them (Declare4Py's "shortcuts"): a condition on
-# one event has no single argument to narrow
-SYMMETRIC = frozenset(
-    {
-        "co_existence", "succession", "alternate_succession", "chain_succession",
-        "not_co_existence", "not_succession", "not_chain_succession",
-    }
-)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -298,7 +290,7 @@ class _Reader:
         time = fields[most - 1] if len(fields) == most else ""
         if time:
             raise InputError(f"time condition {time!r}: {grammar.UNSUPPORTED_TIME}")
-        if (activation or correlation) and template.key in SYMMETRIC:
+        if (activation or correlation) and template.activated_by_both:
             raise InputError(
                 f"a condition on {template.name}, which both its activities activate, is not "
                 "supported (no single event to narrow; Declare4Py has no checker for it either)"

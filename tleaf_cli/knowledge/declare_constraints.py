@@ -34,8 +34,8 @@ from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge.templates import TEMPLATES, Template
 from tleaf_cli.settings.declare import TEMPLATE_ALIASES
 
-# symmetric in a and b: mined over unordered pairs (a < b), activated by either (if at all)
-SYMMETRIC = frozenset({"choice", "exclusive_choice", "co_existence", "not_co_existence"})
+# symmetric in a and b (`Template.symmetric`): mined over unordered pairs (a < b)
+SYMMETRIC = frozenset(k for k, t in TEMPLATES.items() if t.symmetric)
 RULE_NAMES = {"exactly": "exactly_once", "not_co_existence": "not_coexistence"}
 
 

@@ -48,7 +48,11 @@ class Template:
     (0 for a, 1 for b; None for a unary template, activated by every case). `counting`: the
     name takes a count (Existence2, Absence3, Exactly1). `negative`: a "Not ..." template.
     Choice and Exclusive Choice are binary with no activation: like a unary template, every
-    case is bound by them.
+    case is bound by them. `symmetric`: the formula means the same with a and b swapped, and the
+    field counts it once per unordered pair (the miner does too; Not Responded Existence means
+    the same swapped, but Declare activates it by a and mines it per ordered pair).
+    `activated_by_both`: each argument activates it (the Succession and Co-Existence families,
+    Declare4Py's "shortcuts"): an MP-Declare condition has no single event to narrow.
     """
 
     name: str
@@ -58,6 +62,8 @@ class Template:
     activation: int | None = None
     counting: bool = False
     negative: bool = False
+    symmetric: bool = False
+    activated_by_both: bool = False
 
     def ltlf(self, a: str, b: str | None = None, n: int = 1) -> str:
         """The template's formula over the event formulas `a` (and `b`), with count `n`."""
@@ -92,15 +98,22 @@ def _templates() -> tuple[Template, ...]:
         t("Exactly", "exactly", 1, "", counting=True),
         t("Init", "init", 1, "{a}"),
         t("End", "end", 1, "F({a} & last)"),
-        t("Choice", "choice", 2, "F {a} | F {b}"),
-        t("Exclusive Choice", "exclusive_choice", 2, "(F {a} | F {b}) & !(F {a} & F {b})"),
+        t("Choice", "choice", 2, "F {a} | F {b}", symmetric=True),
+        t(
+            "Exclusive Choice", "exclusive_choice", 2, "(F {a} | F {b}) & !(F {a} & F {b})",
+            symmetric=True,
+        ),
         t("Responded Existence", "responded_existence", 2, "F {a} -> F {b}", activation=0),
-        t("Co-Existence", "co_existence", 2, "F {a} <-> F {b}", activation=0),
+        t(
+            "Co-Existence", "co_existence", 2, "F {a} <-> F {b}", activation=0, symmetric=True,
+            activated_by_both=True,
+        ),
         t("Response", "response", 2, "G({a} -> X F {b})", activation=0),
         t("Precedence", "precedence", 2, wu("!{b}", "{a}"), activation=1),
         t(
             "Succession", "succession", 2,
             "G({a} -> X F {b}) & (" + wu("!{b}", "{a}") + ")", activation=0,
+            activated_by_both=True,
         ),
         t("Alternate Response", "alternate_response", 2, "G({a} -> X(!{a} U {b}))", activation=0),
         t(
@@ -112,13 +125,13 @@ def _templates() -> tuple[Template, ...]:
             "Alternate Succession", "alternate_succession", 2,
             "G({a} -> X(!{a} U {b})) & (" + wu("!{b}", "{a}") + ") & G({b} -> WX("
             + wu("!{b}", "{a}") + "))",
-            activation=0,
+            activation=0, activated_by_both=True,
         ),
         t("Chain Response", "chain_response", 2, "G({a} -> X {b})", activation=0),
         t("Chain Precedence", "chain_precedence", 2, "!{b} & G(X {b} -> {a})", activation=1),
         t(
             "Chain Succession", "chain_succession", 2,
-            "G({a} -> X {b}) & !{b} & G(X {b} -> {a})", activation=0,
+            "G({a} -> X {b}) & !{b} & G(X {b} -> {a})", activation=0, activated_by_both=True,
         ),
         t(
             "Not Responded Existence", "not_responded_existence", 2, "F {a} -> G !{b}",
@@ -126,7 +139,7 @@ def _templates() -> tuple[Template, ...]:
         ),
         t(
             "Not Co-Existence", "not_co_existence", 2, "!(F {a} & F {b})", activation=0,
-            negative=True,
+            negative=True, symmetric=True, activated_by_both=True,
         ),
         t("Not Response", "not_response", 2, "G({a} -> WX G !{b})", activation=0, negative=True),
         t(
@@ -135,7 +148,7 @@ def _templates() -> tuple[Template, ...]:
         ),
         t(
             "Not Succession", "not_succession", 2, "G({a} -> WX G !{b})", activation=0,
-            negative=True,
+            negative=True, activated_by_both=True,
         ),
         t(
             "Not Chain Response", "not_chain_response", 2, "G({a} -> WX !{b})", activation=0,
@@ -147,7 +160,7 @@ def _templates() -> tuple[Template, ...]:
         ),
         t(
             "Not Chain Succession", "not_chain_succession", 2, "G({a} -> WX !{b})",
-            activation=0, negative=True,
+            activation=0, negative=True, activated_by_both=True,
         ),
     )  # fmt: skip
 
