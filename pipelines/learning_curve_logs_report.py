@@ -12,7 +12,8 @@ writes a page (curve.md) and every figure (curve.json beside it):
   curve of mean accuracies needs to reach the variant's mean (linear between shares on a log
   scale, its first crossing; `reference_videos` of tleaf's synthetic curve), over the
   variant's own share. Beyond the largest share it is a lower bound ("> x×"), at or below the
-  reference's first point an upper bound ("≤ x×");
+  reference's first point an upper bound ("≤ x×"). Beside it the worth of a gain one standard
+  error lower (Δ against the same seed's reference, minus its s.e.): what the spread leaves;
 - every variant's data worth, and the λ chosen per seed;
 - the goal: knowledge worth ≥ 2× the data at ≤ 10 % of the cases on at least 2 of the logs.
 
@@ -142,6 +143,12 @@ def curve(rows: list[dict]) -> dict:
             v = point["variants"][name]
             worth = data_worth(shares, reference, v["mean"], point["share"])
             v["worth"] = {"ratio": worth.ratio, "bound": worth.bound, "share": worth.videos}
+            # the same with the gain one standard error lower (paired by seed): how much of
+            # the worth the seeds' spread leaves
+            se = v["delta_sd"] / math.sqrt(len(point["seeds"]))
+            ref_here = point["variants"][REFERENCE]["mean"]
+            low = data_worth(shares, reference, ref_here + v["delta_mean"] - se, point["share"])
+            v["worth_low"] = {"ratio": low.ratio, "bound": low.bound, "share": low.videos}
         best = max(KNOWLEDGE, key=lambda n: point["variants"][n]["mean"])
         point["best"] = best
     return {"shares": shares, "points": points}
@@ -182,7 +189,8 @@ def render(curves: dict[str, dict], result: dict, command: str | None) -> str:
         "seed; rules mined from the kept cases. Best: the knowledge variant with the highest mean "
         "(picked on test: optimistic). Δ: against the reference of the same seed, in points; "
         "above: seeds where it beats the reference. Worth: the share the reference needs for the "
-        "best variant's mean (linear on log share), over its own share.",
+        "best variant's mean (linear on log share), over its own share; at Δ − s.e.: the same "
+        "for a gain one standard error lower.",
         "",
     ]
     if command:
@@ -193,8 +201,8 @@ def render(curves: dict[str, dict], result: dict, command: str | None) -> str:
             "",
             "| share | train cases | seeds | "
             + " | ".join(VARIANTS)
-            + " | best | Δ best | above | worth |",
-            "|---" * 11 + "|",
+            + " | best | Δ best | above | worth | worth at Δ − s.e. |",
+            "|---" * 12 + "|",
         ]
         for p in c["points"]:
             v = p["variants"]
@@ -206,7 +214,8 @@ def render(curves: dict[str, dict], result: dict, command: str | None) -> str:
                 f"| {fmt(p['share'])} % | {cases} | {len(p['seeds'])} | "
                 + " | ".join(cells)
                 + f" | {p['best']} | {best['delta_mean']:+.2f} ± {best['delta_sd']:.2f} | "
-                f"{best['above']}/{len(p['seeds'])} | {worth_text(best['worth'])} |"
+                f"{best['above']}/{len(p['seeds'])} | {worth_text(best['worth'])} | "
+                f"{worth_text(best['worth_low'])} |"
             )
         lines += [
             "",

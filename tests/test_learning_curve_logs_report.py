@@ -113,3 +113,21 @@ def test_unfinished_units_are_left_out_and_no_unit_at_all_exits_2(tmp_path: Path
     assert [(r["share"], r["seed"]) for r in rows] == [(10.0, 0)]
     assert rows[0]["seconds"] == pytest.approx(12.5)
     assert report.main([str(tmp_path), "--logs", "C"]) == 2
+
+
+def test_the_pessimistic_worth_takes_one_standard_error_off_the_paired_gain() -> None:
+    report = _module()
+    reference = {1: 50.0, 3: 60.0, 10: 70.0, 30: 80.0, 100: 90.0}
+    rows = []
+    for share, ref in reference.items():
+        for seed, gain in ((0, 5.0), (1, 15.0)):  # Δ 10 ± 7.07: s.e. 5
+            rules = ref + gain if share == 10 else ref
+            names = {"none": ref, "none, rules": rules, "exact": ref, "exact, rules": ref}
+            rows.append({"share": float(share), "seed": seed, "train_cases": 3 * share,
+                         "lambda": 0.0, "seconds": None, **names})  # fmt: skip
+    at = {p["share"]: p for p in report.curve(rows)["points"]}[10.0]
+    v = at["variants"]["none, rules"]
+    assert at["best"] == "none, rules"
+    assert (v["delta_mean"], v["delta_sd"]) == (pytest.approx(10.0), pytest.approx(50**0.5))
+    assert v["worth"]["ratio"] == pytest.approx(3.0)  # 80 %: the reference's at 30 %
+    assert v["worth_low"]["ratio"] == pytest.approx(math.sqrt(300) / 10)  # 75 %: halfway
