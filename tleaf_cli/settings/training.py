@@ -9,8 +9,9 @@ Pure Python: the command line builds its options from these fields.
 
 from __future__ import annotations
 
+import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, ClassVar
 
 from tleaf_cli.errors import SettingError
@@ -39,6 +40,15 @@ class TrainingSettings(Presets):
         "run in its lambda-choice folder.",
         auto="none: one run, at --lambda",
     )
+    grid: str | None = setting(
+        None,
+        "Choose the model on validation: one run per combination of these settings' values "
+        "(e.g. 'hidden=64,128 layers=1,2 lr=0.001,0.002': a field, =, its values by commas; "
+        "fields apart by spaces), each from the same seed; the run with the best val score is "
+        "kept (ties: the first in the grid's order), its settings in config.json, every "
+        "candidate's run in its grid folder.",
+        auto="none: one run, at the settings given",
+    )
     batch_size: int = setting(32, "Sequences (cases, videos) per batch.", min=1)
     epochs: int = setting(100, "Most epochs to train.", min=1)
     patience: int | None = setting(
@@ -66,6 +76,11 @@ class TrainingSettings(Presets):
                 raise SettingError("lambdas", "chooses λ itself: not with lam")
             if not self.uses_lambda:
                 raise SettingError("lambdas", "λ weighs nothing without a logic loss")
+        if self.grid is not None:
+            if self.lambdas is not None:
+                raise SettingError("grid", "choose the model first, then λ: not with lambdas")
+            for one in grid_candidates(self):
+                one.check()
 
 
 def training_field(name: str, default: Any) -> Any:
@@ -88,3 +103,52 @@ def lambda_candidates(text: str) -> tuple[float, ...]:
             raise SettingError("lambdas", f"must be finite numbers of at least 0, not {word}")
         values.add(value)
     return tuple(sorted(values))
+
+
+# what a grid may not vary: how the choice is made, the run's identity and where it runs
+NOT_IN_GRID = ("grid", "lam", "lambdas", "seed", "device", "epochs", "patience", "resume")
+
+
+def grid_candidates(settings: Any) -> list[Any]:
+    """The settings of each combination of `settings.grid`'s values, in the grid's order (the
+    last field's values turn fastest); SettingError naming what does not read: a word without
+    =, a field the settings do not have or a grid may not vary, a value not of the field's
+    type, a field named twice."""
+    names = {f.name for f in fields(settings)}
+    axes: dict[str, list[Any]] = {}
+    for word in (settings.grid or "").split():
+        name, equals, values = word.partition("=")
+        name = name.strip().replace("-", "_")
+        if not equals or not values.strip(","):
+            raise SettingError("grid", f"{word!r} is not field=value,value,...")
+        if name not in names or name in NOT_IN_GRID:
+            raise SettingError(
+                "grid",
+                f"{name!r} is not a setting a grid may vary"
+                + (" (how the choice is made, or the run's seed, device and length)"
+                   if name in NOT_IN_GRID else ""),
+            )  # fmt: skip
+        if name in axes:
+            raise SettingError("grid", f"{name!r} is named twice")
+        kind = type(getattr(settings, name))
+        if getattr(settings, name) is None or kind not in (int, float, str):
+            raise SettingError("grid", f"{name!r} takes no list of values here")
+        try:
+            axes[name] = [kind(v) for v in values.split(",") if v]
+        except ValueError:
+            raise SettingError(
+                "grid", f"{name}: {values!r} are not {kind.__name__} values"
+            ) from None
+    if not axes:
+        raise SettingError("grid", "names no setting to vary")
+    return [
+        replace(settings, grid=None, **dict(zip(axes, combo, strict=True)))
+        for combo in itertools.product(*axes.values())
+    ]
+
+
+def grid_axes(settings: Any) -> tuple[str, ...]:
+    """The fields `settings.grid` varies, in order."""
+    return tuple(
+        w.partition("=")[0].strip().replace("-", "_") for w in (settings.grid or "").split()
+    )

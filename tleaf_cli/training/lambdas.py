@@ -22,7 +22,6 @@ val score. No torch here.
 from __future__ import annotations
 
 import json
-import shutil
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -32,7 +31,7 @@ from tleaf_cli.data.artifacts import describe_inputs, relative_to, write_text_at
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.training import lambda_candidates
 from tleaf_cli.training.q_coverage import QCoverage
-from tleaf_cli.training.run_folder import CONFIG, METRICS, RUN_FILES
+from tleaf_cli.training.run_folder import CONFIG, METRICS, RUN_FILES, adopt_run
 
 SOURCES = ("given", "recommended", "default", "validation", "candidate", "unused")
 
@@ -152,17 +151,14 @@ def train_choosing_lambda(
     if reference is not None:
         folder = out_dir / CANDIDATES / "lambda-0"
         folder.mkdir(parents=True, exist_ok=True)
-        for name in RUN_FILES:
-            shutil.copyfile(Path(reference) / name, folder / name)
+        adopt_run(Path(reference), folder)
         metrics = json.loads((folder / METRICS).read_text())
         candidates.insert(
             0, {"lambda": 0.0, score: metrics["best"][score], "run": f"{CANDIDATES}/{folder.name}"}
         )
     best = best_candidate(candidates, score)
     choice = LambdaChoice(best["lambda"], "validation", candidates)
-    chosen = out_dir / best["run"]
-    for name in RUN_FILES:
-        shutil.copyfile(chosen / name, out_dir / name)
+    adopt_run(out_dir / best["run"], out_dir)
     metrics = json.loads((out_dir / METRICS).read_text())
     metrics["lambda"] = choice.as_dict()
     if "logic_loss" in metrics:  # as config.json's below: this run's loss

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from collections.abc import Sequence
 from dataclasses import asdict
 from pathlib import Path
@@ -113,3 +114,10 @@ def recorded_input(run_dir: str | os.PathLike, config: dict[str, Any], role: str
     if item.get("sha256") not in (None, file_sha256(path)):
         raise InputError(f"{run_dir}: its {what} {path} changed since the run was trained")
     return path
+
+
+def adopt_run(chosen: Path, out_dir: Path) -> None:
+    """Copy a finished candidate run's files (`RUN_FILES`) into `out_dir`: a choice among runs
+    (λ on validation, a model grid) keeps the chosen one's files as the run's own."""
+    for name in RUN_FILES:
+        shutil.copyfile(chosen / name, out_dir / name)

@@ -37,6 +37,7 @@ from tleaf_cli.errors import SettingError
 from tleaf_cli.settings.training import TrainingSettings
 from tleaf_cli.training.lambdas import RunSetup, resolve_lambda, train_choosing_lambda
 from tleaf_cli.training.loop import WEIGHTS, LoopSettings, Step, device_for, fit, save_atomic
+from tleaf_cli.training.model_choice import train_choosing_settings
 from tleaf_cli.training.q_coverage import QCoverage
 from tleaf_cli.training.run_folder import CONFIG, METRICS, run_identity
 
@@ -134,7 +135,8 @@ def train_task(
 ) -> dict[str, Any]:
     """Train a `trainer` run on `inputs` into `out_dir`; returns the metrics written.
 
-    With `settings.lambdas`, one run per candidate λ and 0, the best on val kept;
+    With `settings.grid`, one run per combination of its values, the best on val kept
+    (`model_choice`); with `settings.lambdas`, one run per candidate λ and 0, the best on val kept;
     `reference`: a finished λ-0 run of the same settings and data taken as the λ-0 candidate,
     not trained again (checked before any training). SettingError for settings that do not
     fit, InputError for inputs."""
@@ -143,6 +145,12 @@ def train_task(
     check_writable(out_dir / METRICS)
     if reference is not None and settings.lambdas is None:
         raise SettingError("reference", "is the λ-0 candidate of a choice: give lambdas too")
+    if settings.grid is not None:
+
+        def grid_candidate(folder: Path, one: TrainingSettings) -> dict[str, Any]:
+            return train_task(trainer, inputs, folder, one, on_epoch, resume, on_setup)
+
+        return train_choosing_settings(grid_candidate, out_dir, settings, trainer.score)
     if settings.lambdas is not None:
 
         def candidate(folder: Path, one: TrainingSettings, hear) -> dict[str, Any]:

@@ -1,0 +1,63 @@
+"""Choosing a model's settings on validation (`--grid`): one run per combination of the grid's
+values, the best val score kept — the model selection of the field's protocols, never on test.
+
+Each candidate trains from the same seed into `<run>/grid/<field-value_...>/` (a whole run
+folder: resumable, inspectable); the best by the task's val score (ties: the first in the
+grid's order) is copied into the run's folder (`run_folder.adopt_run`). Its config.json holds
+the chosen settings, with `grid` naming the grid they were chosen from, so `eval` rebuilds the
+chosen model; metrics.json's "grid" lists every candidate's settings and val score. A λ choice
+is made on the chosen model afterwards, not across the grid (the settings refuse both at once).
+No torch here.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+from tleaf_cli.data.artifacts import write_text_atomic
+from tleaf_cli.settings.training import grid_axes, grid_candidates
+from tleaf_cli.training.run_folder import CONFIG, METRICS, adopt_run
+
+CANDIDATES = "grid"  # the folder of a run's grid candidates, inside the run's folder
+
+
+def train_choosing_settings(
+    train: Callable[[Path, Any], dict],
+    out_dir: Path,
+    settings: Any,
+    score: str,
+) -> dict:
+    """One run `train(folder, candidate_settings)` per combination of `settings.grid`, the one
+    with the best val `score` (its metrics' "best" entry) copied to `out_dir`; returns its
+    metrics, whose "grid" names the choice and every candidate."""
+    axes = grid_axes(settings)
+    candidates = []
+    for one in grid_candidates(settings):
+        values = {name: getattr(one, name) for name in axes}
+        folder = out_dir / CANDIDATES / "_".join(f"{k}-{_text(v)}" for k, v in values.items())
+        metrics = train(folder, one)
+        candidates.append(
+            {
+                "settings": values,
+                score: metrics["best"][score],
+                "run": f"{CANDIDATES}/{folder.name}",
+            }
+        )
+    best = max(candidates, key=lambda c: c[score])  # the first of equals: the grid's order
+    adopt_run(out_dir / best["run"], out_dir)
+    metrics = json.loads((out_dir / METRICS).read_text())
+    metrics["grid"] = {"chosen": best["settings"], "score": score, "candidates": candidates}
+    write_text_atomic(out_dir / METRICS, json.dumps(metrics, indent=2))
+    config = json.loads((out_dir / CONFIG).read_text())
+    config["settings"] = {**asdict(settings), **best["settings"]}  # the chosen model, and how
+    write_text_atomic(out_dir / CONFIG, json.dumps(config, indent=2))
+    return metrics
+
+
+def _text(value: Any) -> str:
+    """A value in a candidate's folder name: floats as %g (0.001, not 0.0010)."""
+    return f"{value:g}" if isinstance(value, float) else str(value)
