@@ -26,7 +26,8 @@
 # own weight (0.9) likewise. WEIGHTS are all reported; the page says which one is the headline
 # and how it was set.
 # Models: the Transformer of ProcessTransformer's size (NeSy4PPM's: one block of width 36,
-# 4 heads) and Tax et al.'s LSTM. Cost (one core each, OMP_NUM_THREADS=1): about 20 s per
+# 4 heads), Tax et al.'s LSTM, and (MODELS=transformer-grid) the Transformer whose width and
+# depth are chosen on validation (--grid). Cost (one core each, OMP_NUM_THREADS=1): about 20 s per
 # training, 1-2 minutes per evaluation (the hard filter's search most of it).
 TLEAF ?= tleaf
 PYTHON ?= python
@@ -53,6 +54,8 @@ endif
 
 MODEL_transformer := --model transformer --hidden 36 --layers 1 --heads 4
 MODEL_lstm := --model lstm --hidden 100 --layers 2
+# the Transformer's width and depth chosen on validation (the training log's own val split)
+MODEL_transformer-grid := --model transformer --heads 4 --grid "hidden=36,64 layers=1,2"
 RUNS := $(foreach m,$(MODELS),$(foreach s,$(SEEDS),$(OUT)/$(m)/seed$(s)))
 EVALS := $(foreach r,$(RUNS),$(foreach w,$(WEIGHTS),$(r)/eval-w$(w)/metrics.json))
 

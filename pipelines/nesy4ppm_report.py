@@ -81,7 +81,11 @@ def mean_sd(values: list[float], digits: int = 3) -> str:
 
 def rows_of(model_runs: dict[str, list[dict]], weights: list[str]) -> list[tuple[str, list]]:
     """(label, per-seed pooled figures) per way: the plain ways from the first weight's
-    evaluations (they do not read the weight), then beam_soft and argmax_soft per weight."""
+    evaluations that exist (they do not read the weight), then beam_soft and argmax_soft per
+    weight evaluated."""
+    weights = [w for w in weights if model_runs[w]]
+    if not weights:
+        return []
     first = model_runs[weights[0]]
     out = [(label, [pooled(m, way) for m in first]) for way, label in WAYS]
     for w in weights:
@@ -122,8 +126,6 @@ def report(out: Path, models: list[str], seeds: list[str], weights: list[str]) -
     checks: list[str] = []
     for model in models:
         runs = {w: read_runs(out, model, seeds, w) for w in weights}
-        if not runs[weights[0]]:
-            continue
         best = None
         for label, per_seed in rows_of(runs, weights):
             if not per_seed:
