@@ -271,3 +271,43 @@ def test_soft_sampling_follows_the_weight(tmp_path, encoder):
 
     assert kept(0.0) < 0.2  # the model alone: c by r3
     assert kept(20.0) > 0.9  # heavily weighted rules: c by r4 after b
+
+
+def test_a_test_activity_training_never_saw_is_scored_where_it_can_be(tmp_path, cases_path):
+    run = tmp_path / "run"
+    result = runner.invoke(
+        app,
+        [
+            "train-task", "next-activity", str(cases_path), "-o", str(run), "--hidden", "8",
+            "--layers", "1", "--epochs", "1", "--attributes", "org:resource", "-q",
+        ],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    log = tmp_path / "drift.csv"
+    log.write_text(
+        "case:concept:name,concept:name,time:timestamp,org:resource\n"
+        "n1,a,2021-01-01T10:00:00,r1\nn1,b,2021-01-01T11:00:00,r2\n"
+        "n1,d,2021-01-01T12:00:00,r2\nn1,c,2021-01-01T13:00:00,r4\n"
+        "n2,a,2021-01-02T10:00:00,r1\nn2,b,2021-01-02T11:00:00,r2\n"
+        "n2,c,2021-01-02T12:00:00,r4\n",
+        encoding="utf-8",
+    )
+    drift = tmp_path / "drift.parquet"
+    result = runner.invoke(
+        app, ["read-log", str(log), "-o", str(drift), "--attributes", "org:resource",
+              "--split", "0,0,1", "-q"],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "eval"
+    result = runner.invoke(
+        app,
+        ["eval", "next-activity", str(run), str(drift), "--prefix-lengths", "1,3", "-o", str(out),
+         "-q"],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    saved = json.loads((out / "metrics.json").read_text())
+    assert any("never saw in training" in w for w in saved["warnings"])
+    assert saved["accuracy"]["cases"] == 1  # n1 left out of next-activity accuracy
+    assert saved["suffix"]["1"]["cases"] == 2  # n1's prefix (a) is known: its suffix scored
+    assert saved["suffix"]["1"]["unknown_prefixes"] == 0
+    assert saved["suffix"]["3"]["cases"] == 1 and saved["suffix"]["3"]["unknown_prefixes"] == 1
