@@ -79,6 +79,9 @@ def read_units(out: Path, log: str) -> list[dict]:
             "exact": int(evals["eval-exact"]["accuracy"].get("changed_by_rules", 0)),
         }
         row["seconds"] = training_seconds(unit / "times.tsv")
+        config = unit / "exact" / "config.json"
+        settings = json.loads(config.read_text()).get("settings", {}) if config.is_file() else {}
+        row["schedule"] = (settings.get("epochs"), settings.get("patience"))
         rows.append(row)
     return rows
 
@@ -121,6 +124,7 @@ def curve(rows: list[dict]) -> dict:
             "train_cases": sorted({r["train_cases"] for r in at}),
             "lambdas": [r["lambda"] for r in at],
             "seconds": [r["seconds"] for r in at],
+            "schedules": sorted({r.get("schedule", (None, None)) for r in at}, key=str),
             "variants": {},
         }
         for name in VARIANTS:
@@ -221,17 +225,18 @@ def render(curves: dict[str, dict], result: dict, command: str | None) -> str:
             "",
             "| share | "
             + " | ".join(f"worth: {n}" for n in KNOWLEDGE)
-            + " | λ chosen per seed | training wall (s, mean per seed) |",
-            "|---" * 6 + "|",
+            + " | λ chosen per seed | epochs / patience | training wall (s, mean per seed) |",
+            "|---" * 7 + "|",
         ]
         for p in c["points"]:
             secs = [s for s in p["seconds"] if s is not None]
             wall = f"{statistics.fmean(secs):.0f}" if secs else "–"
             lams = ", ".join(f"{x:g}" for x in p["lambdas"])
+            plan = ", ".join(f"{e} / {q}" if e else "–" for e, q in p["schedules"])
             lines.append(
                 f"| {fmt(p['share'])} % | "
                 + " | ".join(worth_text(p["variants"][n]["worth"]) for n in KNOWLEDGE)
-                + f" | {lams} | {wall} |"
+                + f" | {lams} | {plan} | {wall} |"
             )
         lines.append("")
     lines += ["## Goal", ""]
