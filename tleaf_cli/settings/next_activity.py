@@ -92,7 +92,6 @@ class NextActivitySettings(TrainingSettings):
                 f"the Transformer's width {self.hidden} is not a multiple of {self.heads} heads",
             )
 
-
     @property
     def attribute_names(self) -> tuple[str, ...]:
         """The event attributes of `attributes`, in order."""
