@@ -311,3 +311,21 @@ def test_a_test_activity_training_never_saw_is_scored_where_it_can_be(tmp_path, 
     assert saved["suffix"]["1"]["cases"] == 2  # n1's prefix (a) is known: its suffix scored
     assert saved["suffix"]["1"]["unknown_prefixes"] == 0
     assert saved["suffix"]["3"]["cases"] == 1 and saved["suffix"]["3"]["unknown_prefixes"] == 1
+
+
+def test_training_needs_no_test_split_when_the_test_is_another_file(tmp_path):
+    log = _log(tmp_path / "log.csv", cases=30)
+    train = tmp_path / "train.parquet"
+    result = runner.invoke(
+        app, ["read-log", str(log), "-o", str(train), "--split", "0.8,0.2,0", "-q"]
+    )
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(
+        app,
+        ["train-task", "next-activity", str(train), "-o", str(tmp_path / "run"), "--hidden", "8",
+         "--layers", "1", "--epochs", "1"],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "no test split" in result.output
+    metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
+    assert metrics["test"] == {"cases": 0}

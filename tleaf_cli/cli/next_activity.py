@@ -73,10 +73,15 @@ def train_task_next_activity(
         resume=resume, reference=reference, quiet=quiet,
     )  # fmt: skip
     test = metrics["test"]
+    scored = (
+        f"test next-activity accuracy {100 * test['accuracy']:.2f}% over {test['prefixes']} "
+        f"prefixes of {test['cases']} cases"
+        if test["cases"]
+        else "no test split (score it with tleaf eval next-activity RUN CASES)"
+    )
     ui.summary(
-        f"{out}: test next-activity accuracy {100 * test['accuracy']:.2f}% over "
-        f"{test['prefixes']} prefixes of {test['cases']} cases (best epoch "
-        f"{metrics['best']['epoch']}, {metrics['mean_epoch_seconds']:.2f} s/epoch)",
+        f"{out}: {scored} (best epoch {metrics['best']['epoch']}, "
+        f"{metrics['mean_epoch_seconds']:.2f} s/epoch)",
         quiet,
     )
 
