@@ -329,3 +329,37 @@ def test_training_needs_no_test_split_when_the_test_is_another_file(tmp_path):
     assert "no test split" in result.output
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     assert metrics["test"] == {"cases": 0}
+
+
+def test_rules_on_an_activity_the_log_never_has_are_read_and_reported(tmp_path, cases_path):
+    kb = tmp_path / "kb.ltl"
+    kb.write_text(
+        "# z never happens in the log\nnever_z: !(F(a) & F(zed))\nmust_z: F(c) -> F(b)\n",
+        encoding="utf-8",
+    )
+    run = tmp_path / "run"
+    result = runner.invoke(
+        app,
+        ["train-task", "next-activity", str(cases_path), "-o", str(run), "--hidden", "8",
+         "--layers", "1", "--epochs", "1", "--kb", str(kb), "--logic-loss", "exact",
+         "--lambda", "0.1"],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert "never_z" in result.output and "never happening" in result.output
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert metrics["rules_unseen"] == {"never_z": ["zed"]}
+    out = tmp_path / "eval"
+    result = runner.invoke(
+        app, ["eval", "next-activity", str(run), str(cases_path), "-o", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    saved = json.loads((out / "metrics.json").read_text())
+    assert any("zed" in w for w in saved["warnings"])
+    # an Existence of the unknown activity can never hold: refused as unsatisfiable
+    kb.write_text("need_z: F(zed)\n", encoding="utf-8")
+    bad = runner.invoke(
+        app,
+        ["train-task", "next-activity", str(cases_path), "-o", str(tmp_path / "bad"), "--kb",
+         str(kb), "--logic-loss", "exact", "--epochs", "1"],
+    )  # fmt: skip
+    assert bad.exit_code == 2 and "unsatisfiable" in bad.output

@@ -72,6 +72,13 @@ def train_task_next_activity(
         train_next_activity, (cases, kb, embedder), out, settings, title,
         resume=resume, reference=reference, quiet=quiet,
     )  # fmt: skip
+    unseen = metrics.get("rules_unseen") or {}
+    if unseen:
+        ui.summary(
+            f"warning: {len(unseen)} rule(s) name activities the log never has, read as never "
+            f"happening: {', '.join(unseen)}",
+            quiet,
+        )
     test = metrics["test"]
     scored = (
         f"test next-activity accuracy {100 * test['accuracy']:.2f}% over {test['prefixes']} "

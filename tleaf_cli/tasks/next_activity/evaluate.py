@@ -224,6 +224,12 @@ def evaluate_next_activity(
         rules = read_rules(rules_path, encoder.atoms, rule_names)
     elif settings.scored == "satisfying" and scored_by is None:
         raise SettingError("scored", "'satisfying' reads rules on activities only")
+    if rules is not None and rules.unseen:
+        named = sorted({a for missing in rules.unseen.values() for a in missing})
+        warnings.append(
+            f"{len(rules.unseen)} rule(s) name activities the model does not know "
+            f"({', '.join(named[:5])}), read as never happening: {', '.join(rules.unseen)}"
+        )
     scored = test
     judge = rules
     if scored_by is not None:

@@ -8,13 +8,15 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from tleaf_cli.data.formula_files import read_formulas
 from tleaf_cli.errors import InputError
+from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 from tleaf_cli.losses import violates
 from tleaf_cli.rule_set import PART_STATES, RuleSet, rule_parts
 
@@ -27,6 +29,8 @@ class Rules:
     path: str
     names: tuple[str, ...]
     parts: tuple[RuleSet, ...]
+    unseen: dict[str, tuple[str, ...]] = field(default_factory=dict)  # rule -> activities
+    # it names that the model does not know (read as never happening)
 
     @property
     def atoms(self) -> set[str]:
@@ -90,9 +94,10 @@ def read_rules(
     """The rules of `path` named in `names` (all without), conjoined over `vocabulary` in parts
     of at most `max_states` states.
 
-    Raises InputError naming the file and line of a formula that does not read, a name the
-    file does not have, a formula over an activity the model does not know, or rules that
-    together accept no case."""
+    An activity the model does not know (the log never has it) is read as never happening, and
+    the rules naming it are listed in `Rules.unseen`, for the caller to report. Raises
+    InputError naming the file and line of a formula that does not read, a name the file does
+    not have, a rule on an attribute value, or rules that together accept no case."""
     sources = read_formulas(path)
     for src in sources:
         if src.problem is not None:
@@ -109,19 +114,44 @@ def read_rules(
                 f"{', '.join(list(by_name)[:8])}{', ...' if len(by_name) > 8 else ''})"
             )
         chosen = [by_name[n] for n in names]
+    texts, unseen = [], {}
+    for source in chosen:
+        text, missing = _without_unknown(source.text, set(vocabulary))
+        texts.append(text)
+        if missing:
+            unseen[source.formula_id] = missing
     try:
-        parts = rule_parts(
-            [s.text for s in chosen], list(vocabulary), max_states, name=os.fspath(path)
-        )
+        parts = rule_parts(texts, list(vocabulary), max_states, name=os.fspath(path))
     except InputError as e:
         raise InputError(f"{path}: {e}") from None
-    rules = Rules(os.fspath(path), tuple(s.formula_id for s in chosen), parts)
+    rules = Rules(os.fspath(path), tuple(s.formula_id for s in chosen), parts, unseen)
     if rules.satisfiable() is False:  # a loss of 0 and no decoding: knowledge that never applies
         raise InputError(
             f"{path}: its rules{' ' + ', '.join(names) if names else ''} together accept no "
             "case (unsatisfiable): no prediction could keep them"
         )
     return rules
+
+
+def _without_unknown(text: str, vocabulary: set[str]) -> tuple[str, tuple[str, ...]]:
+    """The formula with each activity atom outside `vocabulary` read as `false` (an activity the
+    log never has never happens: Not Co-Existence with it always holds, its Existence never),
+    and those atoms; InputError for an atom of an attribute value (`attribute_atom`'s double
+    _), which a model over activities cannot read at all."""
+    try:
+        named = atoms(parse(text))
+    except FormulaSyntaxError:
+        return text, ()  # rule_parts names the rule and what is wrong
+    missing = tuple(a for a in named if a not in vocabulary)
+    values = [a for a in missing if "__" in a]
+    if values:
+        raise InputError(
+            f"rule {text!r} names the attribute value {values[0]}: a model over activities "
+            "cannot read it (train with --attributes, or leave such rules out)"
+        )
+    for atom in missing:
+        text = re.sub(rf"(?<![A-Za-z0-9_]){re.escape(atom)}(?![A-Za-z0-9_])", "false", text)
+    return text, missing
 
 
 def allowed_next(rules: Rules, activities: np.ndarray) -> np.ndarray:

@@ -143,6 +143,8 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
             "cases": {s: len(part) for s, part in self.splits.items()},
             "train_cases_cut": self.cut,
             "rule_states": None if self.rules is None else self.rules.states,
+            # rules naming activities the log never has (read as never happening)
+            "rules_unseen": None if self.rules is None else self.rules.unseen,
         }
 
     def config(self) -> dict[str, Any]:
