@@ -20,9 +20,10 @@ from tleaf_cli.tasks.case_checks import compile_rules, read_case_rules
 from tleaf_cli.tasks.next_activity.attribute_heads import AttributeHeads
 from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.joint_tokens import JointTokens, joint_rules
+from tleaf_cli.tasks.next_activity.rule_automaton import RuleAutomaton
 from tleaf_cli.tasks.next_activity.similarity import jaccard_similarity
 from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
-from tleaf_cli.tasks.next_activity.suffix_search import RuleAutomaton, predict_suffixes
+from tleaf_cli.tasks.next_activity.suffix_search import predict_suffixes
 from tleaf_cli.tasks.next_activity.train import new_model
 
 runner = CliRunner()

@@ -42,11 +42,11 @@ class TrainingSettings(Presets):
     )
     grid: str | None = setting(
         None,
-        "Choose the model on validation: one run per combination of these settings' values "
-        "(e.g. 'hidden=64,128 layers=1,2 lr=0.001,0.002': a field, =, its values by commas; "
-        "fields apart by spaces), each from the same seed; the run with the best val score is "
-        "kept (ties: the first in the grid's order), its settings in config.json, every "
-        "candidate's run in its grid folder.",
+        "Choose the model on validation: one run per combination of these settings' values, "
+        "each a field, =, its values by commas, fields apart by spaces (e.g. hidden=64,128 "
+        "layers=1,2), each from the same seed; the run with the best val score is kept (ties: "
+        "the first in the grid's order), its settings in config.json, every candidate's run "
+        "in its grid folder.",
         auto="none: one run, at the settings given",
     )
     batch_size: int = setting(32, "Sequences (cases, videos) per batch.", min=1)

@@ -69,7 +69,7 @@ class Encoder:
             kept = ", ".join(cases.attribute_names) or "none"
             raise InputError(
                 f"{cases.path}: keeps no event attribute {missing[0]!r} (it keeps: {kept}); "
-                "read the log with read-log --attributes"
+                "read the log keeping it"
             )
         atom_of = cases.activity_atoms
         pairs = sorted((atom, name) for name, atom in atom_of.items())

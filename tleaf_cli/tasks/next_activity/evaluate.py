@@ -47,6 +47,7 @@ from tleaf_cli.tasks.next_activity.joint_tokens import (
 )
 from tleaf_cli.tasks.next_activity.model import NextActivityModel
 from tleaf_cli.tasks.next_activity.prefix_table import seen_in_training
+from tleaf_cli.tasks.next_activity.rule_automaton import rule_automaton
 from tleaf_cli.tasks.next_activity.rules import Rules, read_rules
 from tleaf_cli.tasks.next_activity.similarity import (
     dl_similarity,
@@ -54,12 +55,7 @@ from tleaf_cli.tasks.next_activity.similarity import (
     trace_dl_similarity,
 )
 from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
-from tleaf_cli.tasks.next_activity.suffix_search import (
-    Rows,
-    SearchStats,
-    predict_suffixes,
-    rule_automaton,
-)
+from tleaf_cli.tasks.next_activity.suffix_search import Rows, SearchStats, predict_suffixes
 from tleaf_cli.tasks.next_activity.train import accuracy, attribute_accuracy, new_model
 from tleaf_cli.training.run_folder import read_run_config, recorded_input
 

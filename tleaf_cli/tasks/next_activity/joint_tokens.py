@@ -32,7 +32,8 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.tasks.case_checks import compile_rules, read_case_rules
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
-from tleaf_cli.tasks.next_activity.suffix_search import Rows, RuleAutomaton
+from tleaf_cli.tasks.next_activity.rule_automaton import RuleAutomaton
+from tleaf_cli.tasks.next_activity.suffix_search import Rows
 
 MAX_TOKENS = 20_000  # joint tokens a search may score per step and branch
 CHUNK = 1024  # rows per model forward

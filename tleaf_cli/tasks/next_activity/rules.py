@@ -147,7 +147,7 @@ def _without_unknown(text: str, vocabulary: set[str]) -> tuple[str, tuple[str, .
     if values:
         raise InputError(
             f"rule {text!r} names the attribute value {values[0]}: a model over activities "
-            "cannot read it (train with --attributes, or leave such rules out)"
+            "cannot read it (a model that predicts the attribute can, or leave such rules out)"
         )
     for atom in missing:
         text = re.sub(rf"(?<![A-Za-z0-9_]){re.escape(atom)}(?![A-Za-z0-9_])", "false", text)

@@ -26,6 +26,7 @@ import numpy as np
 
 from tleaf_cli.errors import ArgumentError
 from tleaf_cli.rule_set import RuleSet
+from tleaf_cli.tasks.next_activity.rule_automaton import rule_automaton
 from tleaf_cli.tasks.next_activity.suffix_search import (
     NextLogProbs,
     Rows,
@@ -34,7 +35,6 @@ from tleaf_cli.tasks.next_activity.suffix_search import (
     call_model,
     check_count,
     check_prefixes,
-    rule_automaton,
 )
 
 

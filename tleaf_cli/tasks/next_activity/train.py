@@ -200,7 +200,7 @@ def refuse_attribute_rules(kb: Path) -> None:
             "kb",
             f"{kb} names attribute values ({', '.join(named[:3])}"
             f"{', ...' if len(named) > 3 else ''}): the logic loss reads the activities' soft "
-            "trace only; rules on attributes apply at decoding (eval next-activity --rules)",
+            "trace only; rules on attributes apply at decoding (the evaluation's rules)",
         )
 
 

@@ -1,0 +1,218 @@
+"""The rules as an automaton over the tokens a suffix search chooses among (activities, or
+events with attributes): one DFA per part, each token's next state, and each state's distance
+to acceptance, which the searches prune by (suffix_search.py, suffix_sampling.py) and the soft
+score counts (`next_missing`, `next_rejecting`, `rejecting`). Rules over joint tokens are
+conjoined into their product (`RuleAutomaton.of_letters`), so the distance is exact.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from tleaf_cli import arguments
+from tleaf_cli.errors import ArgumentError
+from tleaf_cli.logic.dfa import DFA
+from tleaf_cli.rule_set import RuleSet
+
+
+def rule_automaton(
+    rules: RuleSet | Sequence[RuleSet] | None, num_activities: int
+) -> RuleAutomaton | None:
+    """The rules (one rule set, or the parts of a conjunction: all must accept) as one
+    automaton over activity indices; None without rules. ArgumentError for a rule set over
+    another vocabulary size."""
+    if rules is None:
+        return None
+    if isinstance(rules, RuleAutomaton):
+        if rules.num_tokens != num_activities:
+            raise ArgumentError(
+                "rules",
+                f"the rule automaton reads {rules.num_tokens} tokens, not {num_activities}",
+            )
+        return rules
+    parts = arguments.rule_sets(rules, None, RuleSet)
+    for part in parts:
+        if len(part.vocabulary) != num_activities:
+            raise ArgumentError(
+                "rules",
+                f"rule set {part.name} is over {len(part.vocabulary)} items, not the "
+                f"{num_activities} activities",
+            )
+    return RuleAutomaton(parts, num_activities)
+
+
+class RuleAutomaton:
+    """The rules' DFAs (one per part) over activity indices, with each state's distance to
+    acceptance. A branch's state is one state per part [..., K]; the distance of a combination
+    is the largest of its parts' (a lower bound on the conjunction's, exact for one part), so
+    pruning by it never cuts a branch that can still finish accepted."""
+
+    def __init__(self, parts: Sequence[RuleSet], num_activities: int) -> None:
+        dfas = [part.dfa for part in parts]
+        letters = [part.letters(np.arange(num_activities)) for part in parts]
+        self._build(dfas=dfas, letters=letters)
+
+    @classmethod
+    def of_letters(
+        cls, dfas: Sequence[DFA], letters: Sequence[np.ndarray], max_states: int = 100_000
+    ) -> RuleAutomaton:
+        """The automaton of DFAs over any alphabet whose tokens are letters: `letters[k][t]`,
+        the column of DFA k that token t reads (e.g. an (activity, resource) event's letter
+        in a powerset alphabet: joint_tokens.py). The DFAs are conjoined into one part, their
+        product's reachable states, where it has at most `max_states`: the distance to
+        acceptance is then exact, so the search never walks into a state where two rules
+        contradict each other (a lower bound over parts would let it)."""
+        self = cls.__new__(cls)
+        tables = [
+            dfa.table[:, np.asarray(columns, dtype=np.int64)].astype(np.int64)
+            for dfa, columns in zip(dfas, letters, strict=True)
+        ]
+        accepting = [dfa.accepting for dfa in dfas]
+        initial = [dfa.initial for dfa in dfas]
+        if len(tables) > 1:
+            product = _product(tables, accepting, initial, max_states)
+            if product is not None:
+                tables, accepting, initial = [product[0]], [product[1]], [0]
+        self._build(tables, accepting, initial)
+        return self
+
+    def _build(
+        self,
+        tables: Sequence[np.ndarray] | None = None,
+        accepting: Sequence[np.ndarray] = (),
+        initial: Sequence[int] = (),
+        dfas: Sequence[DFA] = (),
+        letters: Sequence[np.ndarray] = (),
+    ) -> None:
+        if tables is None:  # from DFAs and each token's letter
+            tables = [
+                dfa.table[:, np.asarray(columns, dtype=np.int64)].astype(np.int64)
+                for dfa, columns in zip(dfas, letters, strict=True)
+            ]
+            accepting = [dfa.accepting for dfa in dfas]
+            initial = [dfa.initial for dfa in dfas]
+        self.following: list[np.ndarray] = []  # per part: state after each token [S_k, V]
+        self.accepting: list[np.ndarray] = []
+        self.distance: list[np.ndarray] = []
+        self.initial = np.array(initial, dtype=np.int64)
+        self.num_tokens = tables[0].shape[1] if len(tables) else 0
+        never = np.iinfo(np.int64).max // 2
+        for following, accepts in zip(tables, accepting, strict=True):
+            # fewest activities from each state to an accepting state (`never`: unreachable);
+            # only through activities that exist (letter 0 has none when every activity is an
+            # atom), so a finite distance implies `dfa.live()`
+            distance = np.where(accepts, 0, never).astype(np.int64)
+            while True:
+                step = np.minimum(distance, distance[following].min(axis=1) + 1)
+                step = np.minimum(step, never)
+                if np.array_equal(step, distance):
+                    break
+                distance = step
+            self.following.append(following)
+            self.accepting.append(np.asarray(accepts, dtype=bool))
+            self.distance.append(distance)
+
+    def run(self, activities: Sequence[int]) -> np.ndarray:
+        """int64 [K]: each part's state after `activities`."""
+        state = self.initial.copy()
+        for k, following in enumerate(self.following):
+            for a in activities:
+                state[k] = following[state[k], a]
+        return state
+
+    def accepts(self, activities: Sequence[int]) -> bool:
+        return bool(self.accepted(self.run(activities)))
+
+    def accepted(self, states: np.ndarray) -> np.ndarray:
+        """bool [...]: every part accepts, for states [..., K]."""
+        out = np.ones(states.shape[:-1], dtype=bool)
+        for k, accepting in enumerate(self.accepting):
+            out &= accepting[states[..., k]]
+        return out
+
+    def within(self, states: np.ndarray, budget: int) -> np.ndarray:
+        """bool [...]: every part can reach acceptance in at most `budget` activities."""
+        out = np.ones(states.shape[:-1], dtype=bool)
+        for k, distance in enumerate(self.distance):
+            out &= distance[states[..., k]] <= budget
+        return out
+
+    def next_within(self, states: np.ndarray, budget: int) -> np.ndarray:
+        """bool [..., V]: per activity, every part's next state reaches acceptance in at most
+        `budget` more activities."""
+        out = None
+        for k, (following, distance) in enumerate(zip(self.following, self.distance, strict=True)):
+            ok = distance[following[states[..., k]]] <= budget
+            out = ok if out is None else out & ok
+        return out
+
+    def next_missing(self, states: np.ndarray, budget: int) -> np.ndarray:
+        """int [..., V]: per token, how many parts' next state cannot reach acceptance in
+        `budget` more tokens (the soft score's count of rules out of reach)."""
+        out = None
+        for k, (following, distance) in enumerate(zip(self.following, self.distance, strict=True)):
+            late = (distance[following[states[..., k]]] > budget).astype(np.int64)
+            out = late if out is None else out + late
+        return out
+
+    def next_rejecting(self, states: np.ndarray) -> np.ndarray:
+        """int [..., V]: per token, how many parts' next state does not accept."""
+        out = None
+        for k, (following, accepting) in enumerate(
+            zip(self.following, self.accepting, strict=True)
+        ):
+            rejects = (~accepting[following[states[..., k]]]).astype(np.int64)
+            out = rejects if out is None else out + rejects
+        return out
+
+    def rejecting(self, states: np.ndarray) -> np.ndarray:
+        """int [...]: how many parts do not accept, for states [..., K]."""
+        out = np.zeros(states.shape[:-1], dtype=np.int64)
+        for k, accepting in enumerate(self.accepting):
+            out += ~accepting[states[..., k]]
+        return out
+
+    def advance(self, states: np.ndarray, tokens: np.ndarray) -> np.ndarray:
+        """int64 [n, K]: each part's state after activity tokens[i] from states [n, K]."""
+        out = np.empty_like(states)
+        for k, following in enumerate(self.following):
+            out[:, k] = following[states[:, k], tokens]
+        return out
+
+
+def _product(
+    tables: Sequence[np.ndarray],
+    accepting: Sequence[np.ndarray],
+    initial: Sequence[int],
+    max_states: int,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The reachable product of token-level DFAs (tables [S_k, T]): its table [S, T] from
+    state 0, and its accepting states (every DFA accepts); None past `max_states`."""
+    sizes = np.array([t.shape[0] for t in tables], dtype=np.int64)
+    radix = np.cumprod(np.concatenate([[1], sizes[:-1]]))
+    start = int(np.dot(initial, radix))
+    number = {start: 0}  # a combination's mixed-radix code -> its state
+    rows: list[np.ndarray] = []
+    frontier = [start]
+    while frontier:
+        codes = np.array(frontier, dtype=np.int64)
+        parts = (codes[:, None] // radix[None, :]) % sizes[None, :]  # [n, K]
+        nxt = sum(t[parts[:, k]] * radix[k] for k, t in enumerate(tables))  # [n, T] codes
+        frontier = []
+        for code in np.unique(nxt).tolist():
+            if code not in number:
+                number[code] = len(number)
+                frontier.append(code)
+        if len(number) > max_states:
+            return None
+        rows.extend(nxt)
+    lookup = np.vectorize(number.__getitem__, otypes=[np.int64])
+    table = lookup(np.stack(rows)) if rows else np.zeros((1, 0), dtype=np.int64)
+    codes = np.array(sorted(number, key=number.__getitem__), dtype=np.int64)
+    parts = (codes[:, None] // radix[None, :]) % sizes[None, :]
+    accepts = np.ones(len(codes), dtype=bool)
+    for k, acc in enumerate(accepting):
+        accepts &= np.asarray(acc, dtype=bool)[parts[:, k]]
+    return table, accepts
