@@ -23,10 +23,11 @@
 # of at least PATIENCE_STEPS (90) gradient steps, batches of BATCH (32) cases, with 10 times
 # that many epochs: a share of a few batches per epoch still trains past the plateau where a
 # model predicts the most frequent activity (Sepsis at 3 and 10 %, with a patience of 33 and 10
-# epochs of one and three batches, stopped there in 6 of 30 runs: 21 % test accuracy).
+# epochs of one and three batches, stopped there in 6 of 30 runs: 21-28 % test accuracy).
 # Order: share by share, then seed by seed, then log (-j1 finishes the small shares first; a run
-# cut short has its small shares whole). Cost on one core (OMP_NUM_THREADS=1, -j1): about 110
-# minutes for the three logs, five seeds at every share (docs/results/learning_curve_logs.md).
+# cut short has its small shares whole). Cost on one core of a shared 2-core host
+# (OMP_NUM_THREADS=1, -j1): about 105 minutes for the three logs, five seeds at every share, 100 %
+# a third of it (docs/results/learning_curve_logs.md).
 # Each training's wall and CPU seconds go to <unit>/times.tsv (pipelines/timed-tleaf). SMALL=1
 # runs the chain on the shipped Helpdesk sample (examples/event_logs/) in about a minute.
 # make tracks files, not settings: a new OUT when changing LAMBDAS, FOLD or the epochs.
