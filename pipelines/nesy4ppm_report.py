@@ -100,7 +100,8 @@ def rows_of(model_runs: dict[str, list[dict]], weights: list[str]) -> list[tuple
 
 
 def goals(label: str, runs: list[dict]) -> list[str]:
-    """The issue's goals for one way: each as met / not met, with the seeds meeting it."""
+    """The protocol's goals for one way (NeSy4PPM's contextualised figures, full compliance,
+    1/1000 of its time): each as met / not met, with the seeds meeting it."""
     n = len(runs)
     acts = sum(r["dl_similarity"] >= GOAL_ACTS for r in runs)
     res = sum(r[f"dl_similarity_{ATTRIBUTE}"] >= GOAL_RES for r in runs)
