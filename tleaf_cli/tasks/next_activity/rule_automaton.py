@@ -1,7 +1,7 @@
 """The rules as an automaton over the tokens a suffix search chooses among (activities, or
 events with attributes): one DFA per part, each token's next state, and each state's distance
 to acceptance, which the searches prune by (suffix_search.py, suffix_sampling.py) and the soft
-score counts (`next_missing`, `next_rejecting`, `rejecting`). Rules over joint tokens are
+score counts (`soft_costs`). Rules over joint tokens are
 conjoined into their product (`RuleAutomaton.of_letters`), so the distance is exact.
 """
 
@@ -52,7 +52,8 @@ class RuleAutomaton:
     def __init__(self, parts: Sequence[RuleSet], num_activities: int) -> None:
         dfas = [part.dfa for part in parts]
         letters = [part.letters(np.arange(num_activities)) for part in parts]
-        self._build(dfas=dfas, letters=letters)
+        self._build(_token_tables(dfas, letters), [d.accepting for d in dfas],
+                    [d.initial for d in dfas])  # fmt: skip
 
     @classmethod
     def of_letters(
@@ -65,10 +66,7 @@ class RuleAutomaton:
         acceptance is then exact, so the search never walks into a state where two rules
         contradict each other (a lower bound over parts would let it)."""
         self = cls.__new__(cls)
-        tables = [
-            dfa.table[:, np.asarray(columns, dtype=np.int64)].astype(np.int64)
-            for dfa, columns in zip(dfas, letters, strict=True)
-        ]
+        tables = _token_tables(dfas, letters)
         accepting = [dfa.accepting for dfa in dfas]
         initial = [dfa.initial for dfa in dfas]
         if len(tables) > 1:
@@ -80,19 +78,12 @@ class RuleAutomaton:
 
     def _build(
         self,
-        tables: Sequence[np.ndarray] | None = None,
-        accepting: Sequence[np.ndarray] = (),
-        initial: Sequence[int] = (),
-        dfas: Sequence[DFA] = (),
-        letters: Sequence[np.ndarray] = (),
+        tables: Sequence[np.ndarray],
+        accepting: Sequence[np.ndarray],
+        initial: Sequence[int],
     ) -> None:
-        if tables is None:  # from DFAs and each token's letter
-            tables = [
-                dfa.table[:, np.asarray(columns, dtype=np.int64)].astype(np.int64)
-                for dfa, columns in zip(dfas, letters, strict=True)
-            ]
-            accepting = [dfa.accepting for dfa in dfas]
-            initial = [dfa.initial for dfa in dfas]
+        """Each part's token table [S_k, V], accepting states and initial state; the
+        distances to acceptance computed from them."""
         self.following: list[np.ndarray] = []  # per part: state after each token [S_k, V]
         self.accepting: list[np.ndarray] = []
         self.distance: list[np.ndarray] = []
@@ -148,31 +139,21 @@ class RuleAutomaton:
             out = ok if out is None else out & ok
         return out
 
-    def next_missing(self, states: np.ndarray, budget: int) -> np.ndarray:
-        """int [..., V]: per token, how many parts' next state cannot reach acceptance in
-        `budget` more tokens (the soft score's count of rules out of reach)."""
-        out = None
-        for k, (following, distance) in enumerate(zip(self.following, self.distance, strict=True)):
-            late = (distance[following[states[..., k]]] > budget).astype(np.int64)
-            out = late if out is None else out + late
-        return out
-
-    def next_rejecting(self, states: np.ndarray) -> np.ndarray:
-        """int [..., V]: per token, how many parts' next state does not accept."""
-        out = None
-        for k, (following, accepting) in enumerate(
-            zip(self.following, self.accepting, strict=True)
-        ):
-            rejects = (~accepting[following[states[..., k]]]).astype(np.int64)
-            out = rejects if out is None else out + rejects
-        return out
-
-    def rejecting(self, states: np.ndarray) -> np.ndarray:
-        """int [...]: how many parts do not accept, for states [..., K]."""
-        out = np.zeros(states.shape[:-1], dtype=np.int64)
-        for k, accepting in enumerate(self.accepting):
-            out += ~accepting[states[..., k]]
-        return out
+    def soft_costs(self, states: np.ndarray, budget: int) -> np.ndarray:
+        """int [..., V + 1], states [..., K]: the soft score's count per token, in units of the
+        weight μ. An activity counts each part whose next state does not accept (a rule unmet)
+        and again each that cannot accept within `budget` more tokens (out of reach); the end
+        (the last column) counts each part that does not accept twice: ending leaves it out of
+        reach for good."""
+        tokens = None
+        end = np.zeros(states.shape[:-1], dtype=np.int64)
+        parts = zip(self.following, self.accepting, self.distance, strict=True)
+        for k, (following, accepting, distance) in enumerate(parts):
+            after = following[states[..., k]]
+            count = (~accepting[after]).astype(np.int64) + (distance[after] > budget)
+            tokens = count if tokens is None else tokens + count
+            end += 2 * ~accepting[states[..., k]]
+        return np.concatenate([tokens, end[..., None]], axis=-1)
 
     def advance(self, states: np.ndarray, tokens: np.ndarray) -> np.ndarray:
         """int64 [n, K]: each part's state after activity tokens[i] from states [n, K]."""
@@ -180,6 +161,14 @@ class RuleAutomaton:
         for k, following in enumerate(self.following):
             out[:, k] = following[states[:, k], tokens]
         return out
+
+
+def _token_tables(dfas: Sequence[DFA], letters: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Per DFA, its state after each token [S, V]: the column of the token's letter."""
+    return [
+        dfa.table[:, np.asarray(columns, dtype=np.int64)].astype(np.int64)
+        for dfa, columns in zip(dfas, letters, strict=True)
+    ]
 
 
 def _product(

@@ -92,14 +92,8 @@ def sample_suffixes(
             allowed[:, :v] = False  # the budget is spent: only the end
         weights = log_probs
         if soft:
-            here = states[open_]
-            cost = np.zeros_like(log_probs)
-            if step < max_length:
-                budget = max_length - step - 1
-                late = automaton.next_missing(here, budget) + automaton.next_rejecting(here)
-                cost[:, :v] = rule_weight * late
-            cost[:, v] = 2 * rule_weight * automaton.rejecting(here)
-            weights = log_probs - cost
+            costs = automaton.soft_costs(states[open_], max_length - step - 1)
+            weights = log_probs - rule_weight * costs  # past the budget only the end is allowed
         elif automaton is not None:
             mine = ruled[open_]
             here = states[open_]

@@ -227,20 +227,15 @@ class _Search:
             candidates = scores[..., None] + block
             valid = np.zeros((len(ids), width, v + 1), dtype=bool)
             if step < max_length:
-                if automaton is None:
+                if automaton is None or soft:  # soft: every token, at a cost (below)
                     valid[..., :v] = opened[..., None]
-                elif soft:  # a rule part not met costs μ, one out of reach μ more
-                    valid[..., :v] = opened[..., None]
-                    late = automaton.next_missing(states, max_length - step - 1)
-                    unmet = automaton.next_rejecting(states)
-                    candidates[..., :v] -= self.weight * (late + unmet)
                 else:  # the activity's state still reaches acceptance in the budget left
                     in_time = automaton.next_within(states, max_length - step - 1)
                     valid[..., :v] = opened[..., None] & in_time
                     self.stats.pruned += int((opened[..., None] & ~in_time).sum())
-            if soft:  # ending with a rule unmet leaves it out of reach for good: 2μ
+            if soft:  # a rule part unmet costs μ, out of reach μ more; the end 2μ each unmet
                 ends = opened
-                candidates[..., v] -= 2 * self.weight * automaton.rejecting(states)
+                candidates -= self.weight * automaton.soft_costs(states, max_length - step - 1)
             else:
                 ends = opened if automaton is None else opened & automaton.accepted(states)
             valid[..., v] = ends | (present & finished)
