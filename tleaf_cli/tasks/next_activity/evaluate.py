@@ -37,7 +37,6 @@ from tleaf_cli.data.artifacts import (
 from tleaf_cli.data.event_logs import Case, Cases, read_cases
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings, prefix_lengths
-from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.joint_tokens import (
     JointRules,
@@ -55,11 +54,9 @@ from tleaf_cli.tasks.next_activity.similarity import (
     trace_dl_similarity,
 )
 from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
-from tleaf_cli.tasks.next_activity.suffix_search import Rows, SearchStats, predict_suffixes
+from tleaf_cli.tasks.next_activity.suffix_search import SearchStats, predict_suffixes
 from tleaf_cli.tasks.next_activity.train import accuracy, attribute_accuracy, new_model
 from tleaf_cli.training.run_folder import read_run_config, recorded_input
-
-CHUNK = 1024  # rows per model forward in the suffix search
 
 
 def load_run(run_dir: str | Path) -> tuple[NextActivityModel, Encoder, NextActivitySettings]:
@@ -312,31 +309,22 @@ def suffix_scores(
     With event attributes (`encoder.attributes`) the search runs over events, each an activity
     and its values (joint_tokens.py), under `joint`: rules that may name attribute values."""
     chosen = [c for c in cases if len(c) >= k + settings.min_suffix]
-    if encoder.attributes:
-        space = JointTokens(encoder)
-        of_case, v, split = space.of_case, space.size, space.decode
-    else:
-        of_case, v, split = (
-            partial(encoder.indices, unknown=-1),
-            len(encoder.atoms),
-            _activities_only,
-        )
+    space = JointTokens(encoder)  # activities, or events with their attributes' values
+    v, split = space.size, space.decode
     # an activity the model does not know: a true suffix may have it (no prediction matches
     # it), a prefix the model reads may not
-    sequences = [of_case(c) for c in chosen]
+    sequences = [space.of_case(c) for c in chosen]
     readable = [bool((s[:k] >= 0).all()) for s in sequences]
     unreadable = len(chosen) - sum(readable)
     chosen = [c for c, r in zip(chosen, readable, strict=True) if r]
     sequences = [s for s, r in zip(sequences, readable, strict=True) if r]
     if not chosen:
         return {"cases": 0, "unknown_prefixes": unreadable}
-    stamps = [c.timestamps[:k] for c in chosen]
+    step = joint_log_probs(model, encoder, space, [c.timestamps[:k] for c in chosen])
     if encoder.attributes:
-        step = joint_log_probs(model, encoder, space, stamps)
         automaton = None if joint is None else joint.automaton
         search_rules = automaton
     else:
-        step = next_log_probs(model, encoder, stamps)
         search_rules = None if rules is None else rules.parts
         automaton = rule_automaton(search_rules, v)
     prefixes = [tuple(a[:k].tolist()) for a in sequences]
@@ -392,34 +380,5 @@ def suffix_scores(
     return out
 
 
-def _activities_only(tokens: Sequence[int]) -> tuple[list[int], np.ndarray]:
-    """A suffix of activity tokens as (activities, no attribute values)."""
-    return list(tokens), np.zeros((len(tokens), 0), dtype=np.int64)
-
-
 def _mean(values) -> float:
     return float(np.mean(list(values)))
-
-
-def next_log_probs(
-    model: NextActivityModel, encoder: Encoder, stamps: Sequence[Sequence]
-) -> Callable[[Rows], np.ndarray]:
-    """The suffix search's model: log-probabilities [N, V + 1] of the token after each row, a
-    row's times those of its prefix (`stamps[owner]`), the appended events' placed by the
-    encoder."""
-    device = torch.device("cpu")
-
-    def call(rows: Rows) -> np.ndarray:
-        out = []
-        with torch.no_grad():
-            for i in range(0, len(rows), CHUNK):
-                part = rows[i : i + CHUNK]
-                owners = rows.owners[i : i + CHUNK]
-                batch = CaseBatch.of_sequences(part, [stamps[o] for o in owners], encoder, device)
-                logits = batch.logits(model)
-                last = batch.lengths - 1
-                picked = logits[torch.arange(len(part)), last]
-                out.append(torch.log_softmax(picked.double(), dim=-1).numpy())
-        return np.concatenate(out)
-
-    return call

@@ -144,9 +144,10 @@ def joint_rules(
 def joint_log_probs(
     model, encoder: Encoder, tokens: JointTokens, stamps: Sequence[Sequence]
 ) -> Callable[[Rows], np.ndarray]:
-    """The search's model over joint tokens: log-probabilities [N, tokens + 1] of the event
-    after each row (the last column: the end of the case), a row's times those of its prefix
-    (`stamps[owner]`)."""
+    """The suffix search's model over the tokens: log-probabilities [N, tokens + 1] of the
+    event after each row (the last column: the end of the case), a row's times those of its
+    prefix (`stamps[owner]`), the appended events' placed by the encoder. Without attributes
+    the tokens are the activities, and any next-activity model (the prefix table too) serves."""
     device = torch.device("cpu")
     v = len(encoder.atoms)
 
@@ -164,8 +165,13 @@ def joint_log_probs(
                     device,
                     values=[vs for _, vs in decoded],
                 )
+                rows_at = torch.arange(len(part)), batch.lengths - 1
+                if not encoder.attributes:  # the tokens are the activities (any model)
+                    logits = batch.logits(model)[rows_at]
+                    out.append(torch.log_softmax(logits.double(), dim=-1).numpy())
+                    continue
                 h = model.states(batch.activities, batch.times, batch.lengths, batch.attributes)
-                last = h[torch.arange(len(part)), batch.lengths - 1]
+                last = h[rows_at]
                 activity = torch.log_softmax(model.out(last).double(), dim=-1)
                 joint = activity[:, :v]
                 for values in model.heads.every(last):  # [N, V, R_k + 1]
