@@ -56,6 +56,21 @@ class NextActivitySettings(TrainingSettings):
         "(given the next activity). The cases must keep them (read-log --attributes).",
         auto="none: activities and times only",
     )
+    inputs: str | None = setting(
+        None,
+        "Categorical attributes the model reads but does not predict, separated by commas: "
+        "event attributes by name (org:resource), case attributes as case:<name>, as read-log "
+        "--attributes / --case-attributes kept them; each a one-hot of its 32 most frequent "
+        "training values and one for the rest.",
+        auto="none",
+    )
+    numeric_inputs: str | None = setting(
+        None,
+        "Numeric attributes the model reads, as --inputs names them (CRP,case:AMOUNT_REQ): "
+        "each normalised by the training values' mean and sd, with a flag where an event "
+        "has none.",
+        auto="none",
+    )
     max_events: int | None = setting(
         1000,
         "Train on at most the first N events of a case (its later targets left out, and the "
@@ -84,6 +99,22 @@ class NextActivitySettings(TrainingSettings):
             raise SettingError("attributes", "the prefix table reads activities only")
         if self.attributes is not None and not self.attribute_names:
             raise SettingError("attributes", f"names no attribute: {self.attributes!r}")
+        lists = (
+            ("attributes", self.attribute_names),
+            ("inputs", self.input_names),
+            ("numeric_inputs", self.numeric_input_names),
+        )
+        for field, names in lists[1:]:
+            if getattr(self, field) is not None and not names:
+                raise SettingError(field, f"names no attribute: {getattr(self, field)!r}")
+            if self.model == "prefix-table" and names:
+                raise SettingError(field, "the prefix table reads activities only")
+        seen: dict[str, str] = {}
+        for field, names in lists:
+            for name in names:
+                if name in seen:
+                    raise SettingError(field, f"{name!r} is already read by {seen[name]}")
+                seen[name] = field
         if self.model == "prefix-table" and self.logic_loss != "none":
             raise SettingError("logic_loss", "the prefix table learns nothing: no logic loss")
         if self.model == "transformer" and self.hidden % self.heads:
@@ -95,9 +126,24 @@ class NextActivitySettings(TrainingSettings):
     @property
     def attribute_names(self) -> tuple[str, ...]:
         """The event attributes of `attributes`, in order."""
-        if self.attributes is None:
-            return ()
-        return tuple(a.strip() for a in self.attributes.split(",") if a.strip())
+        return _names(self.attributes)
+
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        """The attributes of `inputs`, in order (case attributes as case:<name>)."""
+        return _names(self.inputs)
+
+    @property
+    def numeric_input_names(self) -> tuple[str, ...]:
+        """The attributes of `numeric_inputs`, in order."""
+        return _names(self.numeric_inputs)
+
+
+def _names(text: str | None) -> tuple[str, ...]:
+    """The names of a comma-separated list (none: none)."""
+    if text is None:
+        return ()
+    return tuple(a.strip() for a in text.split(",") if a.strip())
 
 
 @dataclass(frozen=True)

@@ -9,21 +9,22 @@ import numpy as np
 import torch
 
 from tleaf_cli.data.event_logs import Case
-from tleaf_cli.tasks.next_activity.encoding import TIME_FEATURES, Encoder
+from tleaf_cli.tasks.next_activity.encoding import Encoder
 
 PAD = -100  # a padded step's activity and target (cross-entropy's ignore_index)
 
 
 Arrays = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-"""One sequence: activities [n], targets [n], times [n, F], attribute values [n, K] and the next
-event's values [n, K] (K = 0 without attributes: `Encoder.value_indices`)."""
+"""One sequence: activities [n], targets [n], event features [n, F] (time features and inputs:
+`Encoder.features`), attribute values [n, K] and the next event's values [n, K] (K = 0 without
+attributes: `Encoder.value_indices`)."""
 
 
 @dataclass
 class CaseBatch:
-    """B cases padded to the longest: activities, targets [B, T] (PAD past a length), times
-    [B, T, F], lengths [B], and each event's attribute values and the next event's, [B, T, K]
-    (0 / PAD past a length)."""
+    """B cases padded to the longest: activities, targets [B, T] (PAD past a length), event
+    features `times` [B, T, F] (time features, then any inputs), lengths [B], and each
+    event's attribute values and the next event's, [B, T, K] (0 / PAD past a length)."""
 
     cases: Sequence[Case]
     activities: torch.Tensor
@@ -52,7 +53,7 @@ class CaseBatch:
         for c in cases:
             if c.case_id not in cache:
                 indices = encoder.indices(c)
-                times = encoder.features(indices.tolist(), c.timestamps)
+                times = encoder.features(indices.tolist(), c.timestamps, encoder.input_columns(c))
                 values = encoder.value_indices(c)
                 targets = encoder.value_targets(values)
                 cache[c.case_id] = indices, encoder.targets(c), times, values, targets
@@ -69,16 +70,18 @@ class CaseBatch:
         cases: Sequence[Case] = (),
         targets: Sequence[np.ndarray] | None = None,
         values: Sequence[np.ndarray] | None = None,
+        inputs: Sequence[np.ndarray] | None = None,
     ) -> CaseBatch:
-        """A batch of activity sequences whose times are the given timestamps (events past
-        them placed by `Encoder.features`) and attribute values `values` ([n, K] each; none
-        where not given); targets PAD where not given."""
+        """A batch of activity sequences whose times are the given timestamps and input
+        columns `inputs` (`Encoder.input_columns` of a prefix each; events past them placed by
+        `Encoder.features`), attribute values `values` ([n, K] each; none where not given);
+        targets PAD where not given."""
         k = len(encoder.attributes)
         parts = [
             (
                 np.asarray(seq, dtype=np.int64),
                 np.full(len(seq), PAD, dtype=np.int64) if targets is None else targets[i],
-                encoder.features(list(seq), stamps),
+                encoder.features(list(seq), stamps, None if inputs is None else inputs[i]),
                 np.zeros((len(seq), k), dtype=np.int64) if values is None else values[i],
                 np.full((len(seq), k), PAD, dtype=np.int64),
             )
@@ -95,10 +98,10 @@ class CaseBatch:
     ) -> CaseBatch:
         """Sequences given as `Arrays`, padded into one batch."""
         lengths = [len(p[0]) for p in parts]
-        b, t, k = len(parts), max(lengths), parts[0][3].shape[1]
+        b, t, k, f = len(parts), max(lengths), parts[0][3].shape[1], parts[0][2].shape[1]
         acts = np.full((b, t), PAD, dtype=np.int64)
         tgts = np.full((b, t), PAD, dtype=np.int64)
-        times = np.zeros((b, t, TIME_FEATURES), dtype=np.float32)
+        times = np.zeros((b, t, f), dtype=np.float32)
         values = np.zeros((b, t, k), dtype=np.int64)
         value_tgts = np.full((b, t, k), PAD, dtype=np.int64)
         for i, (a, y, x, v, w) in enumerate(parts):

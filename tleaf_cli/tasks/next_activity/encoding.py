@@ -17,6 +17,10 @@ split has (`values[k]`; index 0: none, or a value training never saw), and each 
 add the next event's values (`attribute_targets`; PAD where the next event has none or an
 unseen one, and at the last step).
 
+With `inputs` (inputs.py: attributes read but not predicted, categorical or numeric, of the
+event or of the case), each event's features add their columns after the time features
+(`feature_count` in all).
+
 Suffix prediction appends activities whose times are not known: an appended event is placed
 its activity's mean gap (training split) after the event before it (`Encoder.features` with
 fewer timestamps than activities). No torch here: arrays in, arrays out.
@@ -32,6 +36,12 @@ import numpy as np
 
 from tleaf_cli.data.event_logs import Case, Cases
 from tleaf_cli.errors import InputError
+from tleaf_cli.tasks.next_activity.inputs import (
+    AttributeInput,
+    extend_columns,
+    fit_inputs,
+    input_columns,
+)
 
 TIME_FEATURES = 5
 _DAY = 86400.0
@@ -49,6 +59,7 @@ class Encoder:
     activity_gap: tuple[float, ...]  # per activity: mean seconds since the event before it
     attributes: tuple[str, ...] = ()  # event attributes read and predicted, in order
     values: tuple[tuple[str, ...], ...] = ()  # per attribute: its training values (index i + 1)
+    inputs: tuple[AttributeInput, ...] = ()  # attributes read only, their columns in order
 
     @property
     def end(self) -> int:
@@ -60,10 +71,22 @@ class Encoder:
         """Per attribute, the indices its values take: its training values and 0 (none)."""
         return tuple(len(v) + 1 for v in self.values)
 
+    @property
+    def feature_count(self) -> int:
+        """F, the features of each event: the time features, then the inputs' columns."""
+        return TIME_FEATURES + sum(i.width for i in self.inputs)
+
     @classmethod
-    def fit(cls, cases: Cases, split: str = "train", attributes: Sequence[str] = ()) -> Encoder:
-        """The encoder of a cases artifact, its time scales and attribute values measured on
-        `split`; InputError for an attribute the artifact does not keep."""
+    def fit(
+        cls,
+        cases: Cases,
+        split: str = "train",
+        attributes: Sequence[str] = (),
+        inputs: Sequence[str] = (),
+        numeric_inputs: Sequence[str] = (),
+    ) -> Encoder:
+        """The encoder of a cases artifact, its time scales, attribute values and inputs
+        measured on `split`; InputError for an attribute the artifact does not keep."""
         missing = [a for a in attributes if a not in cases.attribute_names]
         if missing:
             kept = ", ".join(cases.attribute_names) or "none"
@@ -99,6 +122,7 @@ class Encoder:
                 tuple(sorted({v for c in train for v in c.attributes[a] if v is not None}))
                 for a in attributes
             ),
+            inputs=fit_inputs(cases, inputs, numeric_inputs, train),
         )
 
     def as_dict(self) -> dict:
@@ -108,7 +132,15 @@ class Encoder:
     def from_dict(cls, d: dict) -> Encoder:
         out = {k: tuple(v) if isinstance(v, list) else v for k, v in d.items()}
         out["values"] = tuple(tuple(v) for v in d.get("values", ()))
+        out["inputs"] = tuple(
+            AttributeInput(**{**i, "values": tuple(i.get("values", ()))})
+            for i in d.get("inputs", ())
+        )
         return cls(**out)
+
+    def input_columns(self, case: Case) -> np.ndarray:
+        """float32 [n, feature_count − TIME_FEATURES]: the case's events' input columns."""
+        return input_columns(self.inputs, case)
 
     def value_indices(self, case: Case) -> np.ndarray:
         """int64 [n, K]: each event's index of each attribute's value (0: none or unseen)."""
@@ -148,9 +180,16 @@ class Encoder:
         """int64 [n]: step t's next activity, the end token at the last step."""
         return np.append(self.indices(case)[1:], self.end)
 
-    def features(self, activities: Sequence[int], timestamps: Sequence[datetime]) -> np.ndarray:
-        """float32 [n, TIME_FEATURES] for `activities`; events past the given `timestamps`
-        are placed their activity's mean gap after the event before them."""
+    def features(
+        self,
+        activities: Sequence[int],
+        timestamps: Sequence[datetime],
+        inputs: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """float32 [n, feature_count] for `activities`; events past the given `timestamps`
+        are placed their activity's mean gap after the event before them, and past the given
+        input columns `inputs` ([k, ...], `input_columns` of the case or of its prefix; none:
+        no event has a value) keep the case attributes and have no event attribute value."""
         if not timestamps:
             raise InputError("a case's features need at least its first event's time")
         times = list(timestamps[: len(activities)])
@@ -161,7 +200,7 @@ class Encoder:
         midnight = np.array(
             [t.hour * 3600 + t.minute * 60 + t.second + t.microsecond / 1e6 for t in times]
         )
-        return np.stack(
+        time = np.stack(
             [
                 np.arange(1, len(times) + 1) / max(self.mean_length, 1e-9),
                 gap / max(self.mean_gap, 1e-9),
@@ -171,6 +210,11 @@ class Encoder:
             ],
             axis=1,
         ).astype(np.float32)
+        if not self.inputs:
+            return time
+        if inputs is None:
+            inputs = np.zeros((0, self.feature_count - TIME_FEATURES), dtype=np.float32)
+        return np.concatenate([time, extend_columns(self.inputs, inputs, len(times))], axis=1)
 
 
 def _seconds(times: Sequence[datetime]) -> np.ndarray:

@@ -320,7 +320,13 @@ def suffix_scores(
     sequences = [s for s, r in zip(sequences, readable, strict=True) if r]
     if not chosen:
         return {"cases": 0, "unknown_prefixes": unreadable}
-    step = joint_log_probs(model, encoder, space, [c.timestamps[:k] for c in chosen])
+    step = joint_log_probs(
+        model,
+        encoder,
+        space,
+        [c.timestamps[:k] for c in chosen],
+        [encoder.input_columns(c)[:k] for c in chosen],
+    )
     if encoder.attributes:
         automaton = None if joint is None else joint.automaton
         search_rules = automaton

@@ -142,11 +142,16 @@ def joint_rules(
 
 
 def joint_log_probs(
-    model, encoder: Encoder, tokens: JointTokens, stamps: Sequence[Sequence]
+    model,
+    encoder: Encoder,
+    tokens: JointTokens,
+    stamps: Sequence[Sequence],
+    inputs: Sequence[np.ndarray] | None = None,
 ) -> Callable[[Rows], np.ndarray]:
     """The suffix search's model over the tokens: log-probabilities [N, tokens + 1] of the
-    event after each row (the last column: the end of the case), a row's times those of its
-    prefix (`stamps[owner]`), the appended events' placed by the encoder. Without attributes
+    event after each row (the last column: the end of the case), a row's times and input
+    columns those of its prefix (`stamps[owner]`, `inputs[owner]`), the appended events'
+    placed by the encoder. Without attributes
     the tokens are the activities, and any next-activity model (the prefix table too) serves."""
     device = torch.device("cpu")
     v = len(encoder.atoms)
@@ -164,6 +169,7 @@ def joint_log_probs(
                     encoder,
                     device,
                     values=[vs for _, vs in decoded],
+                    inputs=None if inputs is None else [inputs[o] for o in owners],
                 )
                 rows_at = torch.arange(len(part)), batch.lengths - 1
                 if not encoder.attributes:  # the tokens are the activities (any model)

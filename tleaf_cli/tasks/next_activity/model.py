@@ -1,13 +1,13 @@
 """The next-activity model: a causal LSTM in the shape of Tax et al.'s (CAiSE 2017).
 
-Each step reads its event — the activity one-hot [V] and its time features [F]
-(`encoding.TIME_FEATURES`) — through `layers` stacked LSTM layers of `hidden` units (dropout
-between them), and a linear layer gives logits over the V activities and the end of case
-[B, T, V + 1]. The LSTM runs forward only, so step t sees events 1..t: the logits at step t are
-the prediction for prefix a_1..a_t. Tax et al. split the second layer into one per output
-(activity, time); tleaf predicts no times, so one stack serves. With event attributes
-(`value_counts`), each event also reads its values and `heads` predict the next event's
-(attribute_heads.py).
+Each step reads its event — the activity one-hot [V] and its features [F] (the time features,
+then any attributes read as inputs: `encoding.Encoder.features`) — through `layers` stacked LSTM
+layers of `hidden` units (dropout between them), and a linear layer gives logits over the V
+activities and the end of case [B, T, V + 1]. The LSTM runs forward only, so step t sees events
+1..t: the logits at step t are the prediction for prefix a_1..a_t. Tax et al. split the second
+layer into one per output (activity, time); tleaf predicts no times, so one stack serves. With
+event attributes (`value_counts`), each event also reads its values and `heads` predict the next
+event's (attribute_heads.py).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ class NextActivityLSTM(nn.Module):
 
     Args:
         num_activities: V; index V of the output is the end of case.
-        time_features: F, the time features per event.
+        time_features: F, the features per event (`Encoder.feature_count`: time and inputs).
         hidden: units of each LSTM layer.
         layers: stacked LSTM layers.
         dropout: dropout on the LSTM's input and between its layers.

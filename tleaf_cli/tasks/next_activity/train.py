@@ -30,7 +30,7 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.settings.next_activity import NextActivitySettings
 from tleaf_cli.tasks.case_checks import read_case_rules
 from tleaf_cli.tasks.next_activity.batch import PAD, CaseBatch
-from tleaf_cli.tasks.next_activity.encoding import TIME_FEATURES, Encoder
+from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.model import NextActivityLSTM, NextActivityModel
 from tleaf_cli.tasks.next_activity.objective import logic_term
 from tleaf_cli.tasks.next_activity.prefix_table import PrefixTable
@@ -63,7 +63,12 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         empty = [s for s in ("train", "val") if not self.splits[s]]
         if empty:
             raise InputError(f"{inputs.data}: no cases in split(s) {', '.join(empty)}")
-        self.encoder = Encoder.fit(cases, attributes=settings.attribute_names)
+        self.encoder = Encoder.fit(
+            cases,
+            attributes=settings.attribute_names,
+            inputs=settings.input_names,
+            numeric_inputs=settings.numeric_input_names,
+        )
         self.arrays: dict = {}  # each case's arrays, built once
         self.rules: Rules | None = None
         self.embedder = None
@@ -216,12 +221,12 @@ def new_model(
     values = encoder.value_counts
     if settings.model == "transformer":
         return NextActivityTransformer(
-            len(encoder.atoms), TIME_FEATURES, settings.hidden, settings.layers, settings.heads,
-            settings.dropout, value_counts=values,
+            len(encoder.atoms), encoder.feature_count, settings.hidden, settings.layers,
+            settings.heads, settings.dropout, value_counts=values,
         )  # fmt: skip
     return NextActivityLSTM(
-        len(encoder.atoms), TIME_FEATURES, settings.hidden, settings.layers, settings.dropout,
-        values,
+        len(encoder.atoms), encoder.feature_count, settings.hidden, settings.layers,
+        settings.dropout, values,
     )  # fmt: skip
 
 

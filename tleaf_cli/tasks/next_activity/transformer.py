@@ -2,11 +2,11 @@
 Saeed and Dijkman, 2021: one or two blocks, 4 heads, a few dozen units).
 
 Each event is read as a learned embedding of its activity plus a linear map of its time features
-(`encoding.TIME_FEATURES`), plus the sinusoidal encoding of its position (Vaswani et al., 2017:
-no longest case to fix beforehand); `layers` pre-norm Transformer blocks with a causal mask
-(step t attends to events 1..t only) and a linear layer give logits over the V activities and
-the end of case [B, T, V + 1], the same contract as `model.NextActivityLSTM`, so the loss, the
-rules and the suffix search read it alike.
+(`encoding.Encoder.features`: the time features, then any inputs), plus the sinusoidal encoding
+of its position (Vaswani et al., 2017: no longest case to fix beforehand); `layers` pre-norm
+Transformer blocks with a causal mask (step t attends to events 1..t only) and a linear layer
+give logits over the V activities and the end of case [B, T, V + 1], the same contract as
+`model.NextActivityLSTM`, so the loss, the rules and the suffix search read it alike.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ class NextActivityTransformer(nn.Module):
 
     Args:
         num_activities: V; index V of the output is the end of case.
-        time_features: F, the time features per event.
+        time_features: F, the features per event (`Encoder.feature_count`: time and inputs).
         width: d_model, the width of every block (a multiple of `heads`).
         layers: Transformer blocks.
         heads: attention heads per block.
