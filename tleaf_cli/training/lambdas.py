@@ -107,7 +107,9 @@ def resolve_lambda(settings: Any, recommended: float | None) -> LambdaChoice:
 
 
 CANDIDATES = "lambda-choice"  # the folder of a run's λ candidates, inside the run's folder
-LOOSE = ("logic_loss", "lam", "lambdas", "device")  # may differ between a reference and its run
+# may differ between a reference and its run; "grid": a run chosen on a grid has the chosen
+# candidate's settings, and the grid only says how they were chosen
+LOOSE = ("logic_loss", "lam", "lambdas", "grid", "device")
 
 
 def best_candidate(candidates: list[dict], score: str) -> dict:
@@ -177,8 +179,9 @@ def train_choosing_lambda(
 
 
 def check_reference(reference: Path, settings: Any, data: str | Path | None) -> None:
-    """SettingError unless `reference` is a finished λ-0 run of `settings` (but the loss and
-    λ) on `data`; InputError for a folder that is not a finished run."""
+    """SettingError unless `reference` is a finished λ-0 run of `settings` (but the loss, λ
+    and the grid that chose them: `LOOSE`) on `data`; InputError for a folder that is not a
+    finished run."""
     for name in RUN_FILES:
         if not (reference / name).is_file():
             raise InputError(f"{reference / name}: missing (not a finished run)")
