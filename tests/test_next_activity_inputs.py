@@ -132,13 +132,21 @@ def test_a_model_reading_the_attributes_learns_what_they_tell(tmp_path, cases_pa
         )  # fmt: skip
         assert result.exit_code == 0, result.output
         evaluated = runner.invoke(
-            app, ["eval", "next-activity", str(out), str(cases_path), "-o", str(out / "e"), "-q"]
-        )
+            app,
+            ["eval", "next-activity", str(out), str(cases_path), "--prefix-lengths", "1",
+             "-o", str(out / "e"), "-q"],
+        )  # fmt: skip
         assert evaluated.exit_code == 0, evaluated.output
-        return json.loads((out / "e" / "metrics.json").read_text())["accuracy"]["accuracy"]
+        metrics = json.loads((out / "e" / "metrics.json").read_text())
+        suffixes.append(metrics["suffix"]["1"]["beam"]["dl_similarity"])
+        return metrics["accuracy"]["accuracy"]
+
+    suffixes: list[float] = []
 
     without = accuracy()
     with_inputs = accuracy("--inputs", "case:kind,unit", "--numeric-inputs", "lab")
     # 5 targets a case, 2 of them coin flips without the attributes: ~0.8 against ~1.0
     assert without < 0.9
     assert with_inputs > without + 0.1
+    # the suffix search reads them too: after `a` the rest is told by the attributes alone
+    assert suffixes[1] > suffixes[0]
