@@ -107,6 +107,9 @@ def test_the_encoder_keeps_its_inputs_through_its_config(cases_path):
     assert x.shape == (len(case), encoder.feature_count)
     with pytest.raises(InputError, match="keeps no case attribute 'colour'"):
         Encoder.fit(cases, inputs=["case:colour"])
+    bare = Case(case.case_id, case.activities, case.atoms, case.timestamps, "test")
+    with pytest.raises(InputError, match=r"keeps no case attribute 'kind', which the model"):
+        again.input_columns(bare)
 
 
 def test_settings_refuse_an_attribute_read_twice_and_inputs_to_the_prefix_table():

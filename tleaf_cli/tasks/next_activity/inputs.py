@@ -60,10 +60,17 @@ class AttributeInput:
         return 2 if self.kind == "numeric" else len(self.values) + 1
 
     def raw(self, case: Case) -> Sequence[str | None]:
-        """Its value at each event of the case (a case attribute's, repeated)."""
+        """Its value at each event of the case (a case attribute's, repeated); InputError for
+        a case that does not keep it (cases read without it)."""
+        kept = case.case_attributes if self.of_case else case.attributes
+        if self.attribute not in kept:
+            raise InputError(
+                f"case {case.case_id!r} keeps no {'case' if self.of_case else 'event'} attribute "
+                f"{self.attribute!r}, which the model reads: read the log keeping it"
+            )
         if self.of_case:
-            return [case.case_attributes[self.attribute]] * len(case)
-        return case.attributes[self.attribute]
+            return [kept[self.attribute]] * len(case)
+        return kept[self.attribute]
 
     def encode(self, raw: Sequence[str | None], case: Case | None = None) -> np.ndarray:
         """float32 [n, width] of the values (None: none); InputError for a numeric input's
