@@ -30,14 +30,18 @@
 # others'); PAGE=docs/results/next_activity_models.md writes the repository's page and its
 # record instead. SMALL=1 runs the chain on the shipped Helpdesk sample (examples/event_logs/,
 # two folds, small grids, two epochs) in about a minute.
-# Each training runs through pipelines/timed-tleaf (<run>.times.tsv: its wall and CPU seconds);
+# Each training, mining and evaluation runs through pipelines/timed-tleaf (<folder>.times.tsv:
+# its wall and CPU seconds; the page's wall time is the union of these commands' spans);
 # a line per finished training and evaluation says what it found. One thread per run: -j2 on 2
-# cores. make tracks files, not settings: a new OUT when changing a grid, LAMBDAS or TASK.
+# cores; a fold trains only once the evaluations of the fold AHEAD (default 2) places before it
+# are done, so folds and logs finish in order. make tracks files, not settings: a new OUT when
+# changing a grid, LAMBDAS or TASK.
 TLEAF ?= tleaf
 PYTHON ?= python
 SMALL ?= 0
 SEED ?= 0
 LAMBDAS ?= 0.1,1
+AHEAD ?= 2
 export OMP_NUM_THREADS ?= 1
 
 ifneq ($(findstring command line,$(origin REPORT)$(origin RUNS)),)
@@ -102,11 +106,21 @@ REPORT := pipelines/next_activity_models_report.py
 all: $(page)
 runs: $(EVALS)
 
-# a training into $$(@D), its wall and CPU seconds in <run>.times.tsv; after a step, a line on
-# what it found (a line that fails costs no step: make goes on)
-train = rm -f $$(@D).times.tsv; TLEAF_BIN=$(TLEAF) TLEAF_TIMES=$$(@D).times.tsv \
-    pipelines/timed-tleaf train-task next-activity
+# a tleaf command whose wall and CPU seconds go to $(1).times.tsv; a training into $$(@D); after
+# a step, a line on what it found (a line that fails costs no step: make goes on)
+timed = rm -f $(1).times.tsv; TLEAF_BIN=$(TLEAF) TLEAF_TIMES=$(1).times.tsv pipelines/timed-tleaf
+train = $(call timed,$$(@D)) train-task next-activity
 say = -@$(PYTHON) $(REPORT) $(OUT) --say $$(@D)
+
+# make starts the jobs it meets walking the goals' prerequisites in order, so unchecked it would
+# start every fold's trainings, of every log, before any choice or evaluation: a fold's trainings
+# wait instead for the evaluations of the fold AHEAD places before it (order only: they never
+# make it rerun). The pairs: unit n+AHEAD@@unit n.
+ahead_pairs := $(filter-out @@%,$(join $(wordlist $(words x $(wordlist 1,$(AHEAD),$(UNITS))),\
+    $(words $(UNITS)),$(UNITS)),$(addprefix @@,$(UNITS))))
+$(foreach p,$(ahead_pairs),$(eval $(foreach m,prefix-table lstm transformer,\
+    $(word 1,$(subst @@, ,$(p)))/$(m)/metrics.json): | \
+    $(foreach m,$(MODELS),$(word 2,$(subst @@, ,$(p)))/eval-$(m)/metrics.json)))
 
 define LOG
 $(OUT)/$(1)/cases.parquet: $(call log_csv,$(1))
@@ -132,14 +146,15 @@ $(1)/transformer/metrics.json: $(1)/cases.parquet
 $(1)/best.txt: $(1)/lstm/metrics.json $(1)/transformer/metrics.json
 	$(PYTHON) $(REPORT) --choose $(1) > $$@.tmp && mv $$@.tmp $$@
 $(1)/mined.ltl: $(1)/cases.parquet
-	$(TLEAF) mine-declare $$< -o $$@
+	$(call timed,$$@) mine-declare $$< -o $$@
 $(1)/knowledge/metrics.json: $(1)/cases.parquet $(1)/mined.ltl $(1)/best.txt
 	best=$(1)/$$$$(cat $(1)/best.txt) && flags=$$$$($(PYTHON) $(REPORT) --flags $$$$best) \
 	    || exit 1; $(train) $$< $$$$flags --kb $(1)/mined.ltl --logic-loss exact --lambdas $(LAMBDAS) \
 	    --seed $(SEED) $(TASK) --reference $$$$best -o $$(@D) -q
 	$(say)
 $(1)/eval-knowledge/metrics.json: $(1)/knowledge/metrics.json
-	$(TLEAF) eval next-activity $$(<D) $(1)/cases.parquet --rules $(1)/mined.ltl -o $$(@D) -q
+	$(call timed,$$(@D)) eval next-activity $$(<D) $(1)/cases.parquet --rules $(1)/mined.ltl \
+	    -o $$(@D) -q
 	$(say)
 endef
 $(foreach u,$(UNITS),$(eval $(call FOLD,$(u))))
@@ -147,7 +162,7 @@ $(foreach u,$(UNITS),$(eval $(call FOLD,$(u))))
 # the evaluations of the runs without knowledge: accuracy (with leakage), no rules
 define EVAL
 $(1)/eval-$(2)/metrics.json: $(1)/$(2)/metrics.json
-	$(TLEAF) eval next-activity $$(<D) $(1)/cases.parquet -o $$(@D) -q
+	$(call timed,$$(@D)) eval next-activity $$(<D) $(1)/cases.parquet -o $$(@D) -q
 	$(say)
 endef
 $(foreach u,$(UNITS),$(foreach m,prefix-table lstm transformer,$(eval $(call EVAL,$(u),$(m)))))

@@ -35,7 +35,7 @@ from collections import Counter, defaultdict
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from event_logs_report import mean_sd, published_accuracy, times_of, wall_minutes
+from event_logs_report import mean_sd, published_accuracy, times_of
 
 MODELS = ("lstm", "transformer")  # the grids the best model is chosen among, ties to the first
 TRAININGS = ("prefix-table", "lstm", "transformer", "knowledge")
@@ -98,25 +98,52 @@ def runs_of(out: Path | None) -> Runs:
     return runs
 
 
+def commands_of(out: Path | None) -> dict[str, dict]:
+    """Every timed command under `out` (pipelines/timed-tleaf's <folder>.times.tsv, written as
+    the command ends), by its path there: when it started and ended (epoch seconds), its wall
+    and CPU seconds."""
+    commands: dict[str, dict] = {}
+    if out is None or not out.is_dir():
+        return commands
+    for path in sorted(out.rglob("*.times.tsv")):
+        timed = times_of(path.parent / path.name.removesuffix(".times.tsv"))
+        if not timed:
+            continue
+        end = path.stat().st_mtime
+        commands[path.relative_to(out).as_posix()] = {
+            "start": round(end - timed["wall_seconds"], 2),
+            "end": round(end, 2),
+            "wall": timed["wall_seconds"],
+            "cpu": timed["cpu_seconds"],
+        }
+    return commands
+
+
+def union_seconds(spans: list[tuple[float, float]]) -> float:
+    """The time covered by some of the spans (two commands at once count once)."""
+    total, reach = 0.0, float("-inf")
+    for start, end in sorted(spans):
+        if end > reach:
+            total += end - max(start, reach)
+            reach = end
+    return total
+
+
 def kept_runs(
     out: Path | None, record: Path | None, logs: list[str], settings: str, pipeline: list[str]
 ) -> dict:
     """The runs of `out` added to the `record` file (rewritten atomically; without `out`, read
-    only): {"runs", "walls": each log's wall minutes (its folder's first artifact to its last),
-    "settings": each log's invocation settings, "pipeline": the pipeline's logs}."""
-    kept: dict = {"runs": {}, "walls": {}, "settings": {}, "pipeline": []}
+    only): {"runs", "commands": every timed command's span and seconds, "settings": each log's
+    invocation settings, "pipeline": the pipeline's logs}."""
+    kept: dict = {"runs": {}, "commands": {}, "settings": {}, "pipeline": []}
     if record is not None and record.is_file():
         kept.update(json.loads(record.read_text()))
     for log in logs:
         kept["settings"][log] = settings
     if pipeline:
         kept["pipeline"] = pipeline
-    fresh = runs_of(out)
-    kept["runs"].update(fresh)
-    for log in sorted({key.split("/")[0] for key in fresh}):
-        minutes = wall_minutes(out / log)
-        if minutes is not None:
-            kept["walls"][log] = round(minutes, 1)
+    kept["runs"].update(runs_of(out))
+    kept["commands"].update(commands_of(out))
     if record is not None and out is not None:
         record.parent.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile("w", dir=record.parent, delete=False) as f:
@@ -281,39 +308,37 @@ def choice_table(runs: Runs) -> tuple[list[str], list[str]]:
     return lines, counts
 
 
-def log_cost(runs: Runs, log: str) -> tuple[float, float | None]:
-    """A log's training commands: wall seconds, CPU seconds (None where none was timed)."""
-    timed = [m for k, m in runs.items() if k.startswith(f"{log}/") and "wall_seconds" in m]
-    if not timed:
-        return 0.0, None
-    return sum(m["wall_seconds"] for m in timed), sum(m["cpu_seconds"] for m in timed)
+def is_training(key: str) -> bool:
+    """Whether a timed command (its .times.tsv's path) is a training."""
+    return Path(key).name.removesuffix(".times.tsv") in TRAININGS
 
 
-def cost_table(runs: Runs, walls: dict, settings: dict) -> tuple[list[str], str]:
-    """Per log: its wall minutes, its trainings' wall and CPU minutes, the command; and the
-    total in words."""
+def cost_table(runs: Runs, commands: dict, settings: dict) -> tuple[list[str], str]:
+    """Per log: its wall minutes (the union of its timed commands' spans), its trainings' wall
+    and CPU minutes (summed over the commands), the command that measured it; and the whole in
+    words."""
     lines = [
-        "| log | folds | wall (min) | training, wall (min) | training, CPU (min) | command: "
-        "`make -f pipelines/next_activity_models.mk DATA=PATH ...` |",
+        "| log | folds | wall (min) | trainings: wall, summed (min) | trainings: CPU (min) | "
+        "command: `make -f pipelines/next_activity_models.mk DATA=PATH ...` |",
         "|---|---|---|---|---|---|",
     ]
-    total_wall = total_train = 0.0
     for log in logs_of(runs):
-        wall, cpu = log_cost(runs, log)
+        mine = {k: c for k, c in commands.items() if k.startswith(f"{log}/")}
+        trained = [c for k, c in mine.items() if is_training(k)]
         how = settings.get(log)
         command = f"`LOGS={log} {how}`" if how is not None else f"`LOGS={log}` (not recorded)"
-        minutes = walls.get(log)
-        total_wall += minutes or 0
-        total_train += wall
+        wall = union_seconds([(c["start"], c["end"]) for c in mine.values()])
         lines.append(
-            f"| {log} | {len(folds_of(runs, log))} | "
-            f"{'—' if minutes is None else f'{minutes:.0f}'} | {wall / 60:.1f} | "
-            f"{'—' if cpu is None else f'{cpu / 60:.1f}'} | {command} |"
+            f"| {log} | {len(folds_of(runs, log))} | {wall / 60:.0f} | "
+            f"{sum(c['wall'] for c in trained) / 60:.1f} | "
+            f"{sum(c['cpu'] for c in trained) / 60:.1f} | {command} |"
         )
+    trained = [c for k, c in commands.items() if is_training(k)]
+    wall = union_seconds([(c["start"], c["end"]) for c in commands.values()])
     text = (
-        f"{total_wall:.0f} minutes of wall time (summed over {len(walls)} "
-        f"log{'s' * (len(walls) != 1)}), of which the trainings took {total_train / 60:.0f} "
-        "minutes by the wall clock, two at a time"
+        f"{wall / 60:.0f} minutes of wall time (the time some timed command of the pipeline was "
+        f"running, over {len(logs_of(runs))} log{'s' * (len(logs_of(runs)) != 1)}), the "
+        f"trainings {sum(c['cpu'] for c in trained) / 60:.0f} CPU minutes"
     )
     return lines, text
 
@@ -355,10 +380,10 @@ def hand_written(page: Path) -> str:
 
 
 def page_text(kept: dict, page: Path, record: Path | None, peers: dict, published: bool) -> str:
-    runs, walls, settings = kept["runs"], kept["walls"], kept["settings"]
+    runs, commands, settings = kept["runs"], kept["commands"], kept["settings"]
     table, goals = main_table(runs, peers, kept.get("pipeline", []), published)
     choices, counts = choice_table(runs)
-    costs, cost = cost_table(runs, walls, settings)
+    costs, cost = cost_table(runs, commands, settings)
     name = page.as_posix()
     rec = "" if record is None else f" --runs {record.as_posix()}"
     small = bool(settings) and all(v.startswith("SMALL=1") for v in settings.values())
@@ -405,9 +430,11 @@ def page_text(kept: dict, page: Path, record: Path | None, peers: dict, publishe
             NOTES,
             "## Cost and commands",
             "",
-            "Per log as its invocation ran it (`-j2`; wall: the log folder's first artifact to "
-            "its last; training: the training commands' wall and CPU seconds as "
-            "pipelines/timed-tleaf measured them, every grid candidate and λ included):",
+            "Per log as its invocation ran it (`-j2`, one thread per command). Wall: the time "
+            "some of the log's commands (trainings, mining, evaluations) was running, as "
+            "pipelines/timed-tleaf measured them; trainings: their commands' wall seconds summed "
+            "(two run at once) and their CPU seconds, every grid candidate and λ included. On "
+            "cores shared with other work the wall time grows; the CPU time hardly does.",
             "",
             *costs,
             "",
