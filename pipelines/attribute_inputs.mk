@@ -2,13 +2,14 @@
 # Rama-Maneiro et al.'s protocol (5-fold cross-validation over case ids, accuracy pooled over
 # every prefix, the end a target). Their preprocessed CSVs keep activities and times only; the
 # logs' own XES files keep the resource, groups, lab values, amounts. Per log: read-log of the
-# XES keeping the attributes (EVENT_<log>, CASE_<log>); per fold: split-cases, then one --grid run without
-# the attributes (none) and one reading them (inputs: --inputs INPUTS_<log>, --numeric-inputs
-# NUMERIC_<log>), the same grid (GRID: LSTM and Transformer) and seed; each evaluated on the
-# fold's test cases. Per fold the run with the higher val accuracy of the two is chosen
-# (chosen.txt; model selection on validation, never test), and knowledge goes on top of it:
-# rules mined on the fold's train split, the exact loss with λ chosen on val among LAMBDAS and
-# 0 (the λ-0 candidate the chosen run itself), evaluated under the mined rules.
+# XES keeping the attributes (EVENT_<log>, CASE_<log>); per fold: split-cases, then one --grid
+# run without the attributes (none) and one reading them (inputs: --inputs INPUTS_<log>,
+# --numeric-inputs NUMERIC_<log>), the same grid (GRID, or GRID_<log>: LSTM and Transformer) and
+# seed; each evaluated on the fold's test cases. Per fold the run with the higher val accuracy
+# of the two is chosen (chosen.txt; model selection on validation, never test), and knowledge
+# goes on top of it: rules mined on the fold's train split, the exact loss with λ chosen on val
+# among LAMBDAS and 0 (the λ-0 candidate the chosen run itself), evaluated under the mined
+# rules.
 #   make -f pipelines/attribute_inputs.mk DATA=PATH [OUT=out/attribute_inputs] [LOGS="..."]
 #       [FOLDS="0 1 2 3 4"] [PAGE=FILE.md] [SMALL=1] [-j2]
 # DATA: the folder of pipelines/event_logs.mk (docs/event_logs.md, "Data for the published
@@ -67,6 +68,9 @@ LOGS ?= $(ALL)
 FOLDS ?= 0 1 2 3 4
 NFOLDS := 5
 GRID ?= model=lstm,transformer hidden=64 layers=1,2
+# the two largest logs (65,000-72,000 events) on a grid half as large, to fit 2 cores
+GRID_bpi_challenge_2013_incidents ?= model=lstm,transformer hidden=64 layers=1
+GRID_BPI_Challenge_2012_W_Complete ?= $(GRID_bpi_challenge_2013_incidents)
 TASK :=
 log_xes = $(DATA)/xes/$(1).xes.gz
 PUBLISHED ?= $(DATA)/published
@@ -98,6 +102,7 @@ comma := ,
 csv = $(subst $(space),$(comma),$(strip $(1)))
 reads = $(if $(EVENT_$(1)),--attributes $(call csv,$(EVENT_$(1)))) \
     $(if $(CASE_$(1)),--case-attributes $(call csv,$(CASE_$(1))))
+grid = $(or $(GRID_$(1)),$(GRID))
 inputs = $(if $(INPUTS_$(1)),--inputs $(call csv,$(INPUTS_$(1)))) \
     $(if $(NUMERIC_$(1)),--numeric-inputs $(call csv,$(NUMERIC_$(1))))
 
@@ -114,9 +119,9 @@ $(OUT)/$(1)/fold$(2)/cases.parquet: $(OUT)/$(1)/cases.parquet
 	@mkdir -p $$(@D)
 	$(TLEAF) split-cases $$< --folds $(NFOLDS) --fold $(2) -o $$@ -q
 $(OUT)/$(1)/fold$(2)/none/metrics.json: $(OUT)/$(1)/fold$(2)/cases.parquet
-	$(train) $$< --grid "$(GRID)" --seed $(SEED) $(TASK) -o $$(@D) -q
+	$(train) $$< --grid "$(call grid,$(1))" --seed $(SEED) $(TASK) -o $$(@D) -q
 $(OUT)/$(1)/fold$(2)/inputs/metrics.json: $(OUT)/$(1)/fold$(2)/cases.parquet
-	$(train) $$< $(call inputs,$(1)) --grid "$(GRID)" --seed $(SEED) $(TASK) -o $$(@D) -q
+	$(train) $$< $(call inputs,$(1)) --grid "$(call grid,$(1))" --seed $(SEED) $(TASK) -o $$(@D) -q
 $(OUT)/$(1)/fold$(2)/eval-none/metrics.json $(OUT)/$(1)/fold$(2)/eval-inputs/metrics.json: \
     $(OUT)/$(1)/fold$(2)/eval-%/metrics.json: $(OUT)/$(1)/fold$(2)/%/metrics.json
 	$(TLEAF) eval next-activity $$(<D) $(OUT)/$(1)/fold$(2)/cases.parquet -o $$(@D) -q
@@ -141,7 +146,7 @@ $(page): $(EVALS) $(REPORT)
 	@mkdir -p $(@D)
 	$(PYTHON) $(REPORT) $(OUT) -o $@ --logs "$(LOGS)" \
 	    $(if $(PUBLISHED),--published $(PUBLISHED)) \
-	    --settings 'GRID="$(GRID)" LAMBDAS=$(LAMBDAS) SEED=$(SEED) NFOLDS=$(NFOLDS)'
+	    --settings 'GRID="$(GRID)" $(foreach l,$(LOGS),$(if $(GRID_$(l)),GRID_$(l)="$(GRID_$(l))")) LAMBDAS=$(LAMBDAS) SEED=$(SEED) NFOLDS=$(NFOLDS)'
 
 clean:
 	rm -rf $(OUT)
