@@ -2,7 +2,8 @@
 # Rama-Maneiro et al.'s protocol (5-fold cross-validation over case ids, accuracy pooled over
 # every prefix, the end a target). Their preprocessed CSVs keep activities and times only; the
 # logs' own XES files keep the resource, groups, lab values, amounts. Per log: read-log of the
-# XES keeping the attributes (EVENT_<log>, CASE_<log>); per fold: split-cases, then one --grid
+# XES keeping the attributes (EVENT_<log>, CASE_<log>), its cases renamed to the CSV's case ids
+# (pipelines/rm_case_ids.py: the benchmark's very folds); per fold: split-cases, then one --grid
 # run without the attributes (none) and one reading them (inputs: --inputs INPUTS_<log>,
 # --numeric-inputs NUMERIC_<log>), the same grid (GRID, or GRID_<log>: LSTM and Transformer) and
 # seed; each evaluated on the fold's test cases. Per fold the run with the higher val accuracy
@@ -13,9 +14,10 @@
 #   make -f pipelines/attribute_inputs.mk DATA=PATH [OUT=out/attribute_inputs] [LOGS="..."]
 #       [FOLDS="0 1 2 3 4"] [PAGE=FILE.md] [SMALL=1] [-j2]
 # DATA: the folder of pipelines/event_logs.mk (docs/event_logs.md, "Data for the published
-# comparisons"): DATA/xes/<log>.xes.gz and DATA/published/accuracy_raw_results.csv (PUBLISHED=
-# runs without the peers' figures). SMALL=1 runs on the shipped BPI 2013 closed problems sample
-# (examples/knowledge-protocols/mezini-bpic13-closed/, its resource) in about a minute.
+# comparisons"): DATA/xes/<log>.xes.gz, DATA/preprocessed/<log>.csv and
+# DATA/published/accuracy_raw_results.csv (PUBLISHED= runs without the peers' figures). SMALL=1
+# runs on the shipped BPI 2013 closed problems sample (examples/knowledge-protocols/mezini-
+# bpic13-closed/, its resource) in about a minute.
 # The page: $(OUT)/attribute_inputs.md, or PAGE=docs/results/attribute_inputs.md. One thread
 # per run: -j2 on 2 cores. make tracks files, not settings: a new OUT when changing GRID.
 TLEAF ?= tleaf
@@ -73,12 +75,13 @@ GRID_bpi_challenge_2013_incidents ?= model=lstm,transformer hidden=64 layers=1
 GRID_BPI_Challenge_2012_W_Complete ?= $(GRID_bpi_challenge_2013_incidents)
 TASK :=
 log_xes = $(DATA)/xes/$(1).xes.gz
+log_csv = $(DATA)/preprocessed/$(1).csv
 PUBLISHED ?= $(DATA)/published
 endif
 PAGE ?=
 page := $(or $(PAGE),$(OUT)/attribute_inputs.md)
 
-needed := $(foreach l,$(LOGS),$(call log_xes,$(l))) \
+needed := $(foreach l,$(LOGS),$(call log_xes,$(l)) $(if $(log_csv),$(call log_csv,$(l)))) \
     $(if $(PUBLISHED),$(PUBLISHED)/accuracy_raw_results.csv)
 missing := $(filter-out $(wildcard $(needed)),$(needed))
 ifneq ($(filter-out clean,$(or $(MAKECMDGOALS),all)),)
@@ -106,10 +109,22 @@ grid = $(or $(GRID_$(1)),$(GRID))
 inputs = $(if $(INPUTS_$(1)),--inputs $(call csv,$(INPUTS_$(1)))) \
     $(if $(NUMERIC_$(1)),--numeric-inputs $(call csv,$(NUMERIC_$(1))))
 
+# the XES's cases under the benchmark CSV's case ids (pipelines/rm_case_ids.py): the folds are
+# the benchmark's, case for case (SMALL: the sample's own ids)
 define LOG
-$(OUT)/$(1)/cases.parquet: $(call log_xes,$(1))
+$(OUT)/$(1)/xes.parquet: $(call log_xes,$(1))
 	@mkdir -p $$(@D)
 	$(TLEAF) read-log $$< $(call reads,$(1)) -o $$@ -q
+ifeq ($(SMALL),1)
+$(OUT)/$(1)/cases.parquet: $(OUT)/$(1)/xes.parquet
+	cp $$< $$@
+else
+$(OUT)/$(1)/csv.parquet: $(call log_csv,$(1))
+	@mkdir -p $$(@D)
+	$(TLEAF) read-log $$< -o $$@ -q
+$(OUT)/$(1)/cases.parquet: $(OUT)/$(1)/xes.parquet $(OUT)/$(1)/csv.parquet
+	$(PYTHON) pipelines/rm_case_ids.py $$^ -o $$@
+endif
 endef
 $(foreach l,$(LOGS),$(eval $(call LOG,$(l))))
 
