@@ -82,7 +82,7 @@ def test_an_activity_id_naming_two_activities_writes_nothing(tmp_path):
         [
             "case:concept:name,concept:name,time:timestamp",
             "A,open,2020-01-01T10:00:00",
-            "B,shut,2020-01-02T10:00:00",
+            "B,shut,2020-01-02T10:07:00",
         ],
     )
     bench = _read(
@@ -91,7 +91,7 @@ def test_an_activity_id_naming_two_activities_writes_nothing(tmp_path):
         [
             "CaseID,ActivityID,CompleteTimestamp",
             "1,0,2020-01-01 10:00:00",
-            "2,0,2020-01-02 10:00:00",
+            "2,0,2020-01-02 10:07:00",
         ],
     )
     result = _match(tmp_path, own, bench)
