@@ -74,6 +74,7 @@ def fold_figures(fold: Path) -> dict | None:
     run = read(fold / "knowledge" / "metrics.json")
     if knowledge is not None and run is not None:
         out["knowledge"] = {
+            "loss": knowledge["accuracy"]["accuracy"],
             "test": knowledge["accuracy"].get("accuracy_rules", knowledge["accuracy"]["accuracy"]),
             "lambda": run.get("lambda", {}).get("value"),
         }
@@ -84,10 +85,10 @@ def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str]
     """The accuracy table, the choices table and the goal lines."""
     rows = [
         "| log | folds | without attributes | with attributes | **chosen on val** (folds "
-        "with) | folds with attributes above / equal / below without | chosen + exact loss, "
-        "under mined rules (λ per fold) | its folds above / equal / below the chosen | Tax et "
-        "al. | best published |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "with) | folds with attributes above / equal / below without | chosen + exact loss "
+        "(λ per fold) | the same, under mined rules | its folds above / equal / below the "
+        "chosen | Tax et al. | best published |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     choices = [
         "| log | attributes read | model chosen per fold (without / with attributes) |",
@@ -110,7 +111,8 @@ def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str]
         up = sum(r > b for r, b in zip(rules, base, strict=True))
         same = sum(r == b for r, b in zip(rules, base, strict=True))
         lams = ", ".join(f"{f['knowledge']['lambda']:g}" for f in known)
-        rules_cell = f"{mean_sd(rules)} ({lams})" if known else "—"
+        loss_cell = f"{mean_sd([f['knowledge']['loss'] for f in known])} ({lams})" if known else "—"
+        rules_cell = mean_sd(rules) if known else "—"
         moved = f"{up} / {same} / {len(known) - up - same}" if known else "—"
         mine = peers.get(log.lower(), {})
         tax = mine.get("Tax")
@@ -123,7 +125,8 @@ def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str]
         rows.append(
             f"| {log} | {len(figures)} | {mean_sd(none)} | {mean_sd(inputs)} | "
             f"**{mean_sd(chosen)}** ({sum(f['chosen'] == 'inputs' for f in figures)}) | "
-            f"{above} / {equal} / {len(figures) - above - equal} | {rules_cell} | {moved} | "
+            f"{above} / {equal} / {len(figures) - above - equal} | {loss_cell} | "
+            f"{rules_cell} | {moved} | "
             f"{f'{tax:.2f}' if tax is not None else '—'} | "
             f"{f'{best[1]:.2f} ({best[0]})' if best else '—'} |"
         )
