@@ -157,6 +157,14 @@ $(OUT)/$(1)/fold$(2)/eval-knowledge/metrics.json: $(OUT)/$(1)/fold$(2)/knowledge
 endef
 $(foreach l,$(LOGS),$(foreach k,$(FOLDS),$(eval $(call FOLD,$(l),$(k)))))
 
+# make starts the jobs it meets walking the goals in order, so unchecked every training would
+# start before any evaluation: a fold's trainings wait for the fold before it to be evaluated
+# (order only: never a reason to rerun)
+$(foreach p,$(filter-out @@%,$(join $(wordlist 2,$(words $(UNITS)),$(UNITS)),$(addprefix @@,\
+    $(UNITS)))),$(eval \
+    $(word 1,$(subst @@, ,$(p)))/none/metrics.json $(word 1,$(subst @@, ,$(p)))/inputs/metrics.json: \
+    | $(word 2,$(subst @@, ,$(p)))/eval-knowledge/metrics.json))
+
 $(page): $(EVALS) $(REPORT)
 	@mkdir -p $(@D)
 	$(PYTHON) $(REPORT) $(OUT) -o $@ --logs "$(LOGS)" \
