@@ -365,7 +365,8 @@ NOTES = """
   above / equal / below": its test accuracy against the best model's alone, fold by fold.
 - **Published**: Rama-Maneiro et al.'s per-fold accuracies averaged over their 5 folds: Tax et
   al.'s LSTM as they re-ran it, and the best of their 12 approaches (the log's lower-cased name
-  in their results). Their folds are theirs, not ours: the same protocol, other case draws.
+  in their results). `split-cases --folds 5` on their CSVs gives their folds, case for case
+  (docs/event_logs.md, "Protocols"); their models' own validation choices are theirs.
 """
 
 
@@ -451,10 +452,10 @@ def page_text(kept: dict, page: Path, record: Path | None, peers: dict, publishe
             '--grid "hidden=36,64 layers=1,2 lr=0.001,0.002" -o FOLD/transformer',
             "python pipelines/next_activity_models_report.py --choose FOLD > FOLD/best.txt",
             "tleaf mine-declare FOLD/cases.parquet -o FOLD/mined.ltl",
-            "tleaf train-task next-activity FOLD/cases.parquet $(python "
-            "pipelines/next_activity_models_report.py --flags FOLD/$(cat FOLD/best.txt)) \\",
-            "    --kb FOLD/mined.ltl --logic-loss exact --lambdas 0.1,1 "
-            "--reference FOLD/$(cat FOLD/best.txt) -o FOLD/knowledge",
+            "best=FOLD/$(cat FOLD/best.txt)",
+            "flags=$(python pipelines/next_activity_models_report.py --flags $best)",
+            "tleaf train-task next-activity FOLD/cases.parquet $flags --kb FOLD/mined.ltl \\",
+            "    --logic-loss exact --lambdas 0.1,1 --reference $best -o FOLD/knowledge",
             "for m in prefix-table lstm transformer; do "
             "tleaf eval next-activity FOLD/$m FOLD/cases.parquet -o FOLD/eval-$m; done",
             "tleaf eval next-activity FOLD/knowledge FOLD/cases.parquet --rules FOLD/mined.ltl "
