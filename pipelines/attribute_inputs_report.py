@@ -16,12 +16,13 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import statistics
 import sys
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from event_logs_report import mean_sd, published_accuracy, times_of, wall_minutes
+from event_logs_report import mean_sd, published_accuracy, times_of
 from next_activity_models_report import flags as model_flags
 
 VARIANTS = ("none", "inputs")  # without the attributes, reading them
@@ -142,17 +143,18 @@ def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str]
 
 
 def cost(out: Path, logs: list[str]) -> str:
-    """Wall minutes per log (its folder's first file to its last) and the trainings' sum."""
+    """Per log, its trainings (without, with the attributes, the knowledge: every grid
+    candidate and λ) as pipelines/timed-tleaf measured them: wall seconds summed, CPU."""
     parts = []
     for log in logs:
-        wall = wall_minutes(out / log) if (out / log).is_dir() else None
-        train = sum(
-            times_of(fold / v).get("wall_seconds", 0.0)
-            for fold in (out / log).glob("fold*")
-            for v in VARIANTS
-        )
-        if wall is not None:
-            parts.append(f"{log} {wall:.0f} min ({train / 60:.0f} min training)")
+        times = [
+            times_of(fold / run)
+            for fold in sorted((out / log).glob("fold*"))
+            for run in (*VARIANTS, "knowledge")
+        ]
+        wall = sum(t.get("wall_seconds", 0.0) for t in times) / 60
+        cpu = sum(t.get("cpu_seconds", 0.0) for t in times) / 60
+        parts.append(f"{log} {wall:.0f} min ({cpu:.0f} CPU min)")
     return "; ".join(parts)
 
 
@@ -175,6 +177,7 @@ def main() -> None:
     if args.out is None or args.page is None:
         parser.error("OUT and -o PAGE are needed to write the page")
     logs = args.logs.split()
+    settings = re.sub(r"\s{2,}", " ", args.settings)
     rows, choices, goals = table(args.out, logs, published_accuracy(args.published))
     text = "\n".join(
         [
@@ -182,7 +185,9 @@ def main() -> None:
             "",
             "Measured by `make -f pipelines/attribute_inputs.mk DATA=PATH "
             "PAGE=docs/results/attribute_inputs.md -j2` (settings: "
-            f"`{args.settings}`) on 2 CPU cores. Wall time per log: {cost(args.out, logs)}.",
+            f"`{settings}`) on 2 CPU cores shared with other runs, "
+            "one thread per training. Trainings per log (wall seconds summed over the runs, two "
+            f"at a time, and CPU): {cost(args.out, logs)}.",
             "",
             "Real logs, each log's own XES (DATA/xes/) with its cases renamed to Rama-Maneiro "
             "et al.'s case ids (pipelines/rm_case_ids.py), so the folds are their benchmark's, "
