@@ -23,6 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from event_logs_report import mean_sd, published_accuracy, times_of
+from next_activity_models_report import choose as choose_between
 from next_activity_models_report import flags as model_flags
 
 VARIANTS = ("none", "inputs")  # without the attributes, reading them
@@ -32,13 +33,9 @@ def read(path: Path) -> dict | None:
     return json.loads(path.read_text()) if path.is_file() else None
 
 
-def val_accuracy(run: Path) -> float:
-    return json.loads((run / "metrics.json").read_text())["best"]["val_accuracy"]
-
-
 def choose(fold: Path) -> str:
     """The fold's run with the higher val accuracy (ties: without the attributes)."""
-    return max(VARIANTS, key=lambda v: (val_accuracy(fold / v), -VARIANTS.index(v)))
+    return choose_between(fold, VARIANTS)
 
 
 def flags(run: Path) -> str:

@@ -48,9 +48,10 @@ def val_accuracy(run: Path) -> float:
     return json.loads((run / "metrics.json").read_text())["best"]["val_accuracy"]
 
 
-def choose(fold: Path) -> str:
-    """The fold's model with the higher val accuracy of its grid-chosen run (ties: lstm)."""
-    return max(MODELS, key=lambda m: (val_accuracy(fold / m), -MODELS.index(m)))
+def choose(fold: Path, runs: tuple[str, ...] = MODELS) -> str:
+    """The fold's run (of `runs`, its folders) with the higher val accuracy (ties: the first:
+    of the models, lstm)."""
+    return max(runs, key=lambda m: (val_accuracy(fold / m), -runs.index(m)))
 
 
 def flags(run: Path) -> str:
