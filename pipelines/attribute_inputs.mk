@@ -122,8 +122,8 @@ else
 $(OUT)/$(1)/csv.parquet: $(call log_csv,$(1))
 	@mkdir -p $$(@D)
 	$(TLEAF) read-log $$< -o $$@ -q
-$(OUT)/$(1)/cases.parquet: $(OUT)/$(1)/xes.parquet $(OUT)/$(1)/csv.parquet
-	$(PYTHON) pipelines/rm_case_ids.py $$^ -o $$@
+$(OUT)/$(1)/cases.parquet: $(OUT)/$(1)/xes.parquet $(OUT)/$(1)/csv.parquet pipelines/rm_case_ids.py
+	$(PYTHON) pipelines/rm_case_ids.py $$(wordlist 1,2,$$^) -o $$@
 endif
 endef
 $(foreach l,$(LOGS),$(eval $(call LOG,$(l))))

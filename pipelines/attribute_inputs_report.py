@@ -79,6 +79,21 @@ def fold_figures(fold: Path) -> dict | None:
     return out
 
 
+def matched(folder: Path) -> str:
+    """How many of the log's cases pipelines/rm_case_ids.py matched (so kept their attributes),
+    from its cases artifact's provenance; all where it read the XES's own ids."""
+    import pyarrow.parquet as pq
+
+    path = folder / "cases.parquet"
+    if not path.is_file():
+        return "—"
+    meta = pq.read_schema(path).metadata or {}
+    params = json.loads(meta.get(b"tleaf.params", b"{}"))
+    if "matched" not in params:
+        return "all (the log's own ids)"
+    return f"{params['matched']:,} of {params['csv']:,}"
+
+
 def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str], list[str]]:
     """The accuracy table, the choices table and the goal lines."""
     rows = [
@@ -89,8 +104,9 @@ def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str]
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     choices = [
-        "| log | attributes read | model chosen per fold (without / with attributes) |",
-        "|---|---|---|",
+        "| log | attributes read | cases read with them (matched to the CSV's ids) | model "
+        "chosen per fold (without / with attributes) |",
+        "|---|---|---|---|",
     ]
     over_best = over_tax = measured = 0
     for log in logs:
@@ -129,7 +145,9 @@ def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str]
             f"{f'{best[1]:.2f} ({best[0]})' if best else '—'} |"
         )
         models = "; ".join(f"{f['none']['model']} / {f['inputs']['model']}" for f in figures)
-        choices.append(f"| {log} | {figures[0]['inputs']['inputs']} | {models} |")
+        choices.append(
+            f"| {log} | {figures[0]['inputs']['inputs']} | {matched(out / log)} | {models} |"
+        )
     goals = []
     if measured:
         goals = [
