@@ -95,7 +95,7 @@ def matched(folder: Path) -> str:
 
 
 def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str], list[str]]:
-    """The accuracy table, the choices table and the goal lines."""
+    """The accuracy table, the choices table and the count lines."""
     rows = [
         "| log | folds | without attributes | with attributes | **chosen on val** (folds "
         "with) | folds with attributes above / equal / below without | chosen + exact loss "
@@ -148,13 +148,13 @@ def table(out: Path, logs: list[str], peers: dict) -> tuple[list[str], list[str]
         choices.append(
             f"| {log} | {figures[0]['inputs']['inputs']} | {matched(out / log)} | {models} |"
         )
-    goals = []
+    counts = []
     if measured:
-        goals = [
+        counts = [
             f"- chosen on val at or above the best published approach: {over_best} of "
             f"{measured} logs; at or above Tax et al.: {over_tax} of {measured}.",
         ]
-    return rows, choices, goals
+    return rows, choices, counts
 
 
 def cost(out: Path, logs: list[str]) -> str:
@@ -193,7 +193,7 @@ def main() -> None:
         parser.error("OUT and -o PAGE are needed to write the page")
     logs = args.logs.split()
     settings = re.sub(r"\s{2,}", " ", args.settings)
-    rows, choices, goals = table(args.out, logs, published_accuracy(args.published))
+    rows, choices, counts = table(args.out, logs, published_accuracy(args.published))
     text = "\n".join(
         [
             "# Results: what a log's attributes are worth to next-activity prediction",
@@ -215,7 +215,7 @@ def main() -> None:
             "",
             *rows,
             "",
-            *goals,
+            *counts,
             "",
             *choices,
             "",

@@ -48,7 +48,7 @@ ifneq ($(findstring command line,$(origin REPORT)$(origin RUNS)),)
 $(error REPORT= and RUNS= are not read: PAGE=FILE.md names the page, its record is FILE.runs.json)
 endif
 
-# the pipeline's logs, cheapest first (the goal lines count these)
+# the pipeline's logs, cheapest first (the count lines name these)
 ALL := BPI_Challenge_2013_closed_problems env_permit Helpdesk SEPSIS \
     bpi_challenge_2013_incidents BPI_Challenge_2012_W_Complete
 ifeq ($(SMALL),1)

@@ -19,7 +19,7 @@ by its path in OUT, each fold's choice, each log's wall time and the settings it
 runs of OUT are added to it (replacing the same paths) and the page is written from all of it,
 so logs measured by separate invocations on the same code add up to one page. DIR: the peers'
 published figures (accuracy_raw_results.csv, looked up by the log's lower-cased name). `--all`:
-the pipeline's own logs, those the goal lines count. The page's "What the leaders read" section
+the pipeline's own logs, those the tally lines name. The page's "What the leaders read" section
 is written by hand: a page rewritten keeps it.
 """
 
@@ -194,7 +194,7 @@ def percent(values: list[float]) -> str:
 def main_table(
     runs: Runs, peers: dict, pipeline: list[str], published: bool
 ) -> tuple[list[str], list[str]]:
-    """The table of 5-fold means and the goal lines."""
+    """The table of 5-fold means and the lines tallying it against the published figures."""
     lines = [
         "| log | folds | prefix table | leakage | LSTM (grid on val) | Transformer (grid on val) "
         "| **best (chosen on val per fold)** | best + exact loss (λ on val), under the mined "
@@ -250,21 +250,20 @@ def main_table(
             f"| {log} | 0 (not in the record: `LOGS={log}`) | — | — | — | — | — | — | — | "
             f"{tax} | {'—' if top is None else f'{top[1]:.2f} ({top[0]})'} |"
         )
-    aims = (f"goal: 3 of the pipeline's {n}", f"goal: all {n} of the pipeline's") if pipeline \
-        else ("the goals count the pipeline's six logs",) * 2  # fmt: skip
-    goals = [
+    of = f" of the pipeline's {n}" if pipeline else ""
+    tallies = [
         f"- the best model (chosen on val) at or above the best published approach: "
-        f"{beat_best} of {run} log{'s' * (run != 1)} run ({aims[0]});",
+        f"{beat_best} of {run} log{'s' * (run != 1)} run{of};",
         f"- the best model at or above Tax et al.: {beat_tax} of {run} log{'s' * (run != 1)} "
-        f"run ({aims[1]}).",
+        f"run{of}.",
     ]
     if short:
-        goals.append(f"- with fewer than 5 folds: {', '.join(short)}.")
+        tallies.append(f"- with fewer than 5 folds: {', '.join(short)}.")
     if others:
-        goals.append(f"- not counted above (not among the pipeline's logs): {', '.join(others)}.")
+        tallies.append(f"- not counted above (not among the pipeline's logs): {', '.join(others)}.")
     if not published:
-        goals.append("- published figures: none given (`--published`; make: `PUBLISHED=`).")
-    return lines, goals
+        tallies.append("- published figures: none given (`--published`; make: `PUBLISHED=`).")
+    return lines, tallies
 
 
 def lambda_text(choice: dict | None) -> str:
@@ -383,7 +382,7 @@ def hand_written(page: Path) -> str:
 
 def page_text(kept: dict, page: Path, record: Path | None, peers: dict, published: bool) -> str:
     runs, commands, settings = kept["runs"], kept["commands"], kept["settings"]
-    table, goals = main_table(runs, peers, kept.get("pipeline", []), published)
+    table, tallies = main_table(runs, peers, kept.get("pipeline", []), published)
     choices, counts = choice_table(runs)
     costs, cost = cost_table(runs, commands, settings)
     name = page.as_posix()
@@ -415,7 +414,7 @@ def page_text(kept: dict, page: Path, record: Path | None, peers: dict, publishe
             "",
             *table,
             "",
-            *goals,
+            *tallies,
             "",
             hand_written(page),
             "## The configuration chosen on validation, per fold",
@@ -500,7 +499,7 @@ def main() -> None:
     parser.add_argument("--runs", type=Path, default=None, help="the record of runs to add to")
     parser.add_argument("--published", type=Path, default=None)
     parser.add_argument("--logs", default="", help="the logs this invocation ran")
-    parser.add_argument("--all", default="", help="the pipeline's logs, counted by the goals")
+    parser.add_argument("--all", default="", help="the pipeline's logs, named by the tally lines")
     parser.add_argument("--settings", default="", help="the settings it ran them with")
     parser.add_argument("--small", default="0", help="1: the SMALL run (its command says so)")
     parser.add_argument("--choose", type=Path, default=None, help="a fold's folder")
