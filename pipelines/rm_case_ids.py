@@ -7,8 +7,11 @@ XES_CASES: `tleaf read-log` of the log's XES, keeping its attributes; CSV_CASES:
 log` of the benchmark's preprocessed CSV (CaseID, ActivityID, CompleteTimestamp: the same cases
 with ids and activities renumbered, times to the second). A CSV case is matched to the XES case
 with the same number of events, the same minute and second of its first event and the same gaps
-between events, in whole seconds; the matches must be one to one and every CSV activity id must
-name one XES activity throughout, or nothing is written. A CSV case no XES case matches (where
+between events, in whole seconds. Cases that key leaves ambiguous (short cases starting in the
+same minute and second of different hours) are then told apart by their absolute start, shifted
+by the one time-zone offset the unambiguous matches agree on, and by their activities, named by
+those matches. The matches must be one to one and every CSV activity id must name one XES
+activity throughout, or nothing is written. A CSV case no XES case matches (where
 the benchmark's preprocessing dropped events) is kept as the CSV has it, its activities named,
 without attribute values: the cases, and so the folds, are the benchmark's. Prints the counts.
 """
@@ -33,6 +36,11 @@ def key(case: Case) -> tuple:
     return (len(case), seconds[0] % 3600, gaps)
 
 
+def start(case: Case) -> int:
+    """The case's first event, in whole seconds since the epoch."""
+    return int(case.timestamps[0].timestamp())
+
+
 def renamed(xes_path: Path, csv_path: Path) -> tuple[list[Case], dict, Counter]:
     """The CSV's cases, each the XES case it matches (under the CSV's id), or its own events
     with the XES activity names; the XES activity -> atom map; the counts."""
@@ -55,6 +63,27 @@ def renamed(xes_path: Path, csv_path: Path) -> tuple[list[Case], dict, Counter]:
         sys.exit(f"error: CSV activity {clash[0]!r} matches XES activities {dict(names[clash[0]])}")
     name = {a: next(iter(n)) for a, n in names.items()}
     counts: Counter = Counter(xes=len(xes.cases), csv=len(csv.cases), matched=len(matched))
+    csv_case = {c.case_id: c for c in csv.cases}
+    offsets = {start(csv_case[i]) - start(x) for i, x in matched.items()}
+    if len(offsets) == 1:  # one time-zone shift: the absolute start tells the rest apart
+        (offset,) = offsets
+        taken = {x.case_id for x in matched.values()}
+        by_start: dict[tuple, list[Case]] = defaultdict(list)
+        for x in xes.cases:
+            if x.case_id not in taken:
+                by_start[(key(x), start(x) + offset, x.activities)].append(x)
+        rest = [c for c in csv.cases if c.case_id not in matched]
+        if all(a in name for c in rest for a in c.activities):
+            refined = {
+                c.case_id: (key(c), start(c), tuple(name[a] for a in c.activities)) for c in rest
+            }
+            claims = Counter(refined.values())
+            for c in rest:
+                k = refined[c.case_id]
+                if len(by_start.get(k, ())) == 1 and claims[k] == 1:
+                    matched[c.case_id] = by_start[k][0]
+                    counts["matched by their start"] += 1
+        counts["matched"] = len(matched)
     out = []
     for c in csv.cases:
         if c.case_id in matched:

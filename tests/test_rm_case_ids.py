@@ -97,3 +97,36 @@ def test_an_activity_id_naming_two_activities_writes_nothing(tmp_path):
     result = _match(tmp_path, own, bench)
     assert result.returncode != 0 and "matches XES activities" in result.stderr
     assert not (tmp_path / "out.parquet").exists()
+
+
+def test_cases_alike_but_for_their_hour_are_told_apart_by_their_start(tmp_path):
+    own = _read(
+        tmp_path,
+        "own",
+        [
+            "case:concept:name,concept:name,time:timestamp,org:resource",
+            "A,open,2020-01-01T10:00:00+02:00,ann",
+            "A,close,2020-01-01T10:05:00+02:00,bob",
+            "C,open,2020-01-01T09:30:15+02:00,cid",  # C and D: one event, same minute and second
+            "D,open,2020-01-01T11:30:15+02:00,dan",
+        ],
+        "--attributes",
+        "org:resource",
+    )
+    bench = _read(
+        tmp_path,
+        "bench",
+        [
+            "CaseID,ActivityID,CompleteTimestamp",
+            "1,0,2020-01-01 08:00:00",
+            "1,1,2020-01-01 08:05:00",
+            "2,0,2020-01-01 09:30:15",
+            "3,0,2020-01-01 07:30:15",
+        ],
+    )
+    result = _match(tmp_path, own, bench)
+    assert result.returncode == 0, result.stderr
+    assert "matched 3" in result.stdout and "matched by their start 2" in result.stdout
+    cases = {c.case_id: c for c in read_cases(tmp_path / "out.parquet").cases}
+    assert cases["2"].attributes["org:resource"] == ("dan",)
+    assert cases["3"].attributes["org:resource"] == ("cid",)
