@@ -55,11 +55,12 @@ def choose(fold: Path, runs: tuple[str, ...] = MODELS) -> str:
 
 
 def flags(run: Path) -> str:
-    """train-task flags for a run's model and the settings its grid chose."""
+    """train-task flags for a run's model and the settings its grid chose (the model once, when
+    the grid chose it too)."""
     settings = json.loads((run / "config.json").read_text())["settings"]
     fields = [part.split("=")[0] for part in (settings.get("grid") or "").split()]
     out = ["--model", str(settings["model"])]
-    for name in dict.fromkeys([*fields, *ALWAYS]):
+    for name in dict.fromkeys(f for f in [*fields, *ALWAYS] if f != "model"):
         out += [f"--{name.replace('_', '-')}", str(settings[name])]
     return " ".join(out)
 

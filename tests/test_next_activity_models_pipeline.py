@@ -131,8 +131,9 @@ def test_a_missing_input_stops_it_before_anything_runs(tmp_path: Path) -> None:
 def test_flags_rebuild_a_grid_chosen_model(tmp_path: Path) -> None:
     run = tmp_path / "run"
     run.mkdir()
-    settings = {"model": "transformer", "grid": "hidden=36,64 dropout=0.1,0.2", "hidden": 36,
-                "layers": 1, "lr": 0.002, "dropout": 0.1, "batch_size": 32}  # fmt: skip
+    grid = "model=lstm,transformer hidden=36,64 dropout=0.1,0.2"  # the model among the fields
+    settings = {"model": "transformer", "grid": grid, "hidden": 36, "layers": 1, "lr": 0.002,
+                "dropout": 0.1, "batch_size": 32}  # fmt: skip
     (run / "config.json").write_text(json.dumps({"settings": settings}))
     done = subprocess.run([sys.executable, str(REPORT), "--flags", str(run)],
                           capture_output=True, text=True)  # fmt: skip
