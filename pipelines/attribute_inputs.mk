@@ -83,12 +83,8 @@ page := $(or $(PAGE),$(OUT)/attribute_inputs.md)
 
 needed := $(foreach l,$(LOGS),$(call log_xes,$(l)) $(if $(log_csv),$(call log_csv,$(l)))) \
     $(if $(PUBLISHED),$(PUBLISHED)/accuracy_raw_results.csv)
-missing := $(filter-out $(wildcard $(needed)),$(needed))
-ifneq ($(filter-out clean,$(or $(MAKECMDGOALS),all)),)
-ifneq ($(missing),)
-$(error missing input: $(firstword $(missing)) (docs/event_logs.md, "Data for the published comparisons"))
-endif
-endif
+source := docs/event_logs.md, "Data for the published comparisons"
+include $(dir $(lastword $(MAKEFILE_LIST)))inputs.mk
 
 UNITS := $(foreach l,$(LOGS),$(foreach k,$(FOLDS),$(OUT)/$(l)/fold$(k)))
 EVALS := $(foreach u,$(UNITS),$(foreach v,none inputs knowledge,$(u)/eval-$(v)/metrics.json))

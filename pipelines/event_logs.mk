@@ -89,12 +89,8 @@ needed := $(foreach l,$(RM_LOGS),$(call rm_csv,$(l))) $(foreach l,$(DF_LOGS),$(c
 ifneq ($(filter all $(page),$(or $(MAKECMDGOALS),all)),)
 needed += $(if $(PUBLISHED),$(PUBLISHED)/accuracy_raw_results.csv $(PUBLISHED)/apriori_suffix_dl.csv)
 endif
-missing := $(filter-out $(wildcard $(needed)),$(needed))
-ifneq ($(filter-out clean,$(or $(MAKECMDGOALS),all)),)
-ifneq ($(missing),)
-$(error missing input: $(firstword $(missing))$(if $(word 2,$(missing)), and $(words $(wordlist 2,999,$(missing))) more) (docs/event_logs.md, "Data for the published comparisons"$(if $(filter $(PUBLISHED)/%,$(missing)),; PUBLISHED= runs without the peers' figures)))
-endif
-endif
+source := docs/event_logs.md, "Data for the published comparisons"
+include $(dir $(lastword $(MAKEFILE_LIST)))inputs.mk
 
 # Di Francescomarino et al.'s prefix lengths per log (formulas.tsv: from, to exclusive)
 PREFIXES_helpdesk := 2-5

@@ -71,12 +71,8 @@ endif
 BATCH ?= 32
 
 needed := $(foreach l,$(LOGS),$(call log_csv,$(l)))
-missing := $(filter-out $(wildcard $(needed)),$(needed))
-ifneq ($(filter-out clean,$(or $(MAKECMDGOALS),all)),)
-ifneq ($(missing),)
-$(error missing input: $(firstword $(missing)) (docs/event_logs.md, "Data for the published comparisons"))
-endif
-endif
+source := docs/event_logs.md, "Data for the published comparisons"
+include $(dir $(lastword $(MAKEFILE_LIST)))inputs.mk
 
 # a share in % as the fraction split-cases reads; the seeds, epochs and patience of a share
 fraction = $(shell awk 'BEGIN { printf "%g", $(1) / 100 }')

@@ -78,12 +78,8 @@ DECL := $(DATA)/test_all_85-100.decl
 LOGS := $(foreach n,$(NOISES),$(call train_log,$(n))) $(TEST_LOG)
 
 needed := $(LOGS) $(DECL) $(PUBLISHED)
-missing := $(filter-out $(wildcard $(needed)),$(needed))
-ifneq ($(filter-out clean,$(or $(MAKECMDGOALS),all)),)
-ifneq ($(missing),)
-$(error missing input: $(missing)$(if $(filter $(PUBLISHED),$(missing)), (PUBLISHED= runs without their figures)))
-endif
-endif
+source := examples/knowledge-protocols/mezini-bpic13-closed/, docs/results/suffix_knowledge.md
+include $(dir $(lastword $(MAKEFILE_LIST)))inputs.mk
 
 # each seed over every noise level, then the next seed: a run cut short has every level
 evals_of = $(foreach x,$(grid),$(1)/eval-exact-$(x)/metrics.json) \

@@ -47,10 +47,8 @@ TRAIN_LOG := $(DATA)/helpdesk_train.xes.gz
 TEST_LOG := $(DATA)/helpdesk_test.xes.gz
 BK := $(DATA)/BK_helpdesk.decl
 needed := $(TRAIN_LOG) $(TEST_LOG) $(BK)
-missing := $(filter-out $(wildcard $(needed)),$(needed))
-ifneq ($(missing),)
-$(error missing input: $(firstword $(missing)) (docs/results/suffix_knowledge.md says where from))
-endif
+source := docs/results/suffix_knowledge.md says where from
+include $(dir $(lastword $(MAKEFILE_LIST)))inputs.mk
 
 MODEL_transformer := --model transformer --hidden 36 --layers 1 --heads 4
 MODEL_lstm := --model lstm --hidden 100 --layers 2

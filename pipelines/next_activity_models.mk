@@ -98,12 +98,8 @@ needed := $(foreach l,$(LOGS),$(call log_csv,$(l)))
 ifneq ($(filter all $(page),$(or $(MAKECMDGOALS),all)),)
 needed += $(if $(PUBLISHED),$(PUBLISHED)/accuracy_raw_results.csv)
 endif
-missing := $(filter-out $(wildcard $(needed)),$(needed))
-ifneq ($(filter-out clean,$(or $(MAKECMDGOALS),all)),)
-ifneq ($(missing),)
-$(error missing input: $(firstword $(missing))$(if $(word 2,$(missing)), and $(words $(wordlist 2,999,$(missing))) more) (docs/event_logs.md, "Data for the published comparisons"$(if $(filter $(PUBLISHED)/%,$(missing)),; PUBLISHED= runs without the peers' figures)))
-endif
-endif
+source := docs/event_logs.md, "Data for the published comparisons"
+include $(dir $(lastword $(MAKEFILE_LIST)))inputs.mk
 
 MODELS := prefix-table lstm transformer knowledge
 UNITS := $(foreach l,$(LOGS),$(foreach k,$(FOLDS),$(OUT)/$(l)/fold$(k)))
