@@ -72,7 +72,7 @@ from tleaf_cli.tasks.cooking.pools import expert_returns, held_out_pool
 
 # The demos (tleaf gen-demos --episodes 4 --seed 0) and where curves go: $PEER_DEMOS, $PEER_OUT.
 DEMOS = Path(os.environ.get("PEER_DEMOS", "out/cooking-v2/demos.parquet"))
-OUT = Path(os.environ.get("PEER_OUT", "out/issue18/peer"))
+OUT = Path(os.environ.get("PEER_OUT", "out/cooking_imitation_peer"))
 
 SETTINGS = {
     "n_envs": 4,
