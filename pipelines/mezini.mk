@@ -1,15 +1,17 @@
 # Mezini et al.'s protocol (Neuro-Symbolic Predictive Process Monitoring, Information Systems
-# 2026; github axelmezini/nesy-suffix-prediction-dfa) on their REAL data, BPI 2013 closed
-# problems as they prepared it (examples/knowledge-protocols/mezini-bpic13-closed/, MIT): the
+# 2026; github axelmezini/nesy-suffix-prediction-dfa) on their REAL data: by default BPI 2013
+# closed problems as they prepared it (examples/knowledge-protocols/mezini-bpic13-closed/, MIT);
+# their other logs (sepsis, BPIC_2020_travel) in the same layout with DATA= alone (below). The
 # first 80 % of the cases by time train, the last 20 % test; both keep only the cases that
 # satisfy their Declare model; the training log at 0 (clean), 10, 20, 30 and 40 % of its events
-# relabelled, the test log clean. Suffixes from prefixes of 1-3 events, greedy and sampled at
-# temperature 0.7, scored by their trace similarity and the share satisfying the model.
+# relabelled, the test log clean. Suffixes from prefixes of $(PREFIXES) events, greedy and
+# sampled at temperature 0.7, scored by their trace similarity and the share satisfying the model.
 # Per noise level:
 #   join (the training log, then the test log, as one XES: train-task reads one cases artifact
 #   with train, val and test; the last VAL of the training cases by time are validation, as
 #   noisy as the rest) -> read-log --split-order file
-# and per noise level and seed:
+# then the run's model and record (pipelines/mezini_data.py kb, below), and per noise level and
+# seed:
 #   train-task next-activity --logic-loss exact --lambdas $(LAMBDAS) (λ chosen on val
 #   next-activity accuracy among those and 0; the λ-0 candidate IS the reference: the same
 #   seed, no logic loss) -> the same with the tleaf loss (q trained once on the model's rules;
@@ -17,22 +19,37 @@
 #   the report gives the λ chosen on val and each λ of the grid) with the rules: argmax,
 #   beam, sample, and each again with the rules as a hard filter -> the report
 #   ($(OUT)/mezini.md, pipelines/mezini_report.py) beside their per-run figures (PUBLISHED).
-#   make -f pipelines/mezini.mk [OUT=out/mezini] [SMALL=1] [NOISES="0 10 20 30 40"]
+#   make -f pipelines/mezini.mk [DATA=DIR] [OUT=out/mezini] [SMALL=1] [NOISES="0 10 20 30 40"]
 #       [SEEDS="0 1 2 3 4"] [LOSSES="exact tleaf"] [LAMBDAS=0.1,0.3,1,3,10]
-#       [TLEAF_LAMBDAS=0.001,0.01,0.1] [PUBLISHED=CSV | PUBLISHED=] [-j1]
+#       [TLEAF_LAMBDAS=0.001,0.01,0.1] [PREFIXES=1-3] [MAX_SUFFIX=18]
+#       [PUBLISHED=CSV [DATASET=NAME] | PUBLISHED=] [-j1]
+# DATA: a folder holding train_80_all.xes(.gz), train_80_all_0Nn.xes(.gz) for each noise level
+# N0 % of NOISES (01n ... 04n), test_20_all.xes(.gz) and test_all_85-100.decl, the names of their
+# repository's data/<log>/log/ and data/<log>/model/ (copy those files into one folder; gzipped
+# or not), and optionally their per-run figures as paper_results*.csv (their
+# results/paper_results.csv holds every log: DATASET= names the log's rows, its `dataset`
+# column, e.g. sepsis). Without a CSV the report has no "their" columns.
+# Taken from the data, each overridable, each written with where it came from in
+# $(OUT)/record.json (which the report shows):
+#   PREFIXES   their runner's prefix lengths: floor(m / 2) and the next two, m the median
+#              length of the training cases (BPI 2013 closed: m = 2, 1-3); computed by
+#              pipelines/mezini_data.py settings when make reads this file;
+#   MAX_SUFFIX the test log's longest case: their sampler stops there (BPI 2013 closed: 18);
+#   the model  $(OUT)/kb.decl is their .decl without the constraints naming an activity that no
+#              case of a noise level's joined logs has (and those activities' declarations),
+#              each left out constraint in the record with why, and whether it holds on every
+#              case anyway (BPI 2013 closed: the two Not Co-Existence on Accepted_Assigned, which
+#              do).
 # The model: their LSTM's size and optimiser where tleaf has the option (2 layers of 100,
 # no dropout, Adam lr 5e-4, batches of 64); tleaf's LSTM also reads its time features, and
 # stops on val accuracy (at most 500 epochs, patience 50) where theirs runs 500-2000 epochs on
-# the training loss. MAX_SUFFIX 18: their sampler stops at the test log's longest case (18
-# events). The Declare model's two Not Co-Existence constraints on Accepted_Assigned, an
-# activity no case of these logs has, are left out of $(OUT)/kb.decl (checked: they hold on
-# every case over the logs' activities, and train-task refuses a rule naming an activity
-# outside the log's vocabulary).
-# Cost (one core, OMP_NUM_THREADS=1): about 2 minutes per noise level and seed, 25 of them
-# (docs/results/suffix_knowledge.md); SMALL=1 runs the chain on 2 noise levels, 1 seed, 2
-# epochs in about a minute. Each tleaf call's wall and CPU seconds go to $(OUT)/times.tsv
-# (pipelines/timed-tleaf). make tracks files, not settings: a new OUT when changing one.
-# λ values are written as %g prints them (0.1, 1, 10): train-task names its candidates so.
+# the training loss.
+# Cost (one core, OMP_NUM_THREADS=1): about 2 minutes per noise level and seed on BPI 2013
+# closed, 25 of them (docs/results/suffix_knowledge.md); SMALL=1 runs the chain on 2 noise
+# levels, 1 seed, 2 epochs in about a minute. Each tleaf call's wall and CPU seconds go to
+# $(OUT)/times.tsv (pipelines/timed-tleaf). make tracks files, not settings: a new OUT when
+# changing one. λ values are written as %g prints them (0.1, 1, 10): train-task names its
+# candidates so.
 TLEAF ?= tleaf
 PYTHON ?= python
 SMALL ?= 0
@@ -42,10 +59,11 @@ LAMBDAS ?= 0.1,0.3,1,3,10
 # the tleaf loss's candidates (q's distances are in the hundreds; its folder recommends ~0.002)
 TLEAF_LAMBDAS ?= 0.001,0.01,0.1
 VAL ?= 0.2
-PREFIXES ?= 1-3
 TEMPERATURE ?= 0.7
-MAX_SUFFIX ?= 18
-PUBLISHED ?= $(DATA)/paper_results_bpic13_closed.csv
+# their per-run figures, where DATA has them (BPI 2013 closed: paper_results_bpic13_closed.csv)
+PUBLISHED ?= $(firstword $(wildcard $(DATA)/paper_results*.csv))
+# the rows of PUBLISHED to read (its `dataset` column): needed where it holds several logs
+DATASET ?=
 export OMP_NUM_THREADS ?= 1
 
 ifeq ($(SMALL),1)
@@ -71,15 +89,31 @@ endif
 comma := ,
 grid = 0 $(subst $(comma), ,$(LAMBDAS))
 tleaf_grid = $(subst $(comma), ,$(TLEAF_LAMBDAS))
+# a log of DATA, gzipped where that file is there, else as their repository has it (.xes)
+xes = $(firstword $(wildcard $(DATA)/$(1).xes.gz $(DATA)/$(1).xes) $(DATA)/$(1).xes.gz)
 # the training log of each noise level (theirs: _01n ... _04n), the test log, the model
-train_log = $(DATA)/train_80_all$(if $(filter 0,$(1)),,_0$(shell echo $$(($(1) / 10)))n).xes.gz
-TEST_LOG := $(DATA)/test_20_all.xes.gz
+train_log = $(call xes,train_80_all$(if $(filter 0,$(1)),,_0$(shell echo $$(($(1) / 10)))n))
+TEST_LOG := $(call xes,test_20_all)
 DECL := $(DATA)/test_all_85-100.decl
-LOGS := $(foreach n,$(NOISES),$(call train_log,$(n))) $(TEST_LOG)
+TRAIN_LOGS := $(foreach n,$(NOISES),$(call train_log,$(n)))
+LOGS := $(TRAIN_LOGS) $(TEST_LOG)
 
 needed := $(LOGS) $(DECL) $(PUBLISHED)
 source := examples/knowledge-protocols/mezini-bpic13-closed/, docs/results/suffix_knowledge.md
 include $(dir $(lastword $(MAKEFILE_LIST)))inputs.mk
+
+# PREFIXES and MAX_SUFFIX from the logs, as their runner takes them, unless given
+ifneq ($(filter-out clean,$(or $(MAKECMDGOALS),all)),)
+ifneq ($(filter undefined,$(origin PREFIXES) $(origin MAX_SUFFIX)),)
+derived := $(shell $(PYTHON) pipelines/mezini_data.py settings $(TRAIN_LOGS) --test $(TEST_LOG) 2>&1)
+ifneq ($(.SHELLSTATUS),0)
+$(error PREFIXES and MAX_SUFFIX from the logs: $(PYTHON) pipelines/mezini_data.py settings \
+    failed: $(derived) (set PYTHON=, or PREFIXES= and MAX_SUFFIX=))
+endif
+PREFIXES ?= $(word 1,$(derived))
+MAX_SUFFIX ?= $(word 2,$(derived))
+endif
+endif
 
 # each seed over every noise level, then the next seed: a run cut short has every level
 evals_of = $(foreach x,$(grid),$(1)/eval-exact-$(x)/metrics.json) \
@@ -92,11 +126,6 @@ all: $(OUT)/mezini.md
 
 timed = TLEAF_BIN=$(TLEAF) TLEAF_TIMES=$(abspath $(OUT))/times.tsv pipelines/timed-tleaf
 
-$(OUT)/kb.decl: $(DECL) $(LOGS)
-	@mkdir -p $(@D)
-	@if zcat $(LOGS) | grep -q 'value="Accepted_Assigned"'; then \
-	    echo "$@: a log has Accepted_Assigned: its constraints are not vacuous here" >&2; exit 1; fi
-	grep -v 'Accepted_Assigned' $< > $@
 
 # q for the tleaf loss, on the model's rules alone (as pipelines/event_logs.mk builds it)
 $(OUT)/q/rules.parquet: $(OUT)/kb.decl
@@ -118,6 +147,12 @@ $(OUT)/n$(1)/cases.parquet: $(OUT)/n$(1)/joined.xes
 	$(TLEAF) read-log $$< -o $$@ --split $$$$(cat $(OUT)/n$(1)/joined.split) --split-order file -q
 endef
 $(foreach n,$(NOISES),$(eval $(call NOISE,$(n))))
+
+# their model without the constraints over activities the logs lack; the run's record beside it
+CASES := $(foreach n,$(NOISES),$(OUT)/n$(n)/cases.parquet)
+$(OUT)/kb.decl: $(DECL) $(CASES) | pipelines/mezini_data.py
+	$(PYTHON) pipelines/mezini_data.py kb $< $(CASES) -o $@ --record $(OUT)/record.json \
+	    --train $(TRAIN_LOGS) --test $(TEST_LOG) --prefixes $(PREFIXES) --max-suffix $(MAX_SUFFIX)
 
 define UNIT
 $(1)/exact/metrics.json: $(2)/cases.parquet $(OUT)/kb.decl
@@ -146,7 +181,7 @@ $(foreach s,$(SEEDS),$(foreach n,$(NOISES),$(foreach x,$(tleaf_grid),\
 
 $(OUT)/mezini.md: $(EVALS) pipelines/mezini_report.py
 	$(PYTHON) pipelines/mezini_report.py report $(OUT) $(if $(PUBLISHED),--published $(PUBLISHED)) \
-	    --settings 'LAMBDAS=$(LAMBDAS) TLEAF_LAMBDAS=$(TLEAF_LAMBDAS) LOSSES="$(LOSSES)" TASK="$(TASK)" MAX_SUFFIX=$(MAX_SUFFIX)' \
+	    $(if $(DATASET),--dataset $(DATASET) )--settings 'LAMBDAS=$(LAMBDAS) TLEAF_LAMBDAS=$(TLEAF_LAMBDAS) LOSSES="$(LOSSES)" TASK="$(TASK)" PREFIXES=$(PREFIXES) MAX_SUFFIX=$(MAX_SUFFIX)' \
 	    -o $@
 	@echo "$@: written"
 
