@@ -121,24 +121,50 @@ def sequences(cases: Sequence[Path]) -> set[tuple[str, ...]]:
     return {tuple(case.activities) for p in cases for case in read_cases(p).cases}
 
 
-def holds_everywhere(constraint, names: Sequence[str], traces: set[tuple[str, ...]]) -> int | None:
+def holds_everywhere(
+    constraint, text: str, names: Sequence[str], traces: set[tuple[str, ...]]
+) -> int | None:
     """How many of `traces` break the constraint's formula, every activity of `names` an atom
     (an activity no trace has never happens); None for a constraint with a condition on an
-    attribute (the traces carry activities only)."""
-    if constraint.activation_formula is not None or constraint.target_formula is not None:
+    attribute (`text`, its line, has one: the traces carry activities only) or one whose
+    formula tleaf does not give."""
+    if any(field.strip() for field in text.split("|")[1:]):
         return None
     from tleaf_cli.logic.checker import check
     from tleaf_cli.logic.compile import compile_formula
 
     atoms = {a: f"act{i}" for i, a in enumerate(names)}
-    dfa = compile_formula(constraint.formula(atoms), "one-hot")
+    try:
+        dfa = compile_formula(constraint.formula(atoms), "one-hot")
+    except Exception:  # the reader's formula API, not its reading, is what this leans on
+        return None
     ordered = sorted(traces)
     accepted = check(dfa, [[{atoms[a]} for a in t] for t in ordered if t])
     return int((~accepted).sum())
 
 
-def constraint_text(lines: list[str], line: int) -> str:
-    return lines[line - 1].split("|")[0].strip()
+DECLARATION = re.compile(r"^(activity|bind)\s")
+CONSTRAINT = re.compile(r"^[A-Za-z][\w -]*\[.*\]")
+
+
+def constraint_lines(lines: list[str], constraints) -> list[int]:
+    """The line number (from 1) of each constraint of the model read from `lines`: the
+    constraint lines in file order, each checked to name the constraint's activities."""
+    found = [
+        number
+        for number, text in enumerate(lines, start=1)
+        if CONSTRAINT.match(text.strip()) and not DECLARATION.match(text.strip())
+    ]
+    if len(found) != len(constraints):
+        raise SystemExit(
+            f"{len(constraints)} constraints read, {len(found)} constraint lines found: "
+            "a line this script does not recognise"
+        )
+    for number, c in zip(found, constraints, strict=True):
+        head = lines[number - 1].split("|")[0]
+        if not all(a in head for a in c.activities):
+            raise SystemExit(f"line {number} does not name {', '.join(c.activities)}")
+    return found
 
 
 def kb(model_path: Path, cases: Sequence[Path], out: Path) -> dict:
@@ -155,15 +181,16 @@ def kb(model_path: Path, cases: Sequence[Path], out: Path) -> dict:
         set(model.activities) | anywhere | {a for c in model.constraints for a in c.activities}
     )
     traces = sequences(cases)
+    numbers = constraint_lines(lines, model.constraints)
     dropped, drop_lines = [], set()
-    for c in model.constraints:
+    for number, c in zip(numbers, model.constraints, strict=True):
         absent = [a for a in dict.fromkeys(c.activities) if a not in everywhere]
         if not absent:
             continue
-        drop_lines.add(c.line)
+        drop_lines.add(number)
         lacking = sorted({p for a in absent for p, acts in present.items() if a not in acts})
         in_none = all(a not in anywhere for a in absent)
-        breaks = holds_everywhere(c, names, traces)
+        breaks = holds_everywhere(c, lines[number - 1], names, traces)
         why = (
             f"names {', '.join(absent)}, which "
             + (
@@ -173,7 +200,7 @@ def kb(model_path: Path, cases: Sequence[Path], out: Path) -> dict:
             )
             + ": "
             + (
-                "not checked on the cases (a condition on an attribute)"
+                "not checked on the cases (a condition on an attribute, or no formula)"
                 if breaks is None
                 else f"it holds on every case anyway ({len(traces)} distinct traces), the "
                 "activity never happening"
@@ -184,8 +211,8 @@ def kb(model_path: Path, cases: Sequence[Path], out: Path) -> dict:
         )
         dropped.append(
             {
-                "line": c.line,
-                "constraint": constraint_text(lines, c.line),
+                "line": number,
+                "constraint": lines[number - 1].split("|")[0].strip(),
                 "absent": absent,
                 "lacking": lacking,
                 "breaks": breaks,
@@ -193,7 +220,12 @@ def kb(model_path: Path, cases: Sequence[Path], out: Path) -> dict:
             }
         )
     gone = {a for d in dropped for a in d["absent"]}
-    still = {a for c in model.constraints if c.line not in drop_lines for a in c.activities}
+    still = {
+        a
+        for number, c in zip(numbers, model.constraints, strict=True)
+        if number not in drop_lines
+        for a in c.activities
+    }
     unused = gone - still  # their declarations go with their constraints
     kept_lines = []
     for number, text in enumerate(lines, start=1):

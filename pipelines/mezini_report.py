@@ -1,4 +1,4 @@
-"""Mezini et al.'s protocol on BPI 2013 closed problems: the joined logs and the report.
+"""Mezini et al.'s protocol on their logs (BPI 2013 closed, ...): the joined logs and the report.
 
 Two commands (pipelines/mezini.mk runs both):
 
@@ -10,13 +10,16 @@ Two commands (pipelines/mezini.mk runs both):
         cases the run trained on, so the noisy training log and the clean test log are read as
         one file.
 
-    python pipelines/mezini_report.py report OUT [--published CSV] -o SECTION.md
-        The markdown section: per noise level and prefix length, the mean ± sd over the seeds
+    python pipelines/mezini_report.py report OUT [--published CSV [--dataset NAME]] -o SECTION.md
+        The markdown section: the run's record (OUT/record.json, pipelines/mezini_data.py: the
+        prefix lengths, the longest suffix and the constraints left out of the model, each with
+        why); per noise level and prefix length (whichever ran), the mean ± sd over the seeds
         of Mezini et al.'s trace similarity (eval's trace_dl_similarity) and the share of
         predicted cases satisfying the Declare model, for tleaf's reference (λ 0) and knowledge
         variants, greedy and sampled, with and without the rules as a hard filter, beside
-        their baseline / LLL / GLL means from their per-run CSV; the per-seed win counts; the
-        λ chosen on validation and every λ of the grid.
+        their baseline / LLL / GLL means from their per-run CSV (its rows of --dataset where it
+        holds several logs; "–" where it has no figure for a noise level or prefix length); the
+        per-seed win counts; the λ chosen on validation and every λ of the grid.
 
 OUT's layout (pipelines/mezini.mk): OUT/n<noise>/s<seed>/<loss>/metrics.json (a train-task
 run with --lambdas: its lambda-choice/lambda-<λ> candidates) and
@@ -84,7 +87,6 @@ def join(train: Path, test: Path, out: Path, val: float) -> tuple[int, int, int]
 
 # ---------------------------------------------------------------------------- report
 
-PREFIXES = ("1", "2", "3")
 GREEDY = ("argmax", "argmax_rules")  # eval's ways: plain, and the rules as a hard filter
 SAMPLED = ("sample", "sample_rules")
 THEIRS = ("baseline", "LLL", "GLL")
@@ -130,6 +132,33 @@ def collect(out: Path) -> dict:
             if unit["evals"]:
                 found.setdefault(int(m.group(1)), {})[int(s.group(1))] = unit
     return found
+
+
+def prefixes_in(runs_by_noise: dict) -> list[str]:
+    """The prefix lengths the evaluations scored suffixes at, shortest first."""
+    found = {
+        p
+        for runs in runs_by_noise.values()
+        for unit in runs.values()
+        for ev in unit["evals"].values()
+        for p in ev.get("suffix", {})
+    }
+    return sorted(found, key=int)
+
+
+def short_prefixes(runs_by_noise: dict, prefixes: Sequence[str]) -> list[str]:
+    """The prefix lengths some test case is shorter than (eval scores fewer cases there than
+    it scores in all): where their count and eval's differ."""
+    out = []
+    for p in prefixes:
+        for runs in runs_by_noise.values():
+            for unit in runs.values():
+                for ev in unit["evals"].values():
+                    cases = ev.get("suffix", {}).get(p, {}).get("cases")
+                    total = ev.get("scored_cases")
+                    if cases is not None and total and cases < total and p not in out:
+                        out.append(p)
+    return out
 
 
 def variant_eval(unit: dict, variant: str) -> dict | None:
@@ -208,8 +237,9 @@ def wins(runs: dict, variant: str, way: str, prefix: str) -> tuple[int, int]:
 # ---- their per-run CSV
 
 
-def read_published(path: Path) -> list[dict]:
-    """Their rows (the columns of results/paper_results.csv the report reads)."""
+def read_published(path: Path, dataset: str | None = None) -> list[dict]:
+    """Their rows (the columns of results/paper_results.csv the report reads): those of
+    `dataset` (their `dataset` column), which must be given where the file holds several."""
     with open(path, newline="") as f:
         rows = list(csv.DictReader(f))
     need = {
@@ -224,6 +254,16 @@ def read_published(path: Path) -> list[dict]:
     }
     if not rows or not need <= set(rows[0]):
         raise SystemExit(f"{path}: no rows, or missing columns {sorted(need - set(rows[0] or {}))}")
+    logs = sorted({r.get("dataset", "") for r in rows})
+    if dataset is not None:
+        rows = [r for r in rows if r.get("dataset") == dataset]
+        if not rows:
+            raise SystemExit(f"{path}: no rows of dataset {dataset!r} (it has {', '.join(logs)})")
+    elif len(logs) > 1:
+        raise SystemExit(
+            f"{path}: rows of {len(logs)} logs ({', '.join(logs)}): say which (--dataset, "
+            "DATASET= in pipelines/mezini.mk)"
+        )
     return rows
 
 
@@ -278,14 +318,14 @@ def knowledge_variants(losses: Sequence[str], ways: Sequence[str]) -> list[tuple
     return out
 
 
-def table(runs_by_noise, variants, means, strategy, noises, their_count=False) -> list[str]:
+def table(runs_by_noise, variants, means, strategy, noises, prefixes, their_count=False):
     """Rows noise × prefix; columns tleaf's variants (label, variant, way), then theirs."""
     head = ["noise", "prefix", *[v[0] for v in variants]]
     head += [f"their {lo}" for lo in THEIRS] if means else []
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for noise in noises:
         runs = runs_by_noise.get(noise, {})
-        for prefix in PREFIXES if not their_count else ("3",):
+        for prefix in prefixes:
             row = [f"{noise} %", prefix]
             for _, variant, way in variants:
                 dl = values(runs, variant, prefix, way, their_count=their_count)
@@ -299,15 +339,19 @@ def table(runs_by_noise, variants, means, strategy, noises, their_count=False) -
     return lines
 
 
-def verdicts(runs_by_noise: dict, means: dict, losses: Sequence[str]) -> list[str]:
+def verdicts(
+    runs_by_noise: dict, means: dict, losses: Sequence[str], prefixes: Sequence[str]
+) -> list[str]:
     """The protocol's goals, per knowledge variant (greedy): wins over the reference in >= 4 of
-    5 seeds at prefixes 1 and 2 at 30 and 40 % noise; greedy compliance 100 % (sampling >= 95 %
-    for the same model sampled the same way); mean similarity at or above their LLL's (α 0.65)
-    at every noise level and prefix 1-3 (prefix 3 on their count)."""
+    5 seeds at the two shortest prefixes (BPI 2013 closed: 1 and 2) at 30 and 40 % noise;
+    greedy compliance 100 % (sampling >= 95 % for the same model sampled the same way); mean
+    similarity at or above their LLL's (α 0.65) at every noise level and prefix that ran (on
+    their count)."""
+    short = list(prefixes[:2])
     lines = [
-        "| variant (greedy) | wins ≥ 4 of 5 at 30 and 40 %, prefixes 1 and 2 | greedy "
-        "compliance 100 % at 30 and 40 % | sampled compliance ≥ 95 % | ≥ their LLL, every "
-        "noise level and prefix |",
+        "| variant (greedy) | wins ≥ 4 of 5 at 30 and 40 %, prefixes "
+        f"{' and '.join(short)} | greedy compliance 100 % at 30 and 40 % | sampled "
+        "compliance ≥ 95 % | ≥ their LLL, every noise level and prefix |",
         "|---|---|---|---|---|",
     ]
     for label, variant, way in knowledge_variants(losses, GREEDY):
@@ -315,16 +359,17 @@ def verdicts(runs_by_noise: dict, means: dict, losses: Sequence[str]) -> list[st
         win_cells, comply, sample_ok, above = [], True, True, []
         for noise in (30, 40):
             runs = runs_by_noise.get(noise, {})
-            for prefix in ("1", "2"):
+            for prefix in short:
                 w, n = wins(runs, variant, way, prefix)
                 win_cells.append((noise, prefix, w, n))
-            for prefix in PREFIXES:
+            for prefix in prefixes:
                 sat = values(runs, variant, prefix, way, "satisfying")
                 comply &= bool(sat) and min(sat) >= 1.0
                 sat_s = values(runs, variant, prefix, sampled_way, "satisfying")
                 sample_ok &= bool(sat_s) and statistics.fmean(sat_s) >= 0.95
-        for noise in sorted(n for n in runs_by_noise if (n, ALPHA, "LLL", "1", "greedy") in means):
-            for prefix in PREFIXES:
+        theirs_at = {(k[0], k[3]) for k in means if k[1:3] == (ALPHA, "LLL") and k[4] == "greedy"}
+        for noise in sorted(runs_by_noise):
+            for prefix in (p for p in prefixes if (noise, p) in theirs_at):
                 ours = mean_sd(values(runs_by_noise[noise], variant, prefix, way, their_count=True))
                 theirs = means.get((noise, ALPHA, "LLL", prefix, "greedy"))
                 if ours is not None and theirs is not None:
@@ -376,25 +421,81 @@ def costs(out: Path) -> str:
     )
 
 
-def section(out: Path, published: Path | None, settings: str = "", command: str = "") -> str:
+def record_lines(out: Path) -> list[str]:
+    """The run's record (OUT/record.json, pipelines/mezini_data.py kb) as markdown lines: the
+    prefix lengths and the longest suffix and where each came from, the constraints left out
+    of the model and why; none without a record."""
+    path = out / "record.json"
+    if not path.is_file():
+        return []
+    record = load_json(path)
+    lines = []
+    for key, label in (("prefixes", "Prefix lengths"), ("max_suffix", "Longest suffix")):
+        got = record.get(key)
+        if got:
+            data = (
+                "" if str(got["value"]) == str(got["data"]) else f"; the data gives {got['data']}"
+            )
+            lines.append(f"- {label} {got['value']}: {got['from']}{data}.")
+    kb = record.get("kb") or {}
+    if kb:
+        dropped = kb.get("dropped", [])
+        lines.append(
+            f"- The model: {kb.get('kept')} of the {kb.get('constraints')} constraints of "
+            f"`{kb.get('model')}`"
+            + (
+                "; left out:"
+                if dropped
+                else ", every one (each names only activities the logs have)."
+            )
+        )
+        for d in dropped:
+            lines.append(f"  - line {d['line']}, {d['constraint']}: {d['why']}.")
+    return lines
+
+
+def section(
+    out: Path,
+    published: Path | None,
+    settings: str = "",
+    command: str = "",
+    dataset: str | None = None,
+) -> str:
     runs_by_noise = collect(out)
     if not runs_by_noise:
         raise SystemExit(f"{out}: no evaluations (OUT/n<noise>/s<seed>/eval-*/metrics.json)")
     noises = sorted(runs_by_noise)
+    prefixes = prefixes_in(runs_by_noise)
+    if not prefixes:
+        raise SystemExit(f"{out}: its evaluations scored no suffixes (eval --prefix-lengths)")
+    short = prefixes[:2]
     losses = losses_in(runs_by_noise)
-    means = published_means(read_published(published)) if published else {}
+    means = published_means(read_published(published, dataset)) if published else {}
+    their_runs = max((n for _, _, n in means.values()), default=0)
     seeds = sorted({s for runs in runs_by_noise.values() for s in runs})
     lines: list[str] = []
     say = lines.append
     say(
-        f"Seeds {', '.join(map(str, seeds))}. A cell: the mean ± sd over the seeds of Mezini et "
-        "al.'s trace similarity (1 − DL / longer length over prefix + suffix + an end symbol; "
-        "eval next-activity's `trace_dl_similarity`), then the mean share of predicted cases "
-        "that satisfy the Declare model. λ 0: the reference (no logic loss); a loss's column: "
-        "its run with λ chosen on validation next-activity accuracy; `+ rules`: the same model "
-        "decoded with the rules as a hard filter. Theirs: the mean of their 15 runs at "
-        f"α {ALPHA:g}, similarity / satisfiability."
+        f"Seeds {', '.join(map(str, seeds))}; prefix lengths {', '.join(prefixes)}. A cell: the "
+        "mean ± sd over the seeds of Mezini et al.'s trace similarity (1 − DL / longer length "
+        "over prefix + suffix + an end symbol; eval next-activity's `trace_dl_similarity`), "
+        "then the mean share of predicted cases that satisfy the Declare model. λ 0: the "
+        "reference (no logic loss); a loss's column: its run with λ chosen on validation "
+        "next-activity accuracy; `+ rules`: the same model decoded with the rules as a hard "
+        "filter."
+        + (
+            f" Theirs: the mean of their {their_runs} runs at α {ALPHA:g}, similarity / "
+            "satisfiability (– where their figures have no such noise level or prefix length)."
+            if means
+            else ""
+        )
     )
+    record = record_lines(out)
+    if record:
+        say("")
+        say("**The run** (`record.json`):")
+        say("")
+        lines.extend(record)
     if settings:
         say("")
         say(f"Settings: {settings}.")
@@ -409,17 +510,23 @@ def section(out: Path, published: Path | None, settings: str = "", command: str 
         say("")
         say(f"**{title}:**")
         say("")
-        lines.extend(table(runs_by_noise, variants, means, strategy, noises))
-    say("")
-    say(
-        "**Prefix 3 as their code counts it** (trace similarity over all test cases: the "
-        "cases with fewer than 3 events score 1, their prefix holding the whole trace; above, "
-        "prefix 3 scores only the cases with at least 3 events), greedy, then sampled:"
-    )
-    for strategy, ways in (("greedy", GREEDY), ("temperature", SAMPLED)):
+        lines.extend(table(runs_by_noise, variants, means, strategy, noises, prefixes))
+    recount = short_prefixes(runs_by_noise, prefixes)
+    if recount:
+        shown = ", ".join(recount)
         say("")
-        variants = [("λ 0", "none", ways[0]), *knowledge_variants(losses, ways)]
-        lines.extend(table(runs_by_noise, variants, means, strategy, noises, their_count=True))
+        say(
+            f"**Prefix {shown} as their code counts it** (trace similarity over all test "
+            "cases: a case shorter than the prefix scores 1, its prefix holding the whole "
+            "trace; above, a prefix length scores only the cases at least that long), greedy, "
+            "then sampled:"
+        )
+        for strategy, ways in (("greedy", GREEDY), ("temperature", SAMPLED)):
+            say("")
+            variants = [("λ 0", "none", ways[0]), *knowledge_variants(losses, ways)]
+            lines.extend(
+                table(runs_by_noise, variants, means, strategy, noises, recount, their_count=True)
+            )
     say("")
     say(
         "**Seeds where a knowledge variant beats its own seed's reference** (λ 0, greedy argmax) "
@@ -431,7 +538,7 @@ def section(out: Path, published: Path | None, settings: str = "", command: str 
     say("| " + " | ".join(head) + " |")
     say("|" + "---|" * len(head))
     for noise in noises:
-        for prefix in ("1", "2"):
+        for prefix in short:
             row = [f"{noise} %", prefix]
             for _, variant, way in variants:
                 w, n = wins(runs_by_noise[noise], variant, way, prefix)
@@ -441,14 +548,14 @@ def section(out: Path, published: Path | None, settings: str = "", command: str 
         say("")
         say("**The goals**, per knowledge variant:")
         say("")
-        lines.extend(verdicts(runs_by_noise, means, losses))
+        lines.extend(verdicts(runs_by_noise, means, losses, prefixes))
     for lo in losses:
         grid = grid_of(runs_by_noise, lo)
         say("")
         say(
             f"**{lo}: the λ chosen on validation** (per seed) and every λ of the grid, "
-            "greedy without the rules, trace similarity at prefixes 1 / 2 (mean over the "
-            "seeds), and validation next-activity accuracy (mean):"
+            f"greedy without the rules, trace similarity at prefixes {' / '.join(short)} (mean "
+            "over the seeds), and validation next-activity accuracy (mean):"
         )
         say("")
         head = ["noise", "λ chosen", *[f"λ {lam}" for lam in grid]]
@@ -459,16 +566,16 @@ def section(out: Path, published: Path | None, settings: str = "", command: str 
             chosen = ", ".join(runs[s]["chosen"].get(lo, "–") for s in sorted(runs))
             row = [f"{noise} %", chosen]
             for lam in grid:
-                one = mean_sd(values(runs, f"{lo}@{lam}", "1", "argmax"))
-                two = mean_sd(values(runs, f"{lo}@{lam}", "2", "argmax"))
+                got = [mean_sd(values(runs, f"{lo}@{lam}", p, "argmax")) for p in short]
                 val = [runs[s]["val"].get(lo, {}).get(lam) for s in sorted(runs)]
                 val = [v for v in val if v is not None]
+                figures = " / ".join(f"{g[0]:.3f}" for g in got if g is not None)
                 row.append(
                     "–"
-                    if one is None or two is None
-                    else f"{one[0]:.3f} / {two[0]:.3f} (val {statistics.fmean(val):.3f})"
+                    if any(g is None for g in got)
+                    else f"{figures} (val {statistics.fmean(val):.3f})"
                     if val
-                    else f"{one[0]:.3f} / {two[0]:.3f}"
+                    else figures
                 )
             say("| " + " | ".join(row) + " |")
     spent = costs(out)
@@ -489,6 +596,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     r = sub.add_parser("report", help="the markdown section from OUT's evaluations")
     r.add_argument("out", type=Path)
     r.add_argument("--published", type=Path, help="their rows of paper_results.csv")
+    r.add_argument("--dataset", help="the log whose rows of --published to read (its `dataset`)")
     r.add_argument("-o", "--output", type=Path, help="the section (default: stdout)")
     r.add_argument("--settings", default="")
     r.add_argument("--command-line", default="")
@@ -499,7 +607,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         counts = join(args.train, args.test, args.out, args.val)
         print(f"{args.out}: train {counts[0]}, val {counts[1]}, test {counts[2]} cases")
         return 0
-    text = section(args.out, args.published, args.settings, args.command_line)
+    text = section(args.out, args.published, args.settings, args.command_line, args.dataset)
     if args.output:
         args.output.write_text(text)
     else:

@@ -225,7 +225,7 @@ def test_compliance_and_wins_met_when_30_and_40_are_there(tmp_path: Path) -> Non
     runs = mr.collect(out)
     published(tmp_path / "theirs.csv", 0.95)
     means = mr.published_means(mr.read_published(tmp_path / "theirs.csv"))
-    lines = mr.verdicts(runs, means, ["exact"])[2:]
+    lines = mr.verdicts(runs, means, ["exact"], ["1", "2", "3"])[2:]
     rows = {r.split(" | ")[0].strip("| "): r.strip(" |").split(" | ") for r in lines}
     assert rows["λ 0 + rules"][1:4] == ["met", "met", "met"]  # 0.82 > 0.80 in 5 of 5, 100 %
     assert rows["exact + rules"][1:4] == ["met", "met", "met"]
