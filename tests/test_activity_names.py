@@ -18,7 +18,9 @@ from tleaf_cli.data.activity_names import activity_atom, activity_atoms
         ("  ER Triage  ", "er_triage"),
         ("Last step", "alast_step"),
         ("true", "atrue"),
-        ("日本", "activity"),
+        ("日本", "ri_ben"),
+        ("検査", "jian_zha"),
+        ("Straße", "strasse"),
         ("", "activity"),
     ],
 )

@@ -109,8 +109,9 @@ def test_product_accepts_what_every_rule_accepts(tmp_path, encoder):
     kb = tmp_path / "kb.decl"
     kb.write_text(DECL, encoding="utf-8")
     tokens = JointTokens(encoder)
-    dfas = compile_rules(read_case_rules(kb), "powerset")
-    letters = tokens.letters()
+    rules = read_case_rules(kb, encoder.names())
+    dfas = compile_rules(rules, "powerset")
+    letters = tokens.letters({a: test for r in rules for a, test in r.conditions.items()})
     columns = [np.array([d.alphabet.index(ls) for ls in letters]) for d in dfas]
     joined = RuleAutomaton.of_letters(dfas, columns)
     apart = RuleAutomaton.of_letters(dfas, columns, max_states=1)  # too small: kept as parts
@@ -243,7 +244,7 @@ def test_the_logic_loss_refuses_rules_on_attributes(tmp_path, cases_path):
         ],
     )  # fmt: skip
     assert result.exit_code == 2
-    assert "org_resource__r4" in result.output and "apply at decoding" in result.output
+    assert "org_resource__is__r4" in result.output and "apply at decoding" in result.output
     assert not (tmp_path / "run" / "weights.pt").exists()
 
 

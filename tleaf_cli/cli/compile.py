@@ -31,7 +31,10 @@ from tleaf_cli.settings.data import CompileSettings
 @with_settings(COMPILE)
 def compile_dfa(
     formulas: Annotated[
-        Path, typer.Argument(help="A .ltl file, or Parquet with formula_id, formula.")
+        Path,
+        typer.Argument(
+            help="A .ltl file, a .decl Declare model, or Parquet with formula_id, formula."
+        ),
     ],
     out: Annotated[
         Path, typer.Option("--out", "-o", parser=file_path, help="The dfas.parquet to write.")
@@ -41,24 +44,45 @@ def compile_dfa(
     graphs: Annotated[
         Path | None, typer.Option(help="Also write <id>.graphml and <id>.dot per DFA here.")
     ] = None,
+    cases: Annotated[
+        Path | None,
+        typer.Option(
+            help="A cases artifact (tleaf read-log): a .decl's activities read that log's "
+            "atoms, matched to its activity names exactly."
+        ),
+    ] = None,
     cache_dir: CacheDir = None,
     no_cache: NoCache = False,
     quiet: Quiet = False,
     **values,
 ) -> None:
-    """Compile LTLf formulas to minimal DFAs, one row per formula.
+    """Compile LTLf formulas (or a Declare model's constraints) to minimal DFAs, one row per
+    formula.
 
     A formula that fails (syntax, timeout) gets a row whose `error` says why; the others are still
-    compiled, and the exit status is 1.
+    compiled, and the exit status is 1. A .decl constraint with an MP-Declare condition is
+    refused under --one-hot (the condition holds at an event together with its activity).
     """
     from tleaf_cli.data.compile_dfas import compile_file
+    from tleaf_cli.data.event_logs import read_cases
+    from tleaf_cli.knowledge.rule_files import read_rule_file
 
     settings = CompileSettings(
         **values, cache_dir=cache_folder(cache_dir, no_cache), jobs=jobs, cluster=cluster or None
     )
     reachable(cluster)
+    log_atoms = None if cases is None else read_cases(cases).activity_atoms
+    sources = read_rule_file(formulas, log_atoms)
     with ui.progress("compiling", quiet) as update:
-        report = compile_file(formulas, out, settings, graphs, update)
+        report = compile_file(
+            formulas,
+            out,
+            settings,
+            graphs,
+            update,
+            sources,
+            [formulas, *([cases] if cases else [])],
+        )
     finish(
         report.failures,
         f"{out}: {report.compiled} of {len(report.rows)} formulas compiled "

@@ -34,16 +34,19 @@ def check_cases(
 ) -> None:
     """Check every case of a cases artifact against every rule, exactly (one DFA per rule).
 
-    An event makes its activity's atom and its kept attributes' atoms (read-log --attributes)
-    true together. Prints and writes how many rules each case breaks and how many cases break
-    each rule; rules naming an activity or attribute value the log never has are counted and
-    named. A rule that does not parse or compile exits 2 naming its file and line, nothing
-    written.
+    A .decl model's activities are matched to the log's activity names exactly. An event makes
+    its activity's atom, its kept attributes' atoms (read-log --attributes) and each MP-Declare
+    condition that holds on its values true together. Prints and writes how many rules each
+    case breaks and how many cases break each rule; rules naming an activity or attribute value
+    the log never has are counted and named, and so are event values outside a .decl's
+    declared domains. A rule that does not parse or compile, or a condition on an attribute
+    the cases do not keep, exits 2 naming its file and line, nothing written.
     """
     from tleaf_cli.tasks.case_checks import check_case_file, summary_path
 
     targets([cases, knowledge], [out, summary_path(out)])
-    summary = check_case_file(cases, knowledge, out)
+    with ui.progress("compiling and checking rules", quiet) as update:
+        summary = check_case_file(cases, knowledge, out, on_progress=update)
     n = summary["cases"]
     if not quiet:
         worst = sorted(summary["cases_per_rule"], key=lambda r: -r["broken"])[:MOST_BROKEN_RULES]
@@ -64,6 +67,13 @@ def check_cases(
         ui.summary(
             f"warning: {unseen['count']} rules name an activity or attribute value no event of "
             f"the log has: {', '.join(unseen['examples'])}{more}",
+            quiet,
+        )
+    for attribute, seen in summary["values_outside_declared_domains"].items():
+        ui.summary(
+            f"warning: {seen['events']} events carry a value of {attribute} outside the model's "
+            f"declared domain ({', '.join(map(repr, seen['examples']))}); conditions test them "
+            "as they are (Declare4Py's reading: 'is not v' holds for them)",
             quiet,
         )
     ui.summary(

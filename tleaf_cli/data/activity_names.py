@@ -1,11 +1,16 @@
 """An event log's activity names as atoms of LTLf formulas.
 
 Activities in real logs are named for people ("Assign seriousness", "W_Completeren aanvraag",
-"3"); a formula's atoms are lower-case ASCII letters, digits and _, starting with a letter
-(`tleaf_cli.atom_names`). `activity_atoms` gives every activity an atom that is readable (the same
-words, lower case, joined by _), deterministic (it depends on the set of names, not on their
-order) and unique (names that meet get _2, _3, ...), so a rule mined from or written for a log
+"3", "Ärztliche Prüfung", "検査"); a formula's atoms are lower-case ASCII letters, digits and _,
+starting with a letter (`tleaf_cli.atom_names`). `activity_atoms` gives every activity an atom that
+is readable (the same words, transliterated to ASCII by anyascii, lower case, joined by _),
+deterministic (it depends on the set of names, not on their order) and unique (names that meet,
+such as "Check in" and "Check-in", get _2, _3, ...), so a rule mined from or written for a log
 names its activities by atoms a person can read back.
+
+The map is made once, from the log's names, and kept with the cases artifact; every reader of
+rules for that log takes its atoms from it (`bind_atoms`): a name a rule file writes is matched
+to the log's names exactly, never folded again on its own.
 """
 
 from __future__ import annotations
@@ -13,7 +18,9 @@ from __future__ import annotations
 import hashlib
 import re
 import unicodedata
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
+
+from anyascii import anyascii
 
 from tleaf_cli.atom_names import AMBIGUOUS, atom_problem
 
@@ -24,18 +31,33 @@ _FALLBACK = "activity"  # the atom of a name with no ASCII letter or digit at al
 def activity_atom(name: str) -> str:
     """The atom `name` reads as, before names that meet are told apart (see `activity_atoms`).
 
-    Accents are dropped ("Réunion" -> "reunion"), other characters outside ASCII letters and
-    digits separate words; a name starting with a digit, or with a word the formula grammar reads
-    as a constant (true, false, last), gets "a" in front ("3" -> "a3", "last step" -> "alast_step").
+    Letters outside ASCII are transliterated ("Réunion" -> "reunion", "Straße" -> "strasse",
+    "Проверка" -> "proverka"; a syllabic character is a word of its own: "検査" -> "jian_zha"),
+    other characters outside ASCII letters and digits separate words; a name starting with a
+    digit, or with a word the formula grammar reads as a constant (true, false, last), gets "a"
+    in front ("3" -> "a3", "last step" -> "alast_step").
     """
-    ascii_text = unicodedata.normalize("NFKD", name).encode("ascii", "ignore").decode("ascii")
-    atom = _NOT_WORD.sub("_", ascii_text.lower()).strip("_")
+    atom = _NOT_WORD.sub("_", _ascii(name).lower()).strip("_")
     if not atom:
         return _FALLBACK
     if not atom[0].isalpha() or atom.startswith(AMBIGUOUS):
         atom = "a" + atom
     assert atom_problem(atom) is None, atom
     return atom
+
+
+def _ascii(name: str) -> str:
+    """`name` in ASCII: a Latin letter as its base letter, any other character by anyascii, a
+    character of a script without letters (CJK) as a word of its own."""
+    parts = []
+    for char in unicodedata.normalize("NFC", name):
+        if char.isascii():
+            parts.append(char)
+            continue
+        text = anyascii(char)
+        latin = unicodedata.name(char, "").startswith("LATIN")
+        parts.append(text if latin or len(text) <= 1 else f" {text} ")
+    return "".join(parts)
 
 
 def activity_atoms(names: Iterable[str]) -> dict[str, str]:
@@ -61,6 +83,31 @@ def activity_atoms(names: Iterable[str]) -> dict[str, str]:
             atom, n = f"{base}_{n}", n + 1
         out[name] = atom
         used.add(atom)
+    return {name: out[name] for name in distinct}
+
+
+def bind_atoms(names: Iterable[str], log: Mapping[str, str] | None = None) -> dict[str, str]:
+    """Each of `names` (as a rule file writes them) -> its atom, under a log's map `log` (name ->
+    atom, `activity_atoms` of the log's names, kept with its cases artifact).
+
+    A name the log has takes the log's atom: matched exactly, character for character, so
+    "Check-in" is never "Check in". A name the log does not have takes an atom of its own, apart
+    from every atom of the log's and of the other names, so a rule on it reads an activity that
+    never happens, never another one. Without a log, `activity_atoms(names)`."""
+    distinct = list(dict.fromkeys(names))
+    if log is None:
+        return activity_atoms(distinct)
+    out = {name: log[name] for name in distinct if name in log}
+    missing = [name for name in distinct if name not in log]
+    if missing:
+        used = set(log.values())
+        for name in sorted(missing):
+            base = name if atom_problem(name) is None else activity_atom(name)
+            atom, n = base, 2
+            while atom in used:
+                atom, n = f"{base}_{n}", n + 1
+            out[name] = atom
+            used.add(atom)
     return {name: out[name] for name in distinct}
 
 

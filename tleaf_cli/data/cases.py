@@ -13,7 +13,9 @@ A case may keep event attributes (`read-log --attributes org:resource`: one valu
 None where the event has none) and case attributes (one value per case). An event's *letter* is
 the set of atoms true at it: its activity's atom and, for each kept attribute with a value, the
 atom of "attribute is value" (`activity_names.attribute_atom`), so a rule can speak of "Closed
-done by Value 3" as `closed & org_resource__value_3` (`Case.letters`).
+done by Value 3" as `closed & org_resource__value_3` (`Case.letters`). A rule's MP-Declare
+condition is an atom of its own, true at an event where its test holds on the event's values
+(`EventTest`, knowledge/decl_conditions.py): `Case.letters(tests=...)` adds those.
 """
 
 from __future__ import annotations
@@ -21,17 +23,31 @@ from __future__ import annotations
 import functools
 import os
 from collections import Counter
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, Protocol, TypeVar
 
 from tleaf_cli.data.activity_names import attribute_atom
 from tleaf_cli.data.skip_report import SkipReport
 from tleaf_cli.errors import ArgumentTypeError
 
 _attribute_atom = functools.lru_cache(maxsize=1 << 16)(attribute_atom)  # a log repeats its values
+
+
+class EventTest(Protocol):
+    """A test on one event's attribute values, true or false at each event (an MP-Declare
+    condition: knowledge/decl_conditions.py `EventCondition`)."""
+
+    @property
+    def attributes(self) -> tuple[str, ...]:
+        """The event attributes it reads."""
+        ...
+
+    def holds(self, values: Mapping[str, str | None]) -> bool:
+        """Whether it holds at an event with these values (attribute -> value or None)."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -53,23 +69,27 @@ class Case:
     def __len__(self) -> int:
         return len(self.activities)
 
-    def letters(self, attributes: Sequence[str] | None = None) -> tuple[frozenset[str], ...]:
-        """Each event's atoms, true together: its activity's atom and, for each kept event
-        attribute (or only those named in `attributes`) with a value, `attribute_atom(attribute,
-        value)`. KeyError for a named attribute the case does not keep."""
+    def letters(
+        self, attributes: Sequence[str] | None = None, tests: Mapping[str, EventTest] | None = None
+    ) -> tuple[frozenset[str], ...]:
+        """Each event's atoms, true together: its activity's atom; for each kept event attribute
+        (or only those named in `attributes`) with a value, `attribute_atom(attribute, value)`;
+        and each atom of `tests` whose test holds on the event's values (an attribute the case
+        does not keep reads as no value). KeyError for a named attribute the case does not keep."""
         names = list(self.attributes) if attributes is None else list(attributes)
         columns = [(name, self.attributes[name]) for name in names]
-        return tuple(
-            frozenset(
-                [atom]
-                + [
-                    attribute_atom(name, values[i])
-                    for name, values in columns
-                    if values[i] is not None
-                ]
-            )
-            for i, atom in enumerate(self.atoms)
-        )
+        out = []
+        for i, atom in enumerate(self.atoms):
+            letter = [atom] + [
+                _attribute_atom(name, values[i])
+                for name, values in columns
+                if values[i] is not None
+            ]
+            if tests:
+                event = {name: column[i] for name, column in self.attributes.items()}
+                letter += [a for a, test in tests.items() if test.holds(event)]
+            out.append(frozenset(letter))
+        return tuple(out)
 
 
 C = TypeVar("C", bound=Case)

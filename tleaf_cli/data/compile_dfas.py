@@ -25,7 +25,7 @@ from tleaf_cli.data.artifacts import check_targets, describe_inputs, write_artif
 from tleaf_cli.data.dfa_table import KIND, SCHEMA_VERSION, dfa_payload, make_row, rows_to_table
 from tleaf_cli.data.formula_files import FormulaSource, read_formulas
 from tleaf_cli.data.parallel import parallel_map
-from tleaf_cli.errors import TleafError
+from tleaf_cli.errors import InputError, TleafError
 from tleaf_cli.logic import alphabet as alphabet_mod
 from tleaf_cli.logic import compile as compile_mod
 from tleaf_cli.logic import dfa as dfa_mod
@@ -117,14 +117,30 @@ def compile_file(
     settings: CompileSettings,
     graphs_dir: str | Path | None = None,
     on_progress: Callable[[int, int], None] | None = None,
+    sources: list[FormulaSource] | None = None,
+    inputs: list[str | Path] | None = None,
 ) -> CompileReport:
-    """Read, compile, write `dfas.parquet` (and graph files); TleafError if the call is unusable."""
+    """Read, compile, write `dfas.parquet` (and graph files); TleafError if the call is unusable.
+    `sources`: the formulas of `source` read already (a `.decl`, by knowledge/rule_files.py);
+    `inputs`: the files they were read from, for the provenance (`source` alone without).
+    A formula with MP-Declare conditions is refused under the one-hot alphabet: a condition
+    holds at an event together with its activity, two atoms at once."""
     try:
         mona_binary()  # fail before anything is written when MONA is missing
     except MonaError as e:
         raise TleafError(str(e)) from None
-    check_targets([source], files=[out], folders=[graphs_dir])
-    sources = read_formulas(source)
+    check_targets(inputs or [source], files=[out], folders=[graphs_dir])
+    if sources is None:
+        sources = read_formulas(source)
+    conditional = [s for s in sources if s.conditions]
+    if conditional and settings.alphabet == "one-hot":
+        first = conditional[0]
+        raise InputError(
+            f"{first.path}: {first.location}: rule {first.formula_id} has an MP-Declare "
+            f"condition ({len(conditional)} rules have): a condition is true at an event together "
+            "with its activity, which the one-hot alphabet (one atom per step) cannot express; "
+            "compile without --one-hot"
+        )
     if graphs_dir is not None:
         from tleaf_cli.data.graphs import graph_file_stems  # networkx: only when asked for
 
@@ -139,7 +155,7 @@ def compile_file(
         kind=KIND,
         schema=SCHEMA_VERSION,
         params=params,
-        inputs=describe_inputs([source]),
+        inputs=describe_inputs(inputs or [source]),
     )
     if graphs_dir is not None:
         from tleaf_cli.data.graphs import write_graph_files  # networkx: only when asked for

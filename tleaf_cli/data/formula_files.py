@@ -1,6 +1,7 @@
-"""Formula inputs: `.ltl` text files, Parquet tables with `formula_id, formula`, and Declare
-models (`.decl`, `knowledge/decl.py`: each constraint one formula, named
-`<template key>.<activity atoms>`).
+"""Formula inputs: `.ltl` text files and Parquet tables with `formula_id, formula`. Declare
+models (`.decl`) are read a floor up, by `knowledge/rule_files.py` (`read_rule_file`), into the
+same `FormulaSource`s: each constraint one formula, named `<template key>.<activity atoms>`, with
+the tests behind its condition atoms.
 
 `.ltl` (docs/design.md): UTF-8 (a byte-order mark at the start is skipped), one formula per line,
 `#` starts a comment, blank lines skipped, an optional `name:` prefix (`[A-Za-z0-9_.-]+`) names
@@ -12,16 +13,16 @@ set, so the stage reports it in its row and carries on with the others.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterable
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import pyarrow as pa
 import pyarrow.parquet as pq
 
 from tleaf_cli.data.artifacts import read_text_file
 from tleaf_cli.errors import InputError
-from tleaf_cli.knowledge.decl import decl_path, read_decl
 
 _NAMED = re.compile(r"^\s*([^\s:][^:]*?)\s*:(.*)$")
 _VALID_NAME = re.compile(r"[A-Za-z0-9_.-]+")
@@ -37,6 +38,9 @@ class FormulaSource:
     location: str  # "line 3" (.ltl) or "row 4" (Parquet, 0-based)
     offset: int = 0  # columns before the formula text on its line (a `name:` prefix)
     problem: str | None = None
+    # condition atom -> the test on an event's attributes that makes it true (`cases.EventTest`;
+    # MP-Declare conditions of a `.decl`); an `.ltl` formula has none
+    conditions: Mapping[str, Any] = field(default_factory=dict)
 
     def located(self, message: str, column: int | None = None) -> str:
         """`message` prefixed with where it happened: line/row, and column when known."""
@@ -69,16 +73,18 @@ def check_names(names: Iterable[str], what: str) -> None:
 
 
 def read_formulas(path: str | Path) -> list[FormulaSource]:
-    """Formulas from a `.ltl` file, a Parquet table or a `.decl` Declare model (by suffix);
-    InputError when the file is unusable (for `.decl`: any line it cannot read or refuses)."""
+    """Formulas from a `.ltl` file or a Parquet table (by suffix); InputError when the file is
+    unusable. A `.decl` is refused here: `knowledge.rule_files.read_rule_file` reads it."""
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.suffix == ".parquet":
         return _read_parquet(path)
-    if decl_path(path):
-        rules = read_decl(path).rules()
-        return [FormulaSource(r.name, r.formula, str(path), f"line {r.line}") for r in rules]
+    if path.suffix.lower() == ".decl":
+        raise InputError(
+            f"{path}: a Declare model (.decl) is not read here: this input takes a .ltl file or "
+            "a Parquet table of formula_id, formula"
+        )
     text = read_text_file(path)
     return parse_ltl_text(text, str(path))
 

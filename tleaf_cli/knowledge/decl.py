@@ -2,26 +2,30 @@
 
 `read_decl(path)` reads a model (`DeclModel`): its activities, which attributes each activity
 carries (`bind`), each attribute's domain, and its constraints (`DeclConstraint`). Each
-constraint becomes one LTLf formula over atoms (`DeclConstraint.formula`), from its template's
-single definition (`knowledge/templates.py`):
+constraint becomes one LTLf formula over atoms (`DeclModel.rules`), from its template's single
+definition (`knowledge/templates.py`):
 
-- an activity is its atom by `activity_atoms` over the model's declared activities, the map
-  `read-log` gives a log's activities (the two agree when the names are equal and no two of the
-  log's names meet on one atom: `activity_atoms` then adds `_2` to one of them);
-- "this event's attribute is v" is `attribute_atom(attribute, v)`;
+- an activity is its atom under a log's map (`bind_atoms`: the name matched exactly to the
+  log's names, the atom `read-log` gave it), or, without a log, `activity_atoms` over the
+  model's names;
 - an MP-Declare activation condition narrows the activation's event formula (`closed &
-  org_resource__value_3`), a condition on the target (`T.attr ...` in the correlation field)
-  the target's. A condition becomes a disjunction over the attribute's DECLARED values that
-  meet it, so it is exact on every event whose attribute value is one of them (`A.x is not v`:
-  x has a declared value other than v; `A.x < 3`: one of the declared values below 3).
+  org_resource__is__value_3`), a condition on the target (`T.attr ...` in the correlation field)
+  the target's: each condition is one atom, true at an event where the test holds on the event's
+  own values (`decl_conditions.py`: any domain size, numbers compared as numbers, values outside
+  the declared domain read as Declare4Py reads them). `DeclRule.conditions` maps each such atom
+  to its test, for whoever makes the events' letters.
+
+A model may leave out its `activity` lines (as several published models do): its activities are
+then the names its constraints use. Declarations are needed where a condition names an
+attribute (`bind`, and the attribute's domain).
 
 Refused, each with the file, the line and the reason (an InputError: the CLI exits 2): a line
-the grammar cannot read (`decl_grammar.py`), an activity no `activity` line declares, a value
-outside its attribute's declared domain, an attribute not bound to the event it is read on,
-a numeric condition on values that are not numbers or on a domain that is not finite (`float
-between`, or `integer between` of more than MAX_ENUMERATED values), a time condition (LTLf has
-no clock), a condition relating the activation to the target (`same`, `different`, `A.x is
-T.x`, an `A.` test in the correlation field), and any condition on a template both of whose
+the grammar cannot read (`decl_grammar.py`), an activity no `activity` line declares (in a model
+that has them), a template given the wrong number of activities or a count below 1, a value
+outside its attribute's declared domain, an attribute not bound to the event it is read on, a
+numeric condition on declared values that are not numbers, a time condition (LTLf has no
+clock), a condition relating the activation to the target (`same`, `different`, `A.x is T.x`,
+an `A.` test in the correlation field), and any condition on a template both of whose
 arguments activate it (`Template.activated_by_both`: Declare4Py, the reference, has no checker
 for them).
 """
@@ -34,58 +38,25 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from tleaf_cli.data.activity_names import activity_atoms, attribute_atom
+from tleaf_cli.data.activity_names import bind_atoms
 from tleaf_cli.data.artifacts import read_text_file
 from tleaf_cli.errors import InputError
 from tleaf_cli.knowledge import decl_grammar as grammar
+from tleaf_cli.knowledge.decl_conditions import (
+    AttributeDomain,
+    EventCondition,
+    condition_atoms,
+    number_of,
+    on_event,
+)
 from tleaf_cli.knowledge.templates import Template, find_template
-
-MAX_ENUMERATED = 1000  # the most values an `integer between X and Y` domain is enumerated to
-
-
-@dataclass(frozen=True)
-class AttributeDomain:
-    """An attribute's declared values: `kind` "values" (a list), "integer" or "float" (a range
-    `low`..`high`), and the line that declares it."""
-
-    attribute: str
-    kind: str
-    line: int
-    values: tuple[str, ...] = ()
-    low: float = 0.0
-    high: float = 0.0
-
-    def finite(self) -> tuple[str, ...]:
-        """Every declared value as text; an integer range enumerated. InputError for a float
-        range or an integer range of more than MAX_ENUMERATED values."""
-        if self.kind == "values":
-            return self.values
-        if self.kind == "integer" and self.high - self.low < MAX_ENUMERATED:
-            return tuple(str(v) for v in range(int(self.low), int(self.high) + 1))
-        size = "a float range" if self.kind == "float" else "more than 1000 integers"
-        raise InputError(
-            f"attribute {self.attribute!r} is declared on line {self.line} as {size}: a "
-            "condition on it needs a finite set of values (at most 1000), one atom each"
-        )
-
-    def lookup(self, value: str) -> str | None:
-        """The declared value `value` names (an integer range's by number: "03" is 3), or None."""
-        if self.kind == "values":
-            return value if value in self.values else None
-        try:
-            number = float(value)
-        except ValueError:
-            return None
-        if not number.is_integer() or not self.low <= number <= self.high:
-            return None
-        return str(int(number))
 
 
 @dataclass(frozen=True)
 class DeclConstraint:
-    """One constraint line: its template and count, its activities (as declared), its three
-    condition fields as written, and the activation's and the target's conditions as formulas
-    over attribute atoms (None without one)."""
+    """One constraint line: its template and count, its activities (as written), its three
+    condition fields as written, and the activation's and the target's conditions as tests on
+    one event (`decl_conditions.on_event`; None without one)."""
 
     template: Template
     activities: tuple[str, ...]
@@ -94,42 +65,58 @@ class DeclConstraint:
     activation: str = ""
     correlation: str = ""
     time: str = ""
-    activation_formula: str | None = None
-    target_formula: str | None = None
+    activation_condition: grammar.Condition | None = None
+    target_condition: grammar.Condition | None = None
 
     def base_name(self, atoms: Mapping[str, str]) -> str:
         """`<template key>[count].<activity atoms>`, e.g. `chain_precedence.resolve_ticket.closed`,
-        `existence2.closed` (a count shown from 2 on)."""
+        `existence2.closed` (a count shown from 2 on), `exactly.closed` (Exactly1)."""
         key = self.template.key + (str(self.count) if self.count > 1 else "")
         return ".".join([key, *(atoms[a] for a in self.activities)])
 
-    def formula(self, atoms: Mapping[str, str]) -> str:
+    def formula(
+        self, atoms: Mapping[str, str], conditions: Mapping[grammar.Condition, str] | None = None
+    ) -> str:
         """The constraint in tleaf's LTLf, each activity its atom under `atoms` (activity name ->
-        atom), narrowed by the activation's and the target's conditions."""
+        atom), narrowed by the activation's and the target's conditions, each its atom under
+        `conditions` (`condition_atoms`)."""
         events = [atoms[a] for a in self.activities]
         activation = self.template.activation or 0
         for index, condition in (
-            (activation, self.activation_formula),
-            (1 - activation, self.target_formula),
+            (activation, self.activation_condition),
+            (1 - activation, self.target_condition),
         ):
-            if condition is not None:
-                events[index] = f"{events[index]} & ({condition})"
+            if condition is None:
+                continue
+            if isinstance(condition, grammar.Constant):
+                test = "true" if condition.value else "false"
+            else:
+                test = conditions[condition]
+            events[index] = f"{events[index]} & {test}"
         return self.template.ltlf(*events, n=self.count)
+
+    def conditions(self) -> list[grammar.Condition]:
+        """Its conditions that are tests (not `true` / `false`)."""
+        both = (self.activation_condition, self.target_condition)
+        return [c for c in both if c is not None and not isinstance(c, grammar.Constant)]
 
 
 @dataclass(frozen=True)
 class DeclRule:
-    """A constraint as a named rule: its unique name, its formula, its line in the file."""
+    """A constraint as a named rule: its unique name, its formula, its line in the file, and the
+    test behind each condition atom the formula names."""
 
     name: str
     formula: str
     line: int
+    conditions: dict[str, EventCondition] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
 class DeclModel:
-    """A `.decl` model: activities in file order, `bindings` activity -> its attributes,
-    `domains` attribute -> its declared values, constraints in file order."""
+    """A `.decl` model: activities (declared, in file order, or the constraints' own where the
+    file declares none), `bindings` activity -> its attributes, `domains` attribute -> its
+    declared values, constraints in file order."""
 
     path: str
     activities: tuple[str, ...]
@@ -139,19 +126,31 @@ class DeclModel:
 
     @functools.cached_property
     def atoms(self) -> dict[str, str]:
-        """Each declared activity -> its atom (`activity_atoms` over the declared names)."""
-        return activity_atoms(self.activities)
+        """Each activity -> its atom with no log (`activity_atoms` over the model's names)."""
+        return bind_atoms(self.activities)
 
-    def rules(self) -> list[DeclRule]:
-        """Every constraint as a rule named `<template key>.<activity atoms>`; a name that
-        repeats (one template on the same activities, other conditions) gets `.2`, `.3`, ..."""
+    def rules(self, log_atoms: Mapping[str, str] | None = None) -> list[DeclRule]:
+        """Every constraint as a rule named `<template key>.<activity atoms>` (a name that
+        repeats, one template on the same activities with other conditions, gets `.2`, `.3`,
+        ...). `log_atoms`: a log's activity -> atom map (its cases artifact's), so that every
+        activity the log has reads the log's atom (`bind_atoms`)."""
+        atoms = self.atoms if log_atoms is None else bind_atoms(self.activities, log_atoms)
+        taken = set(atoms.values()) | set((log_atoms or {}).values())
+        trees = condition_atoms((tree for c in self.constraints for tree in c.conditions()), taken)
         out, seen = [], {}
         for c in self.constraints:
-            name = c.base_name(self.atoms)
+            name = c.base_name(atoms)
             seen[name] = seen.get(name, 0) + 1
             unique = name if seen[name] == 1 else f"{name}.{seen[name]}"
-            out.append(DeclRule(unique, c.formula(self.atoms), c.line))
+            tests = {
+                trees[tree]: EventCondition(tree, self._domains_of(tree)) for tree in c.conditions()
+            }
+            out.append(DeclRule(unique, c.formula(atoms, trees), c.line, tests))
         return out
+
+    def _domains_of(self, tree: grammar.Condition) -> dict[str, AttributeDomain]:
+        names = EventCondition(tree, {}).attributes
+        return {a: self.domains[a] for a in names if a in self.domains}
 
 
 def read_decl(path: str | os.PathLike) -> DeclModel:
@@ -171,15 +170,17 @@ def parse_decl(text: str, name: str = "<text>") -> DeclModel:
                 constraint_lines.append((lineno, line))  # read once every name is declared
             else:
                 getattr(reader, kind)(line, lineno)
-    with reader.at(None):
-        reader.check_atoms()
     constraints = []
+    implicit = not reader.activities  # no `activity` line: the constraints' names are the model's
     for lineno, line in constraint_lines:
         with reader.at(lineno):
-            constraints.append(reader.constraint(line, lineno))
+            constraints.append(reader.constraint(line, lineno, implicit))
+    activities = reader.activities
+    if implicit:
+        activities = {a: c.line for c in constraints for a in c.activities}
     return DeclModel(
         name,
-        tuple(reader.activities),
+        tuple(activities),
         dict(reader.bindings),
         dict(reader.domains),
         tuple(constraints),
@@ -251,32 +252,32 @@ class _Reader:
             else:
                 self.domains[attribute] = AttributeDomain(attribute, kind, lineno, (), *spec)
 
-    def check_atoms(self) -> None:
-        """Every declared value a distinct atom, none an activity's: a condition is exact only
-        when no two values (or a value and an activity) read as one atom."""
-        owner = {
-            atom: f"activity {name!r}" for name, atom in activity_atoms(self.activities).items()
-        }
-        for domain in self.domains.values():
-            if domain.kind == "float" or (
-                domain.kind == "integer" and domain.high - domain.low >= MAX_ENUMERATED
-            ):
-                continue
-            for value in domain.finite():
-                atom = attribute_atom(domain.attribute, value)
-                if atom in owner:
-                    raise InputError(
-                        f"line {domain.line}: {domain.attribute} = {value!r} reads as the atom "
-                        f"{atom!r}, as {owner[atom]} does: rename one of them"
-                    )
-                owner[atom] = f"{domain.attribute} = {value!r}"
-
-    def constraint(self, line: str, lineno: int) -> DeclConstraint:
+    def constraint(self, line: str, lineno: int, implicit: bool = False) -> DeclConstraint:
+        """The constraint of a line. `implicit`: the model declares no activity, so any name is
+        one (as the name is written)."""
         name, args, fields = grammar.constraint_parts(line)
         template, count = find_template(name)
-        activities = grammar.split_arguments(args, template.arity, self.activities.__contains__)
+        if count < 1:
+            raise InputError(
+                f"{name}: a count starts at 1 ({template.name}1, {template.name}2, ...)"
+            )
+        if implicit:  # a .decl cannot name an activity holding a comma without declaring it
+
+            def declared(part: str) -> bool:
+                return "," not in part
+        else:
+            declared = self.activities.__contains__
+        activities = grammar.split_arguments(args, template.arity, declared)
+        parts = [p.strip() for p in args.split(",")]
+        if template.arity == 1 and not declared(activities[0]) and all(map(declared, parts)):
+            raise InputError(
+                f"{template.name} takes one activity, found {len(parts)}: "
+                + ", ".join(repr(p) for p in parts)
+            )
         for activity in activities:
-            if activity not in self.activities:
+            if not activity:
+                raise InputError(f"{template.name}[{args}]: an empty activity name")
+            if activity not in self.activities and not implicit:
                 raise InputError(f"activity {activity!r} is not declared by an 'activity' line")
         most = 2 if template.arity == 1 else 3
         if len(fields) > most:
@@ -310,28 +311,30 @@ class _Reader:
             ),
         )
 
-    def condition(self, text: str, role: str, activity: str, where: str) -> str | None:
-        """The condition `text` as a formula over attribute atoms, on `activity`'s event."""
+    def condition(
+        self, text: str, role: str, activity: str, where: str
+    ) -> grammar.Condition | None:
+        """The condition `text` on `activity`'s event, checked, as a test on that event."""
         if not text:
             return None
         tree = grammar.parse_condition(text, self._values_of)
-        return self._formula(tree, role, activity, where)
+        self._check(tree, role, activity, where)
+        return on_event(tree)
 
     def _values_of(self, attribute: str) -> tuple[str, ...] | None:
         domain = self.domains.get(attribute)
         return domain.values if domain is not None else None
 
-    def _formula(self, node: grammar.Condition, role: str, activity: str, where: str) -> str:
-        if isinstance(node, grammar.Constant):
-            return "true" if node.value else "false"
+    def _check(self, node: grammar.Condition, role: str, activity: str, where: str) -> None:
         if isinstance(node, grammar.Negation):
-            return f"!({self._formula(node.part, role, activity, where)})"
-        if isinstance(node, grammar.Junction):
-            op = " & " if node.operator == "and" else " | "
-            return op.join(f"({self._formula(p, role, activity, where)})" for p in node.parts)
-        return self._test(node, role, activity, where)
+            self._check(node.part, role, activity, where)
+        elif isinstance(node, grammar.Junction):
+            for part in node.parts:
+                self._check(part, role, activity, where)
+        elif isinstance(node, grammar.Test):
+            self._check_test(node, role, activity, where)
 
-    def _test(self, test: grammar.Test, role: str, activity: str, where: str) -> str:
+    def _check_test(self, test: grammar.Test, role: str, activity: str, where: str) -> None:
         name = f"{test.role}.{test.attribute}"
         if test.role != role:
             if where == "activation":
@@ -345,55 +348,33 @@ class _Reader:
                 "in the activation condition"
             )
         if test.attribute not in self.bindings.get(activity, ()):
+            declared = "" if self.activities else " and an 'activity' line"
             raise InputError(
                 f"{name}: attribute {test.attribute!r} is not bound to activity "
-                f"{activity!r} (no 'bind {activity}: {test.attribute}' line)"
+                f"{activity!r} (no 'bind {activity}: {test.attribute}' line{declared})"
             )
         domain = self.domains.get(test.attribute)
         if domain is None:
             raise InputError(
                 f"{name}: attribute {test.attribute!r} has no declared values "
-                f"(a line '{test.attribute}: v1, v2, ...')"
+                f"(a line '{test.attribute}: v1, v2, ...' or '{test.attribute}: integer "
+                "between X and Y')"
             )
-        values = domain.finite()
-        chosen = _meeting(test, domain, values)
-        atoms = [attribute_atom(test.attribute, v) for v in values if v in chosen]
-        return " | ".join(atoms) if atoms else "false"
-
-
-def _meeting(test: grammar.Test, domain: AttributeDomain, values: tuple[str, ...]) -> set[str]:
-    """The declared values that meet `test`."""
-    if test.operator in grammar.NUMERIC_OPERATORS:
-        numbers = {}
-        for v in values:
-            try:
-                numbers[v] = float(v)
-            except ValueError:
+        if test.operator in grammar.NUMERIC_OPERATORS:
+            if domain.kind == "values":
+                for v in domain.values:
+                    if number_of(v) is None:
+                        raise InputError(
+                            f"{name} {test.operator} {test.values[0]}: a numeric comparison, "
+                            f"but {v!r} (declared on line {domain.line}) is not a number"
+                        )
+            return
+        for value in test.values:
+            if domain.lookup(value) is None:
                 raise InputError(
-                    f"{test.role}.{test.attribute} {test.operator} {test.values[0]}: a numeric "
-                    f"comparison, but {v!r} (declared on line {domain.line}) is not a number"
-                ) from None
-        bound = float(test.values[0])
-        compare = {
-            "<": float.__lt__,
-            "<=": float.__le__,
-            "=": float.__eq__,
-            "!=": float.__ne__,
-            ">=": float.__ge__,
-            ">": float.__gt__,
-        }[test.operator]
-        return {v for v, x in numbers.items() if compare(x, bound)}
-    named = set()
-    for value in test.values:
-        found = domain.lookup(value)
-        if found is None:
-            shown = ", ".join(values[:6]) + (", ..." if len(values) > 6 else "")
-            raise InputError(
-                f"{test.role}.{test.attribute}: {value!r} is not a declared value of "
-                f"{test.attribute!r} (line {domain.line}: {shown})"
-            )
-        named.add(found)
-    return named if test.operator in ("is", "in") else set(values) - named
+                    f"{name}: {value!r} is not a declared value of {test.attribute!r} "
+                    f"(line {domain.line}: {domain.shown()})"
+                )
 
 
 class _Located:

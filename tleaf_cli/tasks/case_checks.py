@@ -8,12 +8,21 @@ stage, `compile_sources`: formula progression, MONA past its limits, through the
 the cases go through the batched exact checker (`PackedDFAs`, logic/checker.py), one event a
 letter.
 
+**Names.** A `.decl` model's activities are matched to the log's names exactly and read the
+atoms the log's cases artifact gave them (`read_case_rules(path, cases.activity_atoms)`), so
+"Check-in" never binds the log's "Check in".
+
 **Letters.** An event's letter is the set of atoms true at it (`Case.letters`): its activity's
-atom and, for each attribute the artifact keeps, the atom of "attribute is value"
-(`attribute_atom`). Where no rule names an atom other than an activity's, the DFAs are one-hot
-(an event makes exactly one activity atom true: the shortcut every other stage takes); where a
-rule names an attribute atom, every DFA is over the powerset of its atoms, so "Closed done by
-Value 3" (`closed & org_resource__value_3`) is read as both atoms true at one event.
+atom; for each attribute the artifact keeps, the atom of "attribute is value"
+(`attribute_atom`); and each MP-Declare condition atom whose test holds on the event's values
+(knowledge/decl_conditions.py: one atom per condition, whatever its attribute's domain size,
+numbers compared as numbers). A rule naming activity atoms only is compiled one-hot (an event
+makes exactly one activity atom true: the shortcut every other stage takes); a rule naming
+another atom is compiled over the powerset of its own atoms, so "Closed done by someone other
+than Value 3" (`closed & org_resource__is_not__value_3`) reads both atoms true at one event.
+A condition on an attribute the artifact does not keep is refused (read the log with
+`read-log --attributes`); an event value outside the model's declared domain is tested as it
+is (Declare4Py's reading) and counted (`CaseChecks.outside`).
 
 **Atoms the log never has.** A rule naming an activity or attribute value that no event of the
 log has is still checked (a Response from an absent activity holds vacuously, an Existence of it
@@ -32,8 +41,8 @@ from __future__ import annotations
 import json
 import os
 from collections import Counter
-from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -45,9 +54,11 @@ from tleaf_cli.data.cases import Cases
 from tleaf_cli.data.compile_dfas import compile_sources
 from tleaf_cli.data.dfa_table import dfa_from_row
 from tleaf_cli.data.event_logs import read_cases
-from tleaf_cli.data.formula_files import FormulaSource, read_formulas
+from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.data.skip_report import EXAMPLES
 from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.decl_conditions import EventCondition
+from tleaf_cli.knowledge.rule_files import read_rule_file
 from tleaf_cli.logic.checker import PackedDFAs
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
@@ -63,19 +74,27 @@ MOST_BROKEN = 10  # the cases breaking most rules the summary names
 
 @dataclass(frozen=True)
 class CaseRule:
-    """One rule of the knowledge base: its name, formula, the atoms it names, where it is."""
+    """One rule of the knowledge base: its name, formula, the atoms it names, where it is, and
+    the test behind each of its condition atoms (MP-Declare conditions)."""
 
     name: str
     formula: str
     atoms: tuple[str, ...]
     where: str
+    conditions: dict[str, EventCondition] = field(default_factory=dict, compare=False)
+
+    @property
+    def one_hot(self) -> bool:
+        """It names activity atoms only: its DFA reads the one-hot alphabet."""
+        return not self.conditions and not any("__" in a for a in self.atoms)
 
 
 @dataclass
 class CaseChecks:
     """Every case against every rule: `satisfied[i, j]` is case i (in the artifact's order)
     against rule j; `alphabet` the letters' kind; `unseen` rule name -> the atoms it names that
-    no event of the log has."""
+    no event of the log has; `outside` attribute -> (events whose value of it lies outside the
+    model's declared domain, a few such values), for the attributes conditions read."""
 
     case_ids: list[str]
     splits: list[str]
@@ -83,6 +102,7 @@ class CaseChecks:
     satisfied: np.ndarray
     alphabet: str
     unseen: dict[str, tuple[str, ...]]
+    outside: dict[str, tuple[int, tuple[str, ...]]] = field(default_factory=dict)
 
     def broken_per_case(self) -> np.ndarray:
         """int [cases]: how many rules each case breaks."""
@@ -93,12 +113,15 @@ class CaseChecks:
         return (~self.satisfied).sum(axis=0)
 
 
-def read_case_rules(path: str | os.PathLike) -> list[CaseRule]:
-    """The rules of a knowledge base (`read_formulas`), in file order; InputError naming the file
-    and line for a line with a problem or a formula that does not parse, and for no rule."""
+def read_case_rules(
+    path: str | os.PathLike, log_atoms: dict[str, str] | None = None
+) -> list[CaseRule]:
+    """The rules of a knowledge base (`read_rule_file`; a `.decl`'s activities bound to the
+    log's atoms `log_atoms`), in file order; InputError naming the file and line for a line with
+    a problem or a formula that does not parse, and for no rule."""
     rules: list[CaseRule] = []
     seen: dict[str, str] = {}
-    for source in read_formulas(path):
+    for source in read_rule_file(path, log_atoms):
         where = f"{source.path}, {source.location}"
         if source.problem is not None:
             raise InputError(f"{where}: {source.problem}")
@@ -111,18 +134,32 @@ def read_case_rules(path: str | os.PathLike) -> list[CaseRule]:
             named = atoms(parse(source.text))
         except FormulaSyntaxError as e:
             raise InputError(f"{where}: {e}") from None
-        rules.append(CaseRule(source.formula_id, source.text, tuple(sorted(named)), where))
+        rules.append(
+            CaseRule(
+                source.formula_id,
+                source.text,
+                tuple(sorted(named)),
+                where,
+                dict(source.conditions),
+            )
+        )
     if not rules:
         raise InputError(f"{path}: no rules (an empty file, or only comments)")
     return rules
 
 
 def check_cases(
-    cases: Cases, rules: Sequence[CaseRule], settings: CompileSettings | None = None
+    cases: Cases,
+    rules: Sequence[CaseRule],
+    settings: CompileSettings | None = None,
+    on_progress: Callable[[int, int], None] | None = None,
 ) -> CaseChecks:
     """Every case of `cases` against every rule (see the module docstring); InputError for a
-    rule that does not compile (named with its file and line) or a case without events."""
-    letters = [case.letters() for case in cases.cases]
+    rule that does not compile (named with its file and line), a condition on an attribute the
+    cases do not keep, or a case without events. `on_progress(done, total)`: the rules compiled,
+    then the rules checked."""
+    tests = rule_tests(rules, cases)
+    letters = [case.letters(tests=tests) for case in cases.cases]
     if any(not case_letters for case_letters in letters):
         empty = next(c.case_id for c, ls in zip(cases.cases, letters, strict=True) if not ls)
         raise InputError(f"{cases.path}: case {empty} has no events")
@@ -134,10 +171,15 @@ def check_cases(
             distinct.setdefault(ls, len(distinct)) for ls in case_letters
         ]
     log_atoms = set().union(*distinct) if distinct else set()
-    activity_atoms = set(cases.activity_atoms.values())
-    one_hot = all(a in activity_atoms for rule in rules for a in rule.atoms)
-    alphabet = "one-hot" if one_hot else "powerset"
-    dfas = compile_rules(rules, alphabet, settings)
+    kinds = {rule.one_hot for rule in rules}
+    alphabet = {True: "one-hot", False: "powerset"}[kinds.pop()] if len(kinds) == 1 else "mixed"
+    steps = 2 * len(rules)  # each rule compiled, then checked
+
+    def compiled(done: int, _total: int) -> None:
+        if on_progress is not None:
+            on_progress(done, steps)
+
+    dfas = compile_rules(rules, None, settings, compiled)
     satisfied = np.zeros((len(letters), len(rules)), dtype=bool)
     packed = PackedDFAs(dfas)
     order = list(distinct)  # distinct letter id -> its atoms
@@ -150,6 +192,8 @@ def check_cases(
         batch = np.concatenate([codes[k][events] for k in ks])
         kept = packed.check(which, batch, np.tile(lengths, len(ks)))
         satisfied[:, ks.start : ks.stop] = kept.reshape(len(ks), len(letters)).T
+        if on_progress is not None:
+            on_progress(len(rules) + ks.stop, steps)
     unseen = {
         rule.name: tuple(a for a in rule.atoms if a not in log_atoms)
         for rule in rules
@@ -162,21 +206,80 @@ def check_cases(
         satisfied,
         alphabet,
         unseen,
+        outside_domains(cases, tests),
     )
 
 
+def rule_tests(rules: Sequence[CaseRule], cases: Cases) -> dict[str, EventCondition]:
+    """Every condition atom of `rules` -> its test; InputError naming the rule for a condition
+    on an event attribute the cases do not keep."""
+    tests: dict[str, EventCondition] = {}
+    for rule in rules:
+        for atom, test in rule.conditions.items():
+            missing = [a for a in test.attributes if a not in cases.attribute_names]
+            if missing:
+                kept = ", ".join(cases.attribute_names) or "none"
+                raise InputError(
+                    f"{rule.where}: rule {rule.name}'s condition reads the event attribute "
+                    f"{missing[0]!r}, which {cases.path} does not keep (it keeps: {kept}): read "
+                    f"the log with `tleaf read-log --attributes {missing[0]}`"
+                )
+            tests[atom] = test
+    return tests
+
+
+def outside_domains(
+    cases: Cases, tests: dict[str, EventCondition]
+) -> dict[str, tuple[int, tuple[str, ...]]]:
+    """attribute -> (events whose value of it is outside the declared domain, up to EXAMPLES
+    such values), for the attributes the conditions read."""
+    domains = {a: d for test in tests.values() for a, d in test.domains.items()}
+    out: dict[str, tuple[int, tuple[str, ...]]] = {}
+    for attribute, domain in domains.items():
+        counts: Counter[str] = Counter(
+            v
+            for case in cases.cases
+            for v in case.attributes.get(attribute, ())
+            if v is not None and not domain.holds(v)
+        )
+        if counts:
+            out[attribute] = (
+                sum(counts.values()),
+                tuple(v for v, _ in counts.most_common(EXAMPLES)),
+            )
+    return out
+
+
 def compile_rules(
-    rules: Sequence[CaseRule], alphabet: str, settings: CompileSettings | None = None
+    rules: Sequence[CaseRule],
+    alphabet: str | None = None,
+    settings: CompileSettings | None = None,
+    on_progress: Callable[[int, int], None] | None = None,
 ) -> list[DFA]:
-    """Each rule's minimal DFA over `alphabet` (one-hot or powerset of its own atoms), through
-    compile-dfa's stage; InputError naming the rule's file and line for one that fails."""
-    chosen = replace(settings or CompileSettings(), alphabet=alphabet)
-    sources = [FormulaSource(r.name, r.formula, r.where, r.name) for r in rules]
-    report = compile_sources(sources, chosen)
-    for rule, row in zip(rules, report.rows, strict=True):
-        if row["error"] is not None:
-            raise InputError(f"{rule.where}: rule {row['error']}")
-    return [dfa_from_row(row) for row in report.rows]
+    """Each rule's minimal DFA over `alphabet` (one-hot or powerset of its own atoms; None: each
+    rule its own, `CaseRule.one_hot`), through compile-dfa's stage; InputError naming the rule's
+    file and line for one that fails."""
+    base = settings or CompileSettings()
+    kinds = [alphabet or ("one-hot" if r.one_hot else "powerset") for r in rules]
+    dfas: list[DFA | None] = [None] * len(rules)
+    done = 0
+    for kind in dict.fromkeys(kinds):
+        which = [k for k, rule_kind in enumerate(kinds) if rule_kind == kind]
+        sources = [
+            FormulaSource(rules[k].name, rules[k].formula, rules[k].where, "") for k in which
+        ]
+
+        def progress(n: int, _total: int, before: int = done) -> None:
+            if on_progress is not None:
+                on_progress(before + n, len(rules))
+
+        report = compile_sources(sources, replace(base, alphabet=kind), progress)
+        for k, row in zip(which, report.rows, strict=True):
+            if row["error"] is not None:
+                raise InputError(f"{rules[k].where}: rule {row['error']}")
+            dfas[k] = dfa_from_row(row)
+        done += len(which)
+    return dfas
 
 
 def summarise(checks: CaseChecks) -> dict[str, Any]:
@@ -210,6 +313,10 @@ def summarise(checks: CaseChecks) -> dict[str, Any]:
             "examples": [
                 f"{k} ({', '.join(v)})" for k, v in list(checks.unseen.items())[:EXAMPLES]
             ],
+        },
+        "values_outside_declared_domains": {
+            attribute: {"events": events, "examples": list(examples)}
+            for attribute, (events, examples) in checks.outside.items()
         },
     }
 
@@ -258,9 +365,11 @@ def check_case_file(
     knowledge: str | os.PathLike,
     out: str | os.PathLike,
     settings: CompileSettings | None = None,
+    on_progress: Callable[[int, int], None] | None = None,
 ) -> dict[str, Any]:
-    """`tleaf check-cases`: read the cases and the rules, check, write; the summary."""
-    rules = read_case_rules(knowledge)
+    """`tleaf check-cases`: read the cases and the rules (a `.decl`'s names bound to the cases'
+    atoms), check, write; the summary."""
     cases = read_cases(cases_path)
-    checks = check_cases(cases, rules, settings)
+    rules = read_case_rules(knowledge, cases.activity_atoms)
+    checks = check_cases(cases, rules, settings, on_progress)
     return write_checks(checks, out, [cases_path, knowledge])

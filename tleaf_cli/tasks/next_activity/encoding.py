@@ -66,6 +66,11 @@ class Encoder:
         """The end-of-case token's index (= the number of activities)."""
         return len(self.atoms)
 
+    def names(self) -> dict[str, str]:
+        """Activity name -> atom, as the log's cases artifact mapped them: how a rule file that
+        names activities (a `.decl`) finds the run's atoms."""
+        return dict(zip(self.activities, self.atoms, strict=True))
+
     @property
     def value_counts(self) -> tuple[int, ...]:
         """Per attribute, the indices its values take: its training values and 0 (none)."""

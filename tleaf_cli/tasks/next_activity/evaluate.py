@@ -214,7 +214,7 @@ def evaluate_next_activity(
     activity_rules = joint is None or joint.activities_only
     rules = None
     if rules_path is not None and activity_rules:
-        rules = read_rules(rules_path, encoder.atoms, rule_names)
+        rules = read_rules(rules_path, encoder.atoms, rule_names, log_atoms=encoder.names())
     elif settings.scored == "satisfying" and scored_by is None:
         raise SettingError("scored", "'satisfying' reads rules on activities only")
     if rules is not None and rules.unseen:
@@ -226,7 +226,7 @@ def evaluate_next_activity(
     scored = test
     judge = rules
     if scored_by is not None:
-        judge = read_rules(scored_by, encoder.atoms, scored_by_names)
+        judge = read_rules(scored_by, encoder.atoms, scored_by_names, log_atoms=encoder.names())
     if settings.scored == "satisfying":
         keep = ~judge.broken([encoder.indices(c) for c in test])
         scored = [c for c, k in zip(test, keep, strict=True) if k]

@@ -9,25 +9,27 @@ sampling (suffix_search.py, suffix_sampling.py) run over events unchanged.
   activity output and attribute heads (attribute_heads.py) in one call per step; the end of the
   case is the activity output's end.
 - **Rules.** A knowledge base may speak of attributes (MP-Declare: `Existence[Closed] |A.org:
-  resource is Value 3|` is `F(closed & org_resource__value_3)`). Each rule is compiled alone, as
-  check-cases compiles it (case_checks.py: one-hot where it names activities only, else over the
-  powerset of its atoms), and token t reads, in rule k's DFA, the letter of its atoms: its
-  activity's and "attribute is value" for each value it has (`Case.letters`). The rules are the
-  parts of one `RuleAutomaton`: a suffix keeps them when every rule accepts.
+  resource is not Value 3|` is `F(closed & org_resource__is_not__value_3)`, the condition one
+  atom). A `.decl`'s activities read the run's atoms (matched to the log's names exactly). Each
+  rule is compiled alone, as check-cases compiles it (case_checks.py: one-hot where it names
+  activities only, else over the powerset of its own atoms), and token t reads, in rule k's DFA,
+  the letter of its atoms: its activity's, "attribute is value" for each value it has, and each
+  condition that holds on its values (`Case.letters`). The rules are the parts of one
+  `RuleAutomaton`: a suffix keeps them when every rule accepts.
 """
 
 from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import torch
 
 from tleaf_cli.data.activity_names import attribute_atom
-from tleaf_cli.data.cases import Case
+from tleaf_cli.data.cases import Case, EventTest
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.tasks.case_checks import compile_rules, read_case_rules
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
@@ -87,17 +89,19 @@ class JointTokens:
         activities = self.encoder.indices(case, unknown=-1)
         return self.encode(activities, self.encoder.value_indices(case))
 
-    def letters(self) -> list[frozenset[str]]:
-        """Per token, the atoms true at such an event."""
+    def letters(self, tests: Mapping[str, EventTest] | None = None) -> list[frozenset[str]]:
+        """Per token, the atoms true at such an event: its activity's, "attribute is value" for
+        each value it has, and each atom of `tests` that holds on its values."""
         activities, values = self.decode(np.arange(self.size))
         names = list(zip(self.encoder.attributes, self.encoder.values, strict=True))
-        return [
-            frozenset(
-                [self.encoder.atoms[a]]
-                + [attribute_atom(n, vs[i - 1]) for (n, vs), i in zip(names, row, strict=True) if i]
-            )
-            for a, row in zip(activities.tolist(), values.tolist(), strict=True)
-        ]
+        out = []
+        for a, row in zip(activities.tolist(), values.tolist(), strict=True):
+            event = {n: vs[i - 1] if i else None for (n, vs), i in zip(names, row, strict=True)}
+            letter = [self.encoder.atoms[a]]
+            letter += [attribute_atom(n, v) for n, v in event.items() if v is not None]
+            letter += [atom for atom, test in (tests or {}).items() if test.holds(event)]
+            out.append(frozenset(letter))
+        return out
 
 
 @dataclass(frozen=True)
@@ -118,17 +122,26 @@ def joint_rules(
 ) -> JointRules:
     """The rules of `path` (all, or those named) over `tokens`; InputError naming the file and
     line of a rule that does not read or compile, or a name the file does not have."""
-    rules = read_case_rules(path)
+    rules = read_case_rules(path, tokens.encoder.names())
     if names:
         by_name = {r.name: r for r in rules}
         unknown = [n for n in names if n not in by_name]
         if unknown:
             raise InputError(f"{path}: no rule named {', '.join(unknown)}")
         rules = [by_name[n] for n in names]
-    activity_atoms = set(tokens.encoder.atoms)
-    activities_only = all(a in activity_atoms for r in rules for a in r.atoms)
-    dfas = compile_rules(rules, "one-hot" if activities_only else "powerset")
-    letters = tokens.letters()
+    activities_only = all(r.one_hot for r in rules)
+    tests = {atom: test for r in rules for atom, test in r.conditions.items()}
+    unread = sorted(
+        {a for t in tests.values() for a in t.attributes} - set(tokens.encoder.attributes)
+    )
+    if unread:
+        raise InputError(
+            f"{path}: a condition reads the event attribute {unread[0]!r}, which the run does not "
+            f"predict (it predicts: {', '.join(tokens.encoder.attributes) or 'none'}): train "
+            f"with --attributes {unread[0]}, or leave such rules out"
+        )
+    dfas = compile_rules(rules)
+    letters = tokens.letters(tests)
     known = set().union(*letters)
     columns = [np.array([d.alphabet.index(ls) for ls in letters], dtype=np.int64) for d in dfas]
     unseen = sorted({a for r in rules for a in r.atoms if a not in known})

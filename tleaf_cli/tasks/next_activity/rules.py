@@ -1,5 +1,7 @@
 """The rules a next-activity run or its evaluation uses: formulas of a `.ltl` file (mined
-Declare constraints, a peer's a-priori formula), some or all of them, conjoined over the model's
+Declare constraints, a peer's a-priori formula) or the constraints of a `.decl` Declare model
+(its activity names matched to the log's exactly, `knowledge/rule_files.py`), some or all of
+them, conjoined over the model's
 activities — as one DFA, or, for a knowledge base too large for one (thousands of rules mined
 over hundreds of activities), as a few DFAs, its parts (`tleaf_cli.rule_set.rule_parts`): a
 case keeps the rules when every part accepts it."""
@@ -9,13 +11,14 @@ from __future__ import annotations
 import functools
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from tleaf_cli.data.formula_files import read_formulas
+from tleaf_cli.data.formula_files import FormulaSource
 from tleaf_cli.errors import InputError
+from tleaf_cli.knowledge.rule_files import read_rule_file
 from tleaf_cli.logic.formulas import FormulaSyntaxError, atoms, parse
 from tleaf_cli.losses import violates
 from tleaf_cli.rule_set import PART_STATES, RuleSet, rule_parts
@@ -90,18 +93,27 @@ def read_rules(
     vocabulary: Sequence[str],
     names: Sequence[str] = (),
     max_states: int = PART_STATES,
+    log_atoms: Mapping[str, str] | None = None,
 ) -> Rules:
     """The rules of `path` named in `names` (all without), conjoined over `vocabulary` in parts
-    of at most `max_states` states.
+    of at most `max_states` states; a `.decl`'s activities bound to atoms by the log's map
+    `log_atoms` (activity name -> atom: the run's `Encoder.activities` and `.atoms`).
 
     An activity the model does not know (the log never has it) is read as never happening, and
     the rules naming it are listed in `Rules.unseen`, for the caller to report. Raises
     InputError naming the file and line of a formula that does not read, a name the file does
     not have, a rule on an attribute value, or rules that together accept no case."""
-    sources = read_formulas(path)
+    sources = read_rule_file(path, log_atoms)
     for src in sources:
         if src.problem is not None:
             raise InputError(f"{src.path}: {src.located(src.problem)}")
+        if src.conditions:
+            read = sorted({a for t in src.conditions.values() for a in t.attributes})
+            raise InputError(
+                f"{src.path}: {src.location}: rule {src.formula_id} has an MP-Declare condition "
+                f"on {', '.join(read)}: a model over activities cannot read it (a model that "
+                "predicts the attribute can: train with --attributes; or leave such rules out)"
+            )
     if not sources:
         raise InputError(f"{path}: no rules in the file")
     chosen = sources
@@ -116,7 +128,7 @@ def read_rules(
         chosen = [by_name[n] for n in names]
     texts, unseen = [], {}
     for source in chosen:
-        text, missing = _without_unknown(source.text, set(vocabulary))
+        text, missing = _without_unknown(source, set(vocabulary))
         texts.append(text)
         if missing:
             unseen[source.formula_id] = missing
@@ -133,11 +145,12 @@ def read_rules(
     return rules
 
 
-def _without_unknown(text: str, vocabulary: set[str]) -> tuple[str, tuple[str, ...]]:
+def _without_unknown(source: FormulaSource, vocabulary: set[str]) -> tuple[str, tuple[str, ...]]:
     """The formula with each activity atom outside `vocabulary` read as `false` (an activity the
     log never has never happens: Not Co-Existence with it always holds, its Existence never),
-    and those atoms; InputError for an atom of an attribute value (`attribute_atom`'s double
-    _), which a model over activities cannot read at all."""
+    and those atoms; InputError naming the rule for an atom of an attribute value
+    (`attribute_atom`'s double _), which a model over activities cannot read at all."""
+    text = source.text
     try:
         named = atoms(parse(text))
     except FormulaSyntaxError:
@@ -146,8 +159,9 @@ def _without_unknown(text: str, vocabulary: set[str]) -> tuple[str, tuple[str, .
     values = [a for a in missing if "__" in a]
     if values:
         raise InputError(
-            f"rule {text!r} names the attribute value {values[0]}: a model over activities "
-            "cannot read it (a model that predicts the attribute can, or leave such rules out)"
+            f"{source.path}: {source.location}: rule {source.formula_id} names the attribute "
+            f"value {values[0]}: a model over activities cannot read it (a model that predicts "
+            "the attribute can, or leave such rules out)"
         )
     for atom in missing:
         text = re.sub(rf"(?<![A-Za-z0-9_]){re.escape(atom)}(?![A-Za-z0-9_])", "false", text)

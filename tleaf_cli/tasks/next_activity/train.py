@@ -82,7 +82,7 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         self.logic = "none" if settings.lam == 0 else settings.logic_loss
         if kb is not None and self.logic != "none":
             refuse_attribute_rules(kb)
-            self.rules = read_rules(kb, self.encoder.atoms)
+            self.rules = read_rules(kb, self.encoder.atoms, log_atoms=self.encoder.names())
         if self.logic != "tleaf":
             return LossSetup()
         from tleaf_cli.embed.load import load_embedder
