@@ -65,30 +65,55 @@ def test_without_the_cache_nothing_is_written(dfas, tmp_path):
 
 def test_of_two_processes_at_once_one_computes_and_the_other_reads(dfas, tmp_path, monkeypatch):
     """make -j starts a tier's trainings together: the second waits on the set's lock and
-    reads the first one's file instead of computing the same shares again."""
+    reads the first one's file instead of computing the same shares again.
+
+    Ordered by events, not by sleeping: the second starts once the first is computing, and the
+    first finishes only once the second has found the lock held (a non-blocking try refused),
+    so the second always contends for the lock while the first holds it."""
+    import fcntl
     import threading
-    import time
 
     from tleaf_cli.data import monitor_cache
 
     bank = MonitorBank(2, max_length=6, ranges=2)
-    computed = []
-    real = monitor_cache._compute
+    computing, contended = threading.Event(), threading.Event()
+    computed: list[bool] = []  # per computation: whether the other one contended meanwhile
+    real_compute, real_flock = monitor_cache._compute, fcntl.flock
 
-    def slow(dfas, bank):
-        computed.append(1)
-        time.sleep(0.3)  # long enough for the other to arrive while this one computes
-        return real(dfas, bank)
+    def compute_once_contended(dfas, bank):
+        computing.set()
+        computed.append(contended.wait(timeout=60))  # a bound for a failing test only
+        return real_compute(dfas, bank)
 
-    monkeypatch.setattr(monitor_cache, "_compute", slow)
-    results = []
-    workers = [
-        threading.Thread(target=lambda: results.append(monitor_shares(dfas, bank, tmp_path)))
-        for _ in range(2)
-    ]
-    for w in workers:
-        w.start()
-    for w in workers:
-        w.join()
-    assert len(computed) == 1 and len(results) == 2
-    assert np.array_equal(results[0], results[1])
+    def flock(fd, operation: int) -> None:
+        if operation == fcntl.LOCK_EX:
+            try:
+                real_flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                return
+            except BlockingIOError:  # held by the other thread: it is computing
+                contended.set()
+        real_flock(fd, operation)
+
+    monkeypatch.setattr(monitor_cache, "_compute", compute_once_contended)
+    monkeypatch.setattr(fcntl, "flock", flock)
+    results: dict[str, np.ndarray] = {}
+    errors: list[BaseException] = []
+
+    def shares(name: str) -> None:
+        try:
+            results[name] = monitor_shares(dfas, bank, tmp_path)
+        except BaseException as e:  # reported in the test's thread below
+            errors.append(e)
+
+    first = threading.Thread(target=shares, args=("first",))
+    second = threading.Thread(target=shares, args=("second",))
+    first.start()
+    assert computing.wait(timeout=60), "the first never started computing"
+    second.start()
+    for thread in (first, second):
+        thread.join(timeout=120)
+        assert not thread.is_alive()
+    assert not errors, errors
+    assert computed == [True]  # computed once, while the second waited on the lock
+    assert contended.is_set() and results.keys() == {"first", "second"}
+    assert np.array_equal(results["first"], results["second"])
