@@ -51,6 +51,9 @@ def test_mine_declare_writes_a_decl_that_reads_back(tmp_path: Path) -> None:
         assert (read.template.key, read.count) == (c.template, 1)
         assert tuple(model.atoms[a] for a in read.activities) == c.activities
         assert parse(read.formula(model.atoms)) == parse(c.formula)
+    # the rules read back under the names the miner gave them (its .tsv, its .ltl)
+    log = read_cases(cases).activity_atoms
+    assert [r.name for r in model.rules(log)] == [m.constraint.name for m in found.rules]
 
 
 def test_the_peers_line_forms_are_of_that_form() -> None:

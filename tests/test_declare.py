@@ -66,7 +66,7 @@ def test_mined_rules_pass_the_thresholds_and_none_is_implied_by_another(cases, s
         if c.template in ("response", "precedence"):
             assert Constraint("succession", (a, *b)) not in kept
         if c.template == "existence":
-            assert not {Constraint(t, (a,)) for t in ("init", "end", "exactly_once")} & kept
+            assert not {Constraint(t, (a,)) for t in ("init", "end", "exactly")} & kept
 
 
 @settings(max_examples=150, deadline=None)
@@ -233,16 +233,16 @@ def test_mine_log_writes_the_rules_and_their_test_support(tmp_path) -> None:
     assert list(by_rule) == list(rules)
     # assign once: 18 of 20 train cases, 9 of 10 test cases (implies existence.assign)
     assert (
-        by_rule["exactly_once.assign"][2] == "0.9000"
-        and by_rule["exactly_once.assign"][-1] == "0.9000"
+        by_rule["exactly.assign"][2] == "0.9000"
+        and by_rule["exactly.assign"][-1] == "0.9000"
     )
     assert "atom open_ticket = activity 'Open ticket'" in (tmp_path / "kb.ltl").read_text()
-    assert found.test_joint == 0.9  # the test case without assign breaks exactly_once.assign
+    assert found.test_joint == 0.9  # the test case without assign breaks exactly.assign
     jointly = mine_log(
         cases, tmp_path / "kb2.ltl", DeclareSettings(min_activated=1, min_joint_support=0.95)
     )
     names = {m.constraint.name for m in jointly.rules}
-    assert "exactly_once.assign" not in names and "init.open_ticket" in names  # 18 of 20 < 0.95
+    assert "exactly.assign" not in names and "init.open_ticket" in names  # 18 of 20 < 0.95
     assert jointly.test_joint == 1.0
 
 
@@ -309,8 +309,8 @@ def test_the_settings_know_the_templates() -> None:
         assert find_template(old) == (TEMPLATES[key], 1)
     assert [Constraint(t, ("a", "b")[: TEMPLATES[t].arity]).name.split(".")[0]
             for t in DEFAULT_TEMPLATES] == [
-        "existence", "absence", "exactly_once", "init", "end", "response", "precedence",
-        "succession", "chain_response", "not_coexistence",
+        "existence", "absence", "exactly", "init", "end", "response", "precedence",
+        "succession", "chain_response", "not_co_existence",
     ]  # fmt: skip
 
 

@@ -8,8 +8,8 @@ a template on its activities, checked on a case by one direct check per template
 against the formula.
 
 **Templates.** By default the ten tleaf has always mined (settings/declare.py's
-DEFAULT_TEMPLATES): existence, absence, exactly (rule name `exactly_once.a`), init, end,
-response, precedence, succession, chain_response, not_co_existence (`not_coexistence.a.b`).
+DEFAULT_TEMPLATES): existence, absence, exactly, init, end,
+response, precedence, succession, chain_response, not_co_existence.
 `ALL_TEMPLATES` adds choice, exclusive_choice, responded_existence, co_existence, the
 alternate and chain templates, not_succession and not_chain_succession: pm4py's 18 discovery
 templates, end and the two choices. The five negative templates that repeat another's formula on

@@ -17,9 +17,8 @@ a constraint's confidence is the share of its activating cases that satisfy it. 
 without activation (the unary ones; choice and exclusive choice, symmetric too) is activated by
 every case: its confidence is its support.
 
-**Rule names.** A constraint is named `template.a[.b]` in a `.ltl` file, the template by its key,
-except exactly (`exactly_once.a`) and not co-existence (`not_coexistence.a.b`), which keep the
-names tleaf gave them before the templates were defined once.
+**Rule names.** A constraint is named `template.a[.b]` in a `.ltl` file, the template by its key
+(`exactly.a`, `not_co_existence.a.b`): the name a `.decl` of the same constraint reads back as.
 """
 
 from __future__ import annotations
@@ -36,7 +35,6 @@ from tleaf_cli.settings.declare import TEMPLATE_ALIASES
 
 # symmetric in a and b (`Template.symmetric`): mined over unordered pairs (a < b)
 SYMMETRIC = frozenset(k for k, t in TEMPLATES.items() if t.symmetric)
-RULE_NAMES = {"exactly": "exactly_once", "not_co_existence": "not_coexistence"}
 
 
 @dataclass(frozen=True)
@@ -205,7 +203,7 @@ class Constraint:
     @property
     def name(self) -> str:
         """The rule's name in a `.ltl` file: `response.assign_seriousness.take_in_charge`."""
-        return ".".join((RULE_NAMES.get(self.template, self.template), *self.activities))
+        return ".".join((self.template, *self.activities))
 
     @property
     def formula(self) -> str:
