@@ -27,7 +27,14 @@ from tleaf_cli.logic import mona
 runner = CliRunner()
 EXAMPLE = Path(__file__).parent.parent / "examples" / "cooking_rules.ltl"
 # "a holds k steps before the end": its minimal DFA has 2^k states; MONA needs ~17 s for k=18.
+# 2^18 states before the end: past progression's limits (a count, the same everywhere), so MONA's.
 SLOW = "F(a & " + "X(" * 18 + "last" + ")" * 18 + ")"
+# A MONA that never finishes a formula (and answers `mona -v`, part of the cache key): the
+# timeout path is taken whatever the machine's speed or load, with no real work racing a clock.
+STUCK_MONA = """#!/bin/sh
+if [ "$1" = "-v" ]; then echo "MONA v1.4-18 (a stand-in that never finishes)"; exit 0; fi
+exec sleep 60
+"""
 
 
 def tleaf(*args: str):
@@ -138,7 +145,14 @@ def test_empty_file(tmp_path: Path) -> None:
     assert read_dfas(out).rows == []
 
 
-def test_timeout_is_an_error_row(tmp_path: Path) -> None:
+def test_timeout_is_an_error_row(tmp_path: Path, monkeypatch) -> None:
+    """The formula MONA does not finish within --timeout is an error row; the others, compiled
+    by progression (MONA is never asked), are not."""
+    stuck = tmp_path / "bin" / "mona"
+    stuck.parent.mkdir()
+    stuck.write_text(STUCK_MONA)
+    stuck.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{stuck.parent}{os.pathsep}{os.environ['PATH']}")
     src = _write(tmp_path / "f.ltl", ["G a", SLOW, "F b"])
     out = tmp_path / "o.parquet"
     result = tleaf("compile-dfa", src, "-o", out, "--timeout", "0.5", "--jobs", "2")
