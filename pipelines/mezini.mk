@@ -152,7 +152,8 @@ $(foreach n,$(NOISES),$(eval $(call NOISE,$(n))))
 CASES := $(foreach n,$(NOISES),$(OUT)/n$(n)/cases.parquet)
 $(OUT)/kb.decl: $(DECL) $(CASES) | pipelines/mezini_data.py
 	$(PYTHON) pipelines/mezini_data.py kb $< $(CASES) -o $@ --record $(OUT)/record.json \
-	    --train $(TRAIN_LOGS) --test $(TEST_LOG) --prefixes $(PREFIXES) --max-suffix $(MAX_SUFFIX)
+	    --train $(TRAIN_LOGS) --test $(TEST_LOG) --prefixes $(PREFIXES) --max-suffix $(MAX_SUFFIX) \
+	    $(if $(PUBLISHED),--published $(PUBLISHED))$(if $(DATASET), --dataset $(DATASET))
 
 define UNIT
 $(1)/exact/metrics.json: $(2)/cases.parquet $(OUT)/kb.decl

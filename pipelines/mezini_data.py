@@ -21,12 +21,15 @@ Two commands (pipelines/mezini.mk runs both):
         logs lack, which logs lack them and whether it holds on every case anyway (its formula
         checked on the cases, the absent activities never happening); and the prefix lengths
         and longest suffix the run uses beside the ones the data gives, each with where it
-        came from. pipelines/mezini_report.py shows it.
+        came from; and which rows of their per-run CSV (--published) the report reads, refusing
+        a CSV of several logs without --dataset before anything trains.
+        pipelines/mezini_report.py shows it.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import gzip
 import json
 import math
@@ -246,6 +249,22 @@ def kb(model_path: Path, cases: Sequence[Path], out: Path) -> dict:
     }
 
 
+def published_rows(path: Path, dataset: str | None) -> dict:
+    """Which rows of their per-run CSV the report will read (checked before any training: a
+    CSV of several logs needs --dataset)."""
+    with open(path, newline="") as f:
+        logs = [r.get("dataset", "") for r in csv.DictReader(f)]
+    names = sorted(set(logs))
+    if dataset is None and len(names) > 1:
+        raise SystemExit(
+            f"{path}: rows of {len(names)} logs ({', '.join(names)}): set DATASET= to one"
+        )
+    if dataset is not None and dataset not in names:
+        raise SystemExit(f"{path}: no rows of dataset {dataset!r} (it has {', '.join(names)})")
+    chosen = dataset if dataset is not None else (names[0] if names else "")
+    return {"csv": str(path), "dataset": chosen, "rows": logs.count(chosen)}
+
+
 # ---------------------------------------------------------------------------- main
 
 
@@ -264,11 +283,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     k.add_argument("--test", type=Path, help="the test log (XES)")
     k.add_argument("--prefixes", help="the prefix lengths the run uses (PREFIXES)")
     k.add_argument("--max-suffix", type=int, help="the longest suffix it predicts (MAX_SUFFIX)")
+    k.add_argument("--published", type=Path, help="their per-run CSV the report will read")
+    k.add_argument("--dataset", help="its rows of this log (their `dataset` column)")
     args = parser.parse_args(argv)
     if args.command == "settings":
         got = derive(args.train, args.test)
         print(got["prefixes"], got["max_suffix"])
         return 0
+    published = published_rows(args.published, args.dataset) if args.published else None
     record = kb(args.model, args.cases, args.out)
     for d in record["dropped"]:
         print(f"{args.out}: left out line {d['line']}, {d['constraint']}: {d['why']}")
@@ -280,6 +302,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             }
         else:
             record = {"kb": record}
+        if published:
+            record["published"] = published
         args.record.write_text(json.dumps(record, indent=1, ensure_ascii=False) + "\n")
     return 0
 

@@ -437,6 +437,12 @@ def record_lines(out: Path) -> list[str]:
                 "" if str(got["value"]) == str(got["data"]) else f"; the data gives {got['data']}"
             )
             lines.append(f"- {label} {got['value']}: {got['from']}{data}.")
+    published = record.get("published")
+    if published:
+        lines.append(
+            f"- Their figures: the {published['rows']} rows of `{published['csv']}` for "
+            f"{published['dataset']} (those at α {ALPHA:g} compared)."
+        )
     kb = record.get("kb") or {}
     if kb:
         dropped = kb.get("dropped", [])

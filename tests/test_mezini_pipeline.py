@@ -69,7 +69,8 @@ def write_xes(path: Path, cases: list[list[str]], first_day: int) -> None:
 def synthetic_data(folder: Path) -> None:
     """40 training cases of 4-12 events (median 7: prefixes 3-5), 12 test cases of 4-21 (the
     longest suffix 21), the training log at 40 % noise relabelled among the log's activities;
-    their figures at noise 40 for prefix lengths 3 and 4, none for 5."""
+    their figures at noise 40 for prefix lengths 3 and 4, none for 5, beside another log's (as
+    their results/paper_results.csv holds every log)."""
     rng = random.Random(0)
     folder.mkdir()
     train = [case(rng, m) for m in [1, 2, 3, 3, 4, 4, 4, 4, 5, 6, 8, 9] * 3 + [2, 3, 4, 5]]
@@ -86,12 +87,13 @@ def synthetic_data(folder: Path) -> None:
         w.writerow(["architecture", "dataset", "noise", "alpha", "run_id", "loss",
                     "prefix_length", "sampling_strategy", "test_similarity_scaled",
                     "test_satisfiability"])  # fmt: skip
-        for run in (1, 2):
-            for loss, sim in (("baseline", 0.61), ("LLL", 0.64), ("GLL", 0.58)):
-                for prefix in (3, 4):
-                    for strategy in ("greedy", "temperature"):
-                        w.writerow(["LSTM", "synthetic", 40, 0.65, run, loss, prefix, strategy,
-                                    sim + prefix / 100, 1.0])  # fmt: skip
+        for log, shift in (("synthetic", 0.0), ("other", 0.2)):
+            for run in (1, 2):
+                for loss, sim in (("baseline", 0.61), ("LLL", 0.64), ("GLL", 0.58)):
+                    for prefix in (3, 4, 5) if log == "other" else (3, 4):
+                        for strategy in ("greedy", "temperature"):
+                            w.writerow(["LSTM", log, 40, 0.65, run, loss, prefix, strategy,
+                                        sim + shift + prefix / 100, 1.0])  # fmt: skip
 
 
 def rows(text: str, title: str) -> dict[str, list[str]]:
@@ -109,7 +111,12 @@ def rows(text: str, title: str) -> dict[str, list[str]]:
 def test_another_log_runs_with_data_alone(tmp_path: Path) -> None:
     data, out = tmp_path / "data", tmp_path / "out"
     synthetic_data(data)
-    done = make_small("mezini.mk", out, f"DATA={data}", "NOISES=40", "LOSSES=exact", timeout=300)
+    args = (f"DATA={data}", "NOISES=40", "LOSSES=exact")
+    # their CSV holds two logs: refused, naming them, before anything trains
+    done = make_small("mezini.mk", out, *args, timeout=300)
+    assert done.returncode == 2 and "rows of 2 logs (other, synthetic): set DATASET=" in done.stderr
+    assert not (out / "n40" / "s0").exists()
+    done = make_small("mezini.mk", out, *args, "DATASET=synthetic", timeout=300)
     assert done.returncode == 0, done.stderr[-3000:]
     record = json.loads((out / "record.json").read_text())
     # the settings from the data, as their runner takes them, each with where it came from
@@ -140,6 +147,7 @@ def test_another_log_runs_with_data_alone(tmp_path: Path) -> None:
     report = (out / "mezini.md").read_text()
     assert "prefix lengths 3, 4, 5" in report
     assert "Existence[Escalate]" in report and "Prefix lengths 3-5: their runner's" in report
+    assert "Their figures: the 24 rows of" in report and "for synthetic" in report
     for title in ("**Greedy (argmax):**", "**Sampled at temperature 0.7:**"):
         table = rows(report, title)
         assert sorted(table) == ["3", "4", "5"]
