@@ -143,6 +143,18 @@ def test_a_decl_name_binds_the_log_atom_of_that_very_name(tmp_path: Path) -> Non
     assert second.formula_id.split(".")[1] not in atoms.values()
 
 
+def test_read_log_and_inspect_show_names_told_apart(tmp_path: Path) -> None:
+    log = tmp_path / "log.csv"
+    write_log(log, [["Check in", "Check-in", "検査"]])
+    out = tmp_path / "cases.parquet"
+    done = tleaf("read-log", log, "-o", out)
+    assert done.exit_code == 0, done.output
+    assert "'Check in' -> check_in, 'Check-in' -> check_in_2" in done.output
+    shown = tleaf("inspect", out)
+    assert shown.exit_code == 0, shown.output
+    assert "1 groups told apart" in shown.output and "jian_zha" in shown.output
+
+
 def test_the_run_reads_a_decl_through_its_log_atoms(tmp_path: Path) -> None:
     """train-task and eval read `--kb` / `--rules` through the run's own map (read_rules)."""
     from tleaf_cli.tasks.next_activity.rules import read_rules

@@ -12,10 +12,11 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from tleaf_cli import ui
+from tleaf_cli.data.activity_names import folded
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.dfa_table import KIND as DFA_KIND
 from tleaf_cli.data.dfa_table import read_dfas
-from tleaf_cli.data.event_logs import CASE_PREFIX, EVENT_PREFIX
+from tleaf_cli.data.event_logs import ATOMS_KEY, CASE_PREFIX, EVENT_PREFIX
 from tleaf_cli.data.event_logs import KIND as CASES_KIND
 from tleaf_cli.data.graphs import render_dot, row_to_dot
 from tleaf_cli.errors import InputError
@@ -23,6 +24,7 @@ from tleaf_cli.errors import InputError
 CELL_CHARS = 60
 TOP_ACTIVITIES = 10  # the most frequent activities a cases artifact's --stats lists
 TOP_VALUES = 5  # the most frequent values of each kept attribute it lists
+MAP_ROWS = 40  # the activity name -> atom pairs inspect lists
 
 
 def show_artifact(path: Path, limit: int = 10) -> None:
@@ -50,6 +52,27 @@ def show_artifact(path: Path, limit: int = 10) -> None:
         ui.table(f"first {len(rows)} rows", columns, [[_cell(r[c]) for c in columns] for r in rows])
     if compiled is not None:
         ui.text(f"compiled: {compiled} of {n_rows}; failed: {n_rows - compiled}")
+    if prov.kind == CASES_KIND:
+        _show_activity_atoms(schema)
+
+
+def _show_activity_atoms(schema: pa.Schema) -> None:
+    """A cases artifact's activity name -> atom map (the one every reader of rules for the log
+    uses): the names that read as one word first, then the others, up to MAP_ROWS rows."""
+    raw = (schema.metadata or {}).get(ATOMS_KEY.encode())
+    if raw is None:
+        return
+    atoms = json.loads(raw)
+    groups = folded(atoms)
+    first = [n for names in groups for n in names]
+    order = first + sorted(n for n in atoms if n not in set(first))
+    rows = [[ui.visible(n), atoms[n]] for n in order[:MAP_ROWS]]
+    more = f", first {MAP_ROWS}" if len(order) > MAP_ROWS else ""
+    ui.table(
+        f"activity atoms ({len(atoms)} names{more}; {len(groups)} groups told apart)",
+        ["activity", "atom"],
+        rows,
+    )
 
 
 def show_stats(path: Path) -> None:

@@ -71,6 +71,8 @@ def compile_dfa(
         **values, cache_dir=cache_folder(cache_dir, no_cache), jobs=jobs, cluster=cluster or None
     )
     reachable(cluster)
+    inputs = [formulas, *([cases] if cases else [])]
+    targets(inputs, [out], [graphs])  # before reading: an output that is an input is refused
     log_atoms = None if cases is None else read_cases(cases).activity_atoms
     sources = read_rule_file(formulas, log_atoms)
     with ui.progress("compiling", quiet) as update:
@@ -81,7 +83,7 @@ def compile_dfa(
             graphs,
             update,
             sources,
-            [formulas, *([cases] if cases else [])],
+            inputs,
         )
     finish(
         report.failures,

@@ -37,6 +37,7 @@ def read_log(
     line, with nothing written. --attributes / --case-attributes keep event / case attributes
     (an attribute the log does not have exits 2 naming it).
     """
+    from tleaf_cli.data.activity_names import folded
     from tleaf_cli.data.log_readers import LogReader
 
     targets([log], [out])
@@ -50,6 +51,9 @@ def read_log(
     with ui.progress(f"reading {log.name} (bytes)", quiet) as tick:
         cases = reader.read(tick)
     reader.write(cases, out)
+    for names in folded(cases.activity_atoms):
+        atoms = ", ".join(f"{n!r} -> {cases.activity_atoms[n]}" for n in names)
+        ui.summary(f"note: activity names that read as one word keep apart atoms: {atoms}", quiet)
     keys = ", ".join(f"{k}: {v}" for k, v in cases.params["keys"].items())
     kept = ", ".join([*cases.attribute_names, *(f"case {n}" for n in cases.case_attribute_names)])
     ui.summary(

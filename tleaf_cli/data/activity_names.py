@@ -86,6 +86,15 @@ def activity_atoms(names: Iterable[str]) -> dict[str, str]:
     return {name: out[name] for name in distinct}
 
 
+def folded(atoms: Mapping[str, str]) -> list[list[str]]:
+    """The groups of names (two or more, each sorted) that read as one word and were told apart
+    by `_2`, `_3`, ... in `atoms` (name -> atom): what a person should know of the map."""
+    groups: dict[str, list[str]] = {}
+    for name in sorted(atoms):
+        groups.setdefault(activity_atom(name), []).append(name)
+    return [names for names in groups.values() if len(names) > 1]
+
+
 def bind_atoms(names: Iterable[str], log: Mapping[str, str] | None = None) -> dict[str, str]:
     """Each of `names` (as a rule file writes them) -> its atom, under a log's map `log` (name ->
     atom, `activity_atoms` of the log's names, kept with its cases artifact).
