@@ -8,11 +8,14 @@ tleaf's exact check (tasks/case_checks.py, the code behind `tleaf check-cases`) 
 every case. Prints, per log, the cases whose violation counts agree, every (case, constraint)
 on which the two differ counted by template, and the first few with the case's activities.
 
-    .venv/bin/python -m pip install pm4py        # not a tleaf dependency (AGPL)
+    bash run peers                                # .venv-peers: pm4py (AGPL), not tleaf's
     .venv/bin/python benchmarks/pm4py_conformance.py LOG [LOG ...] [--min-support 0.5]
 
-The comparison reads the log once, with tleaf, and hands pm4py those cases as its own EventLog
-(one trace per case, events in tleaf's order), so that the two checkers, not two log readers
+pm4py runs in the peers' own environment (.venv-peers, the versions pinned in
+benchmarks/peers-requirements.txt; `--peers-python` or TLEAF_PEERS_PYTHON names another), as a
+subprocess: benchmarks/peers/pm4py_declare.py, which imports pm4py only. The comparison reads the
+log once, with tleaf, and hands pm4py those cases (JSON: one case per trace, events in tleaf's
+order), which it makes its own EventLog, so that the two checkers, not two log readers
 (lifecycle filtering, time ties), are compared. docs/event_logs.md has the results and why
 pm4py's reading differs where it does.
 """
@@ -21,10 +24,12 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import json
+import os
+import subprocess
 import sys
 import tempfile
 import time
-import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -62,20 +67,45 @@ PM4PY_TEMPLATES: dict[str, tuple[str, int]] = {
 # Succession where some b follows some a; likewise nonchainsuccession and Not Chain Succession.
 NOT_DECLARE = ("nonsuccession", "nonchainsuccession")
 EXAMPLES = 5
+ROOT = Path(__file__).resolve().parent.parent
+PEER = ROOT / "benchmarks" / "peers" / "pm4py_declare.py"
 
 
-def pm4py_log(cases: Cases):
-    """The cases as pm4py's EventLog: one trace per case (concept:name its id), its events in
-    tleaf's order with their activity and timestamp."""
-    from pm4py.objects.log.obj import Event, EventLog, Trace
+def peers_python(given: str | os.PathLike | None = None) -> Path:
+    """The peers' python: `given`, else TLEAF_PEERS_PYTHON, else .venv-peers beside tleaf."""
+    path = Path(given or os.environ.get("TLEAF_PEERS_PYTHON") or ROOT / ".venv-peers/bin/python")
+    if not path.exists():
+        raise SystemExit(f"no peers' python at {path}: run `bash run peers` (or name one)")
+    return path
 
-    traces = []
-    for case in cases.cases:
-        trace = Trace(attributes={"concept:name": case.case_id})
-        for activity, stamp in zip(case.activities, case.timestamps, strict=True):
-            trace.append(Event({"concept:name": activity, "time:timestamp": stamp}))
-        traces.append(trace)
-    return EventLog(traces)
+
+def cases_json(cases: Cases) -> dict:
+    """The cases as pm4py_declare.py reads them: each its id, activities and ISO timestamps,
+    in tleaf's order."""
+    return {
+        "cases": [
+            {
+                "case_id": case.case_id,
+                "activities": list(case.activities),
+                "timestamps": [stamp.isoformat() for stamp in case.timestamps],
+            }
+            for case in cases.cases
+        ]
+    }
+
+
+def run_pm4py(cases: Cases, min_support: float | None, python: Path, folder: Path) -> dict:
+    """pm4py's discovery and check of `cases`, in the peers' environment: pm4py_declare.py's
+    OUT.json."""
+    given, out = folder / "cases.json", folder / "pm4py.json"
+    given.write_text(json.dumps(cases_json(cases)))
+    command = [str(python), str(PEER), str(given), str(out)]
+    if min_support is not None:
+        command += ["--min-support", repr(min_support)]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"{PEER.name} failed ({done.returncode}):\n{done.stderr[-4000:]}")
+    return json.loads(out.read_text())
 
 
 def model_rules(model: dict, atoms: dict[str, str]) -> tuple[str, list[tuple[str, object]]]:
@@ -93,30 +123,24 @@ def model_rules(model: dict, atoms: dict[str, str]) -> tuple[str, list[tuple[str
     return "\n".join(lines) + "\n", keys
 
 
-def compare(path: Path, min_support: float | None) -> dict:
+def compare(path: Path, min_support: float | None, python: Path | None = None) -> dict:
     """One log: discover with pm4py, check with both, compare; the figures."""
-    import pm4py
-
     cases = read_log(path, LogSettings())
-    log = pm4py_log(cases)
-    start = time.perf_counter()
-    model = pm4py.discover_declare(
-        log, allowed_templates=set(PM4PY_TEMPLATES), min_support_ratio=min_support
-    )
-    text, keys = model_rules(model, cases.activity_atoms)
-    results = pm4py.conformance_declare(log, model)
-    pm_seconds = time.perf_counter() - start
     with tempfile.TemporaryDirectory() as folder:
+        pm = run_pm4py(cases, min_support, peers_python(python), Path(folder))
+        model: dict = {}
+        for template, acts in pm["constraints"]:
+            model.setdefault(template, []).append(acts if isinstance(acts, str) else tuple(acts))
+        text, keys = model_rules(model, cases.activity_atoms)
+        pm_seconds = pm["seconds"]
         kb = Path(folder) / "model.ltl"
         kb.write_text(text)
         start = time.perf_counter()
         checks = check_cases(cases, read_case_rules(kb))
         tleaf_seconds = time.perf_counter() - start
-    index = {key_id(t, a): j for j, (t, a) in enumerate(keys)}
     pm_broken = np.zeros_like(checks.satisfied)
-    for i, result in enumerate(results):
-        for t, acts in result["deviations"]:
-            pm_broken[i, index[key_id(t, acts)]] = True
+    for i, violated in enumerate(pm["violated"]):
+        pm_broken[i, violated] = True
     tl_broken = ~checks.satisfied
     differ = pm_broken != tl_broken
     by_template = Counter(keys[j][0] for _, j in zip(*np.nonzero(differ), strict=True))
@@ -147,6 +171,7 @@ def compare(path: Path, min_support: float | None) -> dict:
         "examples": examples,
         "seconds": (pm_seconds, tleaf_seconds),
         "alphabet": checks.alphabet,
+        "pm4py": pm["version"],
     }
 
 
@@ -158,11 +183,6 @@ def declare_violates(template: str, acts: tuple[str, str], trace: tuple[str, ...
     if template == "nonsuccession":
         return a in trace and b in trace[trace.index(a) + 1 :]
     return any(x == a and y == b for x, y in itertools.pairwise(trace))
-
-
-def key_id(template: str, acts: object) -> tuple[str, object]:
-    """A constraint's identity: its pm4py template and activities (a pair as a tuple)."""
-    return template, acts if isinstance(acts, str) else tuple(acts)
 
 
 def report(r: dict) -> None:
@@ -217,11 +237,17 @@ def main(argv: list[str] | None = None) -> int:
         default=None,
         help="pm4py's min_support_ratio (default: pm4py's automatic choice)",
     )
+    parser.add_argument(
+        "--peers-python",
+        type=Path,
+        default=None,
+        help="the peers' python (default: TLEAF_PEERS_PYTHON, else .venv-peers/bin/python)",
+    )
     args = parser.parse_args(argv)
-    warnings.filterwarnings("ignore")  # pm4py's deprecation notes on EventLog objects
+    python = peers_python(args.peers_python)
     disagreements = 0
     for path in args.logs:
-        r = compare(path, args.min_support)
+        r = compare(path, args.min_support, python)
         report(r)
         disagreements += r["cases"] - r["agree"]
     return 0 if disagreements == 0 else 1

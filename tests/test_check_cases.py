@@ -1,13 +1,11 @@
 """`tleaf check-cases`: every case against every rule, exactly, on small logs worked out by hand;
 one-hot letters where the rules name activities only, powerset letters where a rule names an
-attribute value; atoms the log never has reported; bad input refused with nothing written; and,
-where pm4py is installed, agreement with its `conformance_declare` on a tiny log."""
+attribute value; atoms the log never has reported; bad input refused with nothing written. The
+agreement with pm4py and Declare4Py, case by case, is tests/test_peer_agreement.py."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -22,7 +20,6 @@ from tleaf_cli.knowledge.templates import TEMPLATES
 from tleaf_cli.settings.event_logs import LogSettings
 from tleaf_cli.tasks.case_checks import check_cases, read_case_rules, summary_path
 
-ROOT = Path(__file__).resolve().parent.parent
 runner = CliRunner()
 
 # c1: Open (Value 1), Closed (Value 3); c2: Open, Open (Value 3); c3: Closed (Value 1)
@@ -153,29 +150,3 @@ def test_a_file_that_is_no_cases_artifact_is_refused(tmp_path: Path) -> None:
     assert result.exit_code == 2
     with pytest.raises(InputError):
         read_case_rules(tmp_path / "missing.ltl")
-
-
-def _benchmark():
-    spec = importlib.util.spec_from_file_location(
-        "pm4py_conformance", ROOT / "benchmarks" / "pm4py_conformance.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["pm4py_conformance"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_agrees_with_pm4py_on_a_tiny_log(tmp_path: Path) -> None:
-    pytest.importorskip("pm4py")
-    bench = _benchmark()
-    rows = ["case:concept:name,concept:name,time:timestamp"]
-    traces = ["abcab", "acb", "bac", "abab", "cba", "ab", "aabbc", "ba"]
-    for k, trace in enumerate(traces):
-        rows += [f"t{k},{x},2020-01-01T00:0{i}:00" for i, x in enumerate(trace)]
-    log = tmp_path / "tiny.csv"
-    log.write_text("\n".join(rows) + "\n")
-    r = bench.compare(log, 0.0)
-    assert r["constraints"] > 50 and set(r["per_template"]) == set(bench.PM4PY_TEMPLATES)
-    assert r["agree_declare"] == r["cases"]  # the 16 templates pm4py reads as Declare does
-    assert r["only_pm4py"] == 0  # pm4py's own two: it flags a subset of Declare's violations
-    assert r["direct_differ"] == 0  # and tleaf's are Declare's, computed directly
