@@ -15,6 +15,7 @@ import random
 from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
@@ -346,3 +347,45 @@ def test_misleading_decl_messages(tmp_path: Path, line: str, message: str) -> No
     model.write_text(HELPDESK + line + "\n")
     with pytest.raises(InputError, match=message):
         read_rule_file(model)
+
+
+def test_suffix_search_reads_conditions_over_22_values(tmp_path: Path) -> None:
+    """The joint tokens of a model predicting the resource read `is not` over 22 values and
+    `in` over 16 (refused before: a powerset over 24 atoms): the rules' automaton accepts
+    exactly the token sequences a checker on the values accepts."""
+    from tleaf_cli.tasks.next_activity.encoding import Encoder
+    from tleaf_cli.tasks.next_activity.joint_tokens import JointTokens, joint_rules
+
+    artifact, _ = _condition_cases(tmp_path)
+    encoder = Encoder.fit(read_cases(artifact), split="train", attributes=("org:resource",))
+    tokens = JointTokens(encoder)
+    model = tmp_path / "kb.decl"
+    sixteen = ", ".join(RESOURCES[:16])
+    model.write_text(
+        HELPDESK
+        + "Existence[Closed] |A.org:resource is not Value 3 |\n"
+        + f"Chain Precedence[Resolve ticket, Closed] |A.org:resource in ({sixteen}) | |\n"
+    )
+    rules = joint_rules(model, tokens)
+    assert not rules.activities_only
+    activities, values = tokens.decode(np.arange(tokens.size))
+    names = [encoder.activities[a] for a in activities]
+    resources = [encoder.values[0][v - 1] if v else None for v in values[:, 0]]
+
+    def keeps(word: tuple[int, ...]) -> bool:
+        events = [(names[t], resources[t]) for t in word]
+        exists = any(a == "Closed" and r is not None and r != "Value 3" for a, r in events)
+        chained = all(
+            i > 0 and events[i - 1][0] == "Resolve ticket"
+            for i, (a, r) in enumerate(events)
+            if a == "Closed" and r in RESOURCES[:16]
+        )
+        return exists and chained
+
+    rng = np.random.default_rng(0)
+    kept = 0
+    for _ in range(400):
+        word = tuple(rng.integers(0, tokens.size, rng.integers(1, 5)).tolist())
+        assert rules.automaton.accepts(word) == keeps(word), word
+        kept += keeps(word)
+    assert kept > 10
