@@ -4,7 +4,7 @@
 # their other logs (sepsis, BPIC_2020_travel) in the same layout with DATA= alone (below). The
 # first 80 % of the cases by time train, the last 20 % test; both keep only the cases that
 # satisfy their Declare model; the training log at 0 (clean), 10, 20, 30 and 40 % of its events
-# relabelled, the test log clean. Suffixes from prefixes of $(PREFIXES) events, greedy and
+# relabelled, the test log clean. Suffixes from prefixes of PREFIXES events, greedy and
 # sampled at temperature 0.7, scored by their trace similarity and the share satisfying the model.
 # Per noise level:
 #   join (the training log, then the test log, as one XES: train-task reads one cases artifact
