@@ -389,3 +389,16 @@ def test_suffix_search_reads_conditions_over_22_values(tmp_path: Path) -> None:
         assert rules.automaton.accepts(word) == keeps(word), word
         kept += keeps(word)
     assert kept > 10
+
+
+def test_a_model_over_activities_refuses_a_condition_by_the_rule_name(tmp_path: Path) -> None:
+    """Before: eval quoted the rule's 22-disjunct formula; now it names the rule and its line."""
+    from tleaf_cli.tasks.next_activity.rules import read_rules
+
+    model = tmp_path / "kb.decl"
+    model.write_text(HELPDESK + "Existence[Closed] |A.org:resource is not Value 3 |\n")
+    with pytest.raises(InputError) as caught:
+        read_rules(model, ["closed", "resolve_ticket"])
+    message = str(caught.value)
+    assert "line 6: rule existence.closed has an MP-Declare condition on org:resource" in message
+    assert "|" not in message and "train with --attributes" in message
