@@ -13,6 +13,7 @@ import os
 import random
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -29,7 +30,7 @@ from tleaf_cli.logic.compile import compile_formula, compile_parsed
 from tleaf_cli.logic.dfa import DFA
 from tleaf_cli.logic.formulas import atoms, parse
 from tleaf_cli.logic.grammar import read_formula
-from tleaf_cli.logic.progression import TooLarge, progression_dfa
+from tleaf_cli.logic.progression import Limits, TooLarge, progression_dfa
 
 KINDS = ("powerset", "one-hot")
 
@@ -95,6 +96,36 @@ def test_limits_raise_too_large_and_auto_falls_back_to_mona(monkeypatch) -> None
     assert calls == [1] and dfa.num_states > 2_000
     compile_formula("G(a -> F b)")
     assert calls == [1]  # progression handled it, no MONA
+
+
+def test_auto_routes_by_counted_work_not_by_the_clock(monkeypatch) -> None:
+    """Under "auto" a formula goes to MONA past AUTO_WORK units of work in one construction: a
+    count, the same on every run, machine and load, exactly at its boundary; a clock that runs
+    an hour per reading changes no route."""
+    formula = parse("G(F a <-> (F b <-> X(F c <-> X F d)))")  # one construction, DNFs blow up
+    letters = Alphabet(atoms(formula), "powerset")
+    counts = []
+    for _ in range(2):
+        limits = Limits()
+        progression_dfa(formula, letters, limits)
+        counts.append(limits.work_done)
+    work = counts[0]
+    assert counts == [work, work] and work > compile_mod.AUTO_WORK
+    progression_dfa(formula, letters, Limits(max_direct_work=work))  # just enough
+    with pytest.raises(TooLarge, match="units of work in one construction"):
+        progression_dfa(formula, letters, Limits(max_direct_work=work - 1))
+    now = [0.0]
+
+    def hour_per_reading() -> float:
+        now[0] += 3600.0
+        return now[0]
+
+    for clock in ("perf_counter", "monotonic", "time", "process_time", "thread_time"):
+        monkeypatch.setattr(time, clock, hour_per_reading)
+    assert compile_mod.by_progression(formula, "powerset", "auto") is None  # MONA's
+    assert compile_mod.by_progression(formula, "powerset", "progression") is not None
+    small = parse("G(a -> F b) & (!b U a)")
+    assert compile_mod.by_progression(small, "powerset", "auto") is not None  # progression's
 
 
 def test_unknown_engine_is_a_setting_error() -> None:

@@ -24,10 +24,13 @@ from tleaf_cli.logic.progression import Limits, TooLarge, progression_dfa
 
 Engine = Literal["auto", "progression", "mona"]
 ENGINES: tuple[Engine, ...] = ("auto", "progression", "mona")
-# Under "auto", one direct progression gets this long before MONA takes the formula over: about
-# twice what MONA needs for a small formula (5 ms), so that progression is used where it is the
-# quicker route; a rare formula whose DNF states blow up would otherwise take seconds.
-AUTO_SECONDS = 0.01
+# Under "auto", one direct progression may do this much work (progression's units, counted, not
+# timed) before MONA takes the formula over: about 10 ms of CPU on the benchmark machine (0.5 µs a
+# unit), twice what MONA needs for a small formula (5 ms), so progression is used where it is the
+# quicker route, and a rare formula whose DNF states blow up, which would take seconds, goes to
+# MONA. Counted, the choice is the same for a formula on any machine under any load; how it was
+# chosen: benchmarks/progression_work.py, docs/benchmarks.md.
+AUTO_WORK = 20_000
 
 
 def compile_formula(
@@ -51,8 +54,8 @@ def compile_parsed(
     engine: Engine = "auto",
 ) -> DFA:
     """`compile_formula` for a formula already parsed. `timeout` bounds MONA only; progression is
-    bounded by its state and work limits (progression.Limits), and under "auto" by AUTO_SECONDS
-    per direct construction, past which MONA is the quicker route."""
+    bounded by its state and work limits (progression.Limits), and under "auto" by AUTO_WORK
+    units of work per direct construction, past which MONA is the quicker route."""
     dfa = by_progression(formula, alphabet, engine)
     return dfa if dfa is not None else by_mona(formula, alphabet, timeout)
 
@@ -64,7 +67,7 @@ def by_progression(formula: LTLfFormula, alphabet: AlphabetKind, engine: Engine)
         raise SettingError("engine", f"must be one of {', '.join(ENGINES)}, not {engine!r}")
     if engine == "mona":
         return None
-    limits = Limits(max_seconds=AUTO_SECONDS if engine == "auto" else None)
+    limits = Limits(max_direct_work=AUTO_WORK if engine == "auto" else None)
     try:
         return progression_dfa(formula, Alphabet(atoms(formula), alphabet), limits)
     except TooLarge:

@@ -30,16 +30,22 @@ and the DFAs are combined by `DFA.product`, which minimises after each step and 
 operations over the letters (a conjunction of eleven two-atom patterns is eleven small
 constructions and ten products).
 
-**Limits.** A construction that would exceed `max_states` states or `max_work` state × letter
-steps raises `TooLarge`, and so does one direct construction that runs past `max_seconds` when
-that is given: states kept as DNFs can blow up (nested `<->` double them), and where MONA is
-quicker it should do the work. `compile.py` then hands the formula to MONA, which has its own
-timeout and memory cap. Whichever route compiles a formula, the DFA is the same.
+**Limits.** Work is counted, not timed, so a formula takes the same route on any machine under
+any load. A unit of work is one letter read in one cube of a state (a state of c cubes costs
+letters × (c + 1), the 1 for the state itself, so a state without cubes, false, costs its
+letters too) or one pair of cubes joined when a conjunction of obligations is progressed
+(`cube_step`): about 0.5 µs of CPU each on the benchmark machine (benchmarks/progression_work.py),
+closer to a construction's time than states × letters, as a state's DNF can hold hundreds of
+cubes. A construction that would exceed `max_states` states, or `max_work` units for the whole
+formula, raises `TooLarge`, and so does one direct construction past `max_direct_work` units
+when that is given (engine "auto"): states kept as DNFs can blow up (nested `<->` double them),
+and where MONA is quicker it should do the work. `compile.py` then hands the formula to MONA,
+which has its own timeout and memory cap. Whichever route compiles a formula, the DFA is the
+same.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -55,7 +61,7 @@ from tleaf_cli.logic.formulas import check_depth
 DIRECT_ATOMS = 4
 # Progression gives up (and compile.py uses MONA) beyond these.
 MAX_STATES = 2_000
-MAX_WORK = 400_000  # states x letters visited
+MAX_WORK = 3_000_000  # units of work (module docstring) for the whole formula: about 1.5 s
 
 # NNF node kinds; a node is a tuple (kind, ...) interned to an int id.
 TRUE, FALSE, LIT, LAST, NOT_LAST, AND, OR, NEXT, WNEXT, EVENTUALLY, ALWAYS, UNTIL, RELEASE = range(
@@ -75,20 +81,23 @@ def _too_large(limit: str) -> str:
 
 @dataclass
 class Limits:
-    """How far one formula's construction may go (see the module docstring)."""
+    """How far one formula's construction may go, in states and units of work (see the module
+    docstring): counted, never timed, so the same formula meets the same limit everywhere."""
 
     max_states: int = MAX_STATES
-    max_work: int = MAX_WORK
-    max_seconds: float | None = None  # per direct construction; None: no time limit
+    max_work: int = MAX_WORK  # for the whole formula
+    max_direct_work: int | None = None  # per direct construction; None: only max_work
     work_done: int = 0
 
-    def count(self, steps: int) -> None:
-        self.work_done += steps
+    def count(self, units: int, since: int) -> None:
+        """Add `units` of work; TooLarge past `max_work` in all, or past `max_direct_work` since
+        `since` (the work done when the direct construction under way began)."""
+        self.work_done += units
         if self.work_done > self.max_work:
-            raise TooLarge(_too_large(f"{self.max_work:,} state x letter steps"))
-
-    def deadline(self) -> float | None:
-        return None if self.max_seconds is None else time.perf_counter() + self.max_seconds
+            raise TooLarge(_too_large(f"{self.max_work:,} units of work"))
+        if self.max_direct_work is not None and self.work_done - since > self.max_direct_work:
+            limit = f"{self.max_direct_work:,} units of work in one construction"
+            raise TooLarge(_too_large(limit))
 
 
 def progression_dfa(
@@ -285,6 +294,7 @@ class _Progression:
         self._obligations: list[tuple[int, bool]] = []
         self._delta: dict[tuple[int, int], frozenset[int]] = {}
         self._cube_delta: dict[tuple[int, int], frozenset[int]] = {}
+        self._pairs = 0  # pairs of cubes joined by cube_step, not yet counted as work
 
     # ------------------------------------------------------------------- obligations
     def obligation(self, node: int, strong: bool) -> frozenset[int]:
@@ -365,7 +375,9 @@ class _Progression:
         if term is None:
             term = _TRUE_DNF
             for k in _bits(cube):
-                term = _and(term, self.delta(self._obligations[k][0], letter))
+                after = self.delta(self._obligations[k][0], letter)
+                self._pairs += len(term) * len(after)
+                term = _and(term, after)
                 if not term:
                     break
             self._cube_delta[key] = term
@@ -386,14 +398,13 @@ class _Progression:
         states = [start]
         rows: list[list[int]] = []
         step: Callable[[frozenset[int], int], frozenset[int]] = self.step
-        limits, deadline = self.limits, self.limits.deadline()
+        limits = self.limits
+        since = limits.work_done
         head = 0
         while head < len(states):
             state = states[head]
             head += 1
-            limits.count(len(self.letters))
-            if deadline is not None and time.perf_counter() > deadline:
-                raise TooLarge(_too_large(f"{limits.max_seconds * 1000:g} ms"))
+            limits.count(len(self.letters) * (1 + len(state)), since)  # before a wide row
             row = []
             for letter in self.letters:
                 nxt = step(state, letter)
@@ -405,6 +416,8 @@ class _Progression:
                     states.append(nxt)
                 row.append(j)
             rows.append(row)
+            limits.count(self._pairs, since)
+            self._pairs = 0
         accepting = np.array([self.accepting(s) for s in states], dtype=bool)
         return DFA(alphabet, np.array(rows, dtype=np.int32), 0, accepting)
 
