@@ -3,12 +3,15 @@ separate processes on 127.0.0.1) write the same rows as `--jobs 1`, and survive 
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pyarrow.parquet as pq
@@ -33,16 +36,43 @@ def tleaf(*args):
     return runner.invoke(app, [str(a) for a in args])
 
 
-def _free_port() -> int:
+# Bounds on waits for a failing test only: a passing run never waits on a clock to decide.
+PATIENCE = 120.0
+
+
+@contextmanager
+def _refusing_port() -> Iterator[int]:
+    """A port on 127.0.0.1 that refuses connections while the context lasts: bound here and
+    never listening, so no other process can take it meanwhile (a port closed again could be)."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        yield s.getsockname()[1]
 
 
-def _start_worker(address: str, name: str, log: Path) -> subprocess.Popen:
+def _wait_until(done: Callable[[], object], what: str, alive: subprocess.Popen) -> None:
+    """Poll `done` until true; fail naming `what` if `alive` ends first or PATIENCE passes."""
+    deadline = time.monotonic() + PATIENCE
+    while not done():
+        assert alive.poll() is None, f"the process ended before {what}"
+        assert time.monotonic() < deadline, f"no {what} within {PATIENCE:g} s"
+        time.sleep(0.05)
+
+
+def _scheduler_address(scheduler_file: Path) -> str | None:
+    """The address in the scheduler's file, once the file is there and whole."""
+    try:
+        return json.loads(scheduler_file.read_text())["address"]
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def _start_worker(
+    address: str, name: str, log: Path, preload: Path | None = None
+) -> subprocess.Popen:
     # --no-nanny: the worker is this process, so killing it loses the worker (no restart).
     cmd = [sys.executable, "-m", "distributed.cli.dask_worker", address, "--name", name]
     cmd += ["--nthreads", "1", "--no-nanny", "--no-dashboard", "--host", "127.0.0.1"]
+    cmd += ["--preload", str(preload)] if preload else []
     return subprocess.Popen(cmd, stdout=log.open("wb"), stderr=subprocess.STDOUT)
 
 
@@ -60,19 +90,22 @@ def _stop(proc: subprocess.Popen) -> None:
 def cluster(tmp_path_factory):
     """(address, client, logs folder, started processes): a scheduler and two workers."""
     logs = tmp_path_factory.mktemp("cluster")
-    address = f"tcp://127.0.0.1:{_free_port()}"
     procs: list[subprocess.Popen] = []
     client = None
     try:
-        port = address.rsplit(":", 1)[1]
+        # Port 0: the OS gives the scheduler a free port and it keeps it; it writes its address.
+        scheduler_file = logs / "scheduler.json"
         cmd = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1"]
-        cmd += ["--port", port, "--no-dashboard"]
+        cmd += ["--port", "0", "--no-dashboard", "--scheduler-file", str(scheduler_file)]
         log = (logs / "scheduler.log").open("wb")
         procs.append(subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT))
+        _wait_until(lambda: _scheduler_address(scheduler_file), "scheduler address", procs[0])
+        address = _scheduler_address(scheduler_file)
+        assert address is not None
         for k in range(2):
             procs.append(_start_worker(address, f"w{k}", logs / f"w{k}.log"))
-        client = distributed.Client(address, timeout=30, set_as_default=False)
-        client.wait_for_workers(2, timeout=30)
+        client = distributed.Client(address, timeout=PATIENCE, set_as_default=False)
+        client.wait_for_workers(2, timeout=PATIENCE)
         yield address, client, logs, procs
     finally:
         if client is not None:
@@ -129,10 +162,11 @@ def test_cluster_writes_the_same_rows_as_one_job(cluster, formulas, tmp_path: Pa
 
 @needs_distributed
 def test_unreachable_scheduler_from_env_var(tmp_path: Path, monkeypatch) -> None:
-    monkeypatch.setenv("TLEAF_CLUSTER", f"tcp://127.0.0.1:{_free_port()}")  # nothing listens
-    monkeypatch.setattr(parallel, "CONNECT_TIMEOUT", 2.0)
+    monkeypatch.setattr(parallel, "CONNECT_TIMEOUT", 2.0)  # refused at once: no race with it
     (tmp_path / "f.ltl").write_text("x1: F(a)\nx2: G(b)\n")
-    result = tleaf("compile-dfa", tmp_path / "f.ltl", "-q", "-o", tmp_path / "d.parquet")
+    with _refusing_port() as port:
+        monkeypatch.setenv("TLEAF_CLUSTER", f"tcp://127.0.0.1:{port}")
+        result = tleaf("compile-dfa", tmp_path / "f.ltl", "-q", "-o", tmp_path / "d.parquet")
     assert result.exit_code == 2
     assert "--cluster: cannot reach a dask scheduler at tcp://127.0.0.1:" in result.output
     assert "Traceback" not in result.output
@@ -154,17 +188,34 @@ def test_cluster_without_distributed(tmp_path: Path, monkeypatch) -> None:
         assert not (tmp_path / "out").exists()
 
 
+# Preloaded by the doomed worker: the first formulas it is given leave a mark and never finish,
+# so the test kills it while it is known to hold compile work, and the run cannot have ended.
+STUCK_WORKER = """
+import threading
+from pathlib import Path
+
+from tleaf_cli.data import compile_dfas
+
+
+def _stuck(*args):
+    Path({mark!r}).touch()
+    threading.Event().wait()  # until the worker is killed
+
+
+compile_dfas._compile_task = _stuck  # what the tasks sent here name (pickled by reference)
+"""
+
+
 @needs_distributed
 def test_lost_worker_loses_no_rows(cluster, formulas, tmp_path: Path) -> None:
     address, client, logs, procs = cluster
     reference = tmp_path / "reference.parquet"
     assert tleaf("compile-dfa", formulas[200], "-q", "-o", reference).exit_code == 0
-    doomed = _start_worker(address, "doomed", logs / "doomed.log")
+    mark, preload = tmp_path / "doomed-has-work", tmp_path / "stuck_worker.py"
+    preload.write_text(STUCK_WORKER.format(mark=str(mark)))
+    doomed = _start_worker(address, "doomed", logs / "doomed.log", preload)
     procs.append(doomed)
-    client.wait_for_workers(3, timeout=30)
-    doomed_addr = next(
-        a for a, w in client.scheduler_info()["workers"].items() if w["name"] == "doomed"
-    )
+    client.wait_for_workers(3, timeout=PATIENCE)
     out = tmp_path / "out" / "dfas.parquet"
     out.parent.mkdir()
     run = subprocess.Popen(
@@ -173,16 +224,12 @@ def test_lost_worker_loses_no_rows(cluster, formulas, tmp_path: Path) -> None:
         stderr=subprocess.STDOUT,
     )
     try:
-        deadline = time.monotonic() + 60
-        while not client.processing([doomed_addr]).get(doomed_addr):
-            assert run.poll() is None, "the run ended before the doomed worker got work"
-            assert time.monotonic() < deadline
-            time.sleep(0.02)
+        _wait_until(mark.exists, "the doomed worker got work", run)
         os.kill(doomed.pid, signal.SIGKILL)
         doomed.wait()
-        assert run.poll() is None, "the run ended before the worker was killed"
+        assert run.poll() is None, "the run ended although a worker never finished its work"
         assert not out.exists()  # nothing written before every row is in
-        output, _ = run.communicate(timeout=120)
+        output, _ = run.communicate(timeout=PATIENCE)
     finally:
         if run.poll() is None:
             run.kill()
