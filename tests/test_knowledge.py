@@ -272,7 +272,8 @@ def test_kb_extract_writes_samples_and_one_dfa_per_rule_set(tiny, tmp_path, monk
     assert calls[0] == len(ids)  # the first of the two cached runs filled the cache
     assert pq.read_table(again / "dfas.parquet").equals(pq.read_table(out / "dfas.parquet"))
 
-    # The default engine builds the same minimal DFAs in process, without MONA.
+    # The default engine builds the same minimal DFAs in process, without MONA: its route is
+    # decided by counted work (logic/compile.py, AUTO_WORK), the same under any load.
     calls[0] = 0
     auto = tmp_path / "auto"
     assert tleaf("kb-extract", tiny["kb"], tiny["data"], "-o", auto, "--no-cache").exit_code == 0
