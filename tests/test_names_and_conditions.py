@@ -315,6 +315,7 @@ def test_check_cases_warns_of_values_outside_the_declared_domain(tmp_path: Path)
     )
     summary = json.loads(out.with_name("checks.summary.json").read_text())
     assert summary["values_outside_declared_domains"]["org:resource"]["events"] == n
+    assert summary["conditions"] == {"org_resource__is_not__value_3": "org:resource is not Value 3"}
 
 
 def test_compile_dfa_one_hot_refuses_a_conditional_rule(tmp_path: Path) -> None:

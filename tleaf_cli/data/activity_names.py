@@ -75,15 +75,18 @@ def activity_atoms(names: Iterable[str]) -> dict[str, str]:
             out[name] = name
             used.add(name)
     for name in distinct:
-        if name in out:
-            continue
-        base = activity_atom(name)
-        atom, n = base, 2
-        while atom in used:
-            atom, n = f"{base}_{n}", n + 1
-        out[name] = atom
-        used.add(atom)
+        if name not in out:
+            out[name] = free_atom(activity_atom(name), used)
     return {name: out[name] for name in distinct}
+
+
+def free_atom(base: str, used: set[str]) -> str:
+    """The first of `base`, `base_2`, `base_3`, ... not in `used`, added to it."""
+    atom, n = base, 2
+    while atom in used:
+        atom, n = f"{base}_{n}", n + 1
+    used.add(atom)
+    return atom
 
 
 def folded(atoms: Mapping[str, str]) -> list[list[str]]:
@@ -111,12 +114,7 @@ def bind_atoms(names: Iterable[str], log: Mapping[str, str] | None = None) -> di
     if missing:
         used = set(log.values())
         for name in sorted(missing):
-            base = name if atom_problem(name) is None else activity_atom(name)
-            atom, n = base, 2
-            while atom in used:
-                atom, n = f"{base}_{n}", n + 1
-            out[name] = atom
-            used.add(atom)
+            out[name] = free_atom(name if atom_problem(name) is None else activity_atom(name), used)
     return {name: out[name] for name in distinct}
 
 

@@ -33,7 +33,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
 
 from tleaf_cli.atom_names import atom_problem
-from tleaf_cli.data.activity_names import activity_atom
+from tleaf_cli.data.activity_names import activity_atom, free_atom
 from tleaf_cli.knowledge import decl_grammar as grammar
 
 MAX_ATOM = 60  # characters of a condition atom before it is cut and hashed
@@ -171,11 +171,7 @@ def condition_atoms(
             base = f"{base[: MAX_ATOM - 9].rstrip('_')}_{digest}"
         if atom_problem(base) is not None:
             base = "c_" + base
-        atom, n = base, 2
-        while atom in used:
-            atom, n = f"{base}_{n}", n + 1
-        out[tree] = atom
-        used.add(atom)
+        out[tree] = free_atom(base, used)
     return out
 
 

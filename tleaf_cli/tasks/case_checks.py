@@ -314,6 +314,11 @@ def summarise(checks: CaseChecks) -> dict[str, Any]:
                 f"{k} ({', '.join(v)})" for k, v in list(checks.unseen.items())[:EXAMPLES]
             ],
         },
+        "conditions": {
+            atom: test.text()
+            for rule in checks.rules
+            for atom, test in sorted(rule.conditions.items())
+        },
         "values_outside_declared_domains": {
             attribute: {"events": events, "examples": list(examples)}
             for attribute, (events, examples) in checks.outside.items()
