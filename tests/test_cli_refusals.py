@@ -96,3 +96,75 @@ def test_a_damaged_embedder_folder_is_one_line(chain, tmp_path: Path, damage: st
         (model / "config.json").write_text(json.dumps([]), encoding="utf-8")
     line = one_error_line(tleaf("embed", model, chain["dfas"], "-o", tmp_path / "v.parquet"))
     assert str(model) in line, line
+
+
+@pytest.mark.parametrize("text", ["nan", "4.5", "many"])
+def test_a_number_that_is_not_one_is_one_line(tmp_path: Path, text: str) -> None:
+    """Before: `--hidden nan` printed click's usage box ("Invalid value for '--hidden'")."""
+    run = tmp_path / "run"
+    line = one_error_line(tleaf("train-task", "next-activity", "c.parquet", "--hidden", text,
+                                "-o", run))  # fmt: skip
+    assert line == f"error: --hidden: must be a whole number, not '{text}'", line
+    line = one_error_line(tleaf("train-task", "next-activity", "c.parquet", "--lr", "abc"))
+    assert line == "error: --lr: must be a number, not 'abc'", line
+    assert not run.exists()
+
+
+def _member_data(path: Path) -> list[range]:
+    """The byte ranges of a zip archive's members' contents (what their CRC-32s cover)."""
+    import struct
+    import zipfile
+
+    ranges = []
+    raw = path.read_bytes()
+    for info in zipfile.ZipFile(path).infolist():
+        at = info.header_offset  # a local header: 30 bytes, then the name and the extra field
+        name, extra = struct.unpack("<HH", raw[at + 26 : at + 30])
+        start = at + 30 + name + extra
+        ranges.append(range(start, start + info.compress_size))
+    return [r for r in ranges if len(r)]
+
+
+def test_a_damaged_checkpoint_is_one_line_naming_it(tmp_path: Path) -> None:
+    """--resume on a checkpoint.pt truncated, emptied or with a byte changed. Before: an
+    IndexError or AttributeError traceback for some changed bytes, torch's advice to load with
+    weights_only=False for others, `error: Invalid argument` (no file named) for a truncated
+    one, and a changed weight resumed as another. A changed byte the archive does not read (a
+    header's padding) may resume: then as the whole checkpoint would."""
+    import random
+    import shutil
+
+    import torch
+    from test_next_activity import cases_artifact
+
+    data = cases_artifact(tmp_path, cases=40)
+    args = ["train-task", "next-activity", data, "--hidden", 4, "--layers", 1, "-q"]
+    whole = tmp_path / "whole"
+    assert tleaf(*args, "--epochs", 1, "-o", whole).exit_code == 0
+    pristine = (whole / "checkpoint.pt").read_bytes()
+    shutil.copytree(whole, tmp_path / "kept")
+    assert tleaf(*args, "--epochs", 2, "-o", tmp_path / "kept", "--resume").exit_code == 0
+    resumed = torch.load(tmp_path / "kept" / "weights.pt", weights_only=True)
+
+    rng = random.Random(0)
+    contents = [i for r in _member_data(whole / "checkpoint.pt") for i in r]
+    damages = {"truncated": pristine[: len(pristine) // 2], "empty": b"", "zeros": bytes(512)}
+    for name, places in (
+        ("in", rng.sample(contents, 6)),
+        ("at", rng.sample(range(len(pristine)), 6)),
+    ):
+        for at in places:
+            changed = bytearray(pristine)
+            changed[at] ^= 1 + rng.randrange(255)
+            damages[f"{name}-{at}"] = bytes(changed)
+    for name, damaged in damages.items():
+        run = tmp_path / name
+        shutil.copytree(whole, run)
+        (run / "checkpoint.pt").write_bytes(damaged)
+        result = tleaf(*args, "--epochs", 2, "-o", run, "--resume")
+        if result.exit_code == 0 and name.startswith("at-"):  # a byte no reader reads
+            again = torch.load(run / "weights.pt", weights_only=True)
+            assert all(torch.equal(again[k], v) for k, v in resumed.items()), name
+            continue
+        line = one_error_line(result)
+        assert str(run / "checkpoint.pt") in line and "damaged" in line, (name, line)

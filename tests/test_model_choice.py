@@ -41,6 +41,9 @@ def test_the_grid_is_every_combination_in_order():
         ("hidden=8,big", "are not int values"),
         ("dropout=0,1.5", "dropout"),  # each candidate is checked: dropout must be < 1
         ("attributes=org:resource", "takes no list"),  # a field that is None here
+        ("hidden=4,4", "4 is named twice"),  # the same candidate twice
+        ("lr=0.001,1e-3", "0.001 is named twice"),
+        ("heads=2,4", "an LSTM reads no heads"),  # every candidate the same model
     ],
 )
 def test_a_grid_that_does_not_read_is_refused(grid, says):
@@ -93,3 +96,35 @@ def test_the_command_line_takes_a_grid(tmp_path):
         app, ["train-task", "next-activity", str(data), "-o", str(tmp_path / "x"), "--grid", "oops"]
     )
     assert bad.exit_code == 2 and "--grid" in bad.output
+
+
+def test_the_command_line_says_the_candidates_and_the_choice(tmp_path):
+    """Before: --grid printed neither the candidates nor the one chosen."""
+    data = cases_artifact(tmp_path, cases=40)
+    args = ["train-task", "next-activity", str(data), "-o", str(tmp_path / "run"), "--grid",
+            "hidden=4,8", "--epochs", "1", "--layers", "1"]  # fmt: skip
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    said = result.stderr
+    assert f"grid: 2 candidates into {tmp_path / 'run' / 'grid'}: hidden-4, hidden-8" in said
+    assert said.index("hidden-4, hidden-8") < said.index("epoch 1")  # before training
+    chosen = json.loads((tmp_path / "run" / "metrics.json").read_text())["grid"]["chosen"]
+    assert f"grid: chose hidden={chosen['hidden']} on validation (val accuracy " in said
+    quiet = runner.invoke(app, [*args, "-q"])
+    assert quiet.exit_code == 0 and "grid" not in quiet.stderr, quiet.output
+
+
+def test_resuming_with_another_grid_is_refused(tmp_path):
+    """Before: the old grid's candidate folder was left beside the new ones, unlisted."""
+    data = cases_artifact(tmp_path, cases=40)
+    out = tmp_path / "run"
+    args = ["train-task", "next-activity", str(data), "-o", str(out), "--epochs", "1",
+            "--layers", "1", "-q"]  # fmt: skip
+    assert runner.invoke(app, [*args, "--grid", "hidden=4,8"]).exit_code == 0
+    result = runner.invoke(app, [*args, "--grid", "hidden=4", "--resume"])
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(out / "grid") in lines[0] and "hidden-8" in lines[0], lines
+    more = runner.invoke(app, [*args, "--grid", "hidden=4,8,16", "--resume"])  # adds one
+    assert more.exit_code == 0, more.output
+    assert sorted(p.name for p in (out / "grid").iterdir()) == ["hidden-16", "hidden-4", "hidden-8"]

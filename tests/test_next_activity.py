@@ -289,3 +289,138 @@ def test_the_tleaf_loss_trains_with_a_q_that_reads_the_rules(abc_q, tmp_path):
     with pytest.raises(SettingError) as refused:
         train_next_activity(data, other, abc_q, tmp_path / "r2", settings)
     assert refused.value.setting == "embedder" and " d " in str(refused.value) + " "
+
+
+# ---- what a careful new user met: a refusal in one line, or a note, never a traceback
+
+
+def one_line(result) -> str:
+    """The single `error:` line of a refused call (exit 2, no traceback)."""
+    assert result.exit_code == 2, result.output
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: "), lines
+    return lines[0]
+
+
+def tleaf(*args):
+    return runner.invoke(app, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory) -> tuple[Path, Path]:
+    """A cases artifact and a one-epoch run on it, without rules."""
+    folder = tmp_path_factory.mktemp("tiny")
+    data = cases_artifact(folder, cases=40)
+    run = folder / "run"
+    train_next_activity(data, None, None, run, NextActivitySettings(epochs=1, hidden=8, layers=1))
+    return data, run
+
+
+def test_eval_on_cases_with_no_activity_the_run_knows_is_one_line(tiny_run, tmp_path):
+    """Before: `ValueError: need at least one array to concatenate` from accuracy()."""
+    _, run = tiny_run
+    log = tmp_path / "other.csv"
+    log.write_text(
+        "case,activity,timestamp\n"
+        + "".join(f"o{i},{a},2024-02-0{i + 1}T0{t}:00:00Z\n" for i in range(3)
+                  for t, a in enumerate("qr"))
+    )  # fmt: skip
+    other = tmp_path / "other.parquet"
+    assert tleaf("read-log", log, "-o", other, "--split", "0,0,1", "-q").exit_code == 0
+    line = one_line(tleaf("eval", "next-activity", run, other, "-o", tmp_path / "e", "-q"))
+    assert str(other) in line and "none of its" in line and "'q'" in line, line
+    assert not (tmp_path / "e").exists()
+
+
+def test_a_model_too_large_for_memory_is_refused_naming_hidden(tiny_run, tmp_path, monkeypatch):
+    """Before: a torch allocation traceback; counted on the meta device now, and an allocation
+    that still fails is the same refusal."""
+    data, _ = tiny_run
+    out = tmp_path / "run"
+    line = one_line(tleaf("train-task", "next-activity", data, "--hidden", 200000, "-o", out, "-q"))
+    assert line.startswith("error: --hidden: ") and "memory" in line, line
+    import tleaf_cli.tasks.next_activity.train as train
+
+    def no_memory(*args, **kwargs):
+        raise RuntimeError("DefaultCPUAllocator: can't allocate memory: you tried to allocate")
+
+    monkeypatch.setattr(train, "memory_of", lambda device: None)  # the bound unknown
+    monkeypatch.setattr(train, "NextActivityLSTM", no_memory)
+    line = one_line(tleaf("train-task", "next-activity", data, "--hidden", 64, "-o", out, "-q"))
+    assert "--hidden" in line and "does not fit in memory" in line, line
+
+
+def test_max_events_that_leaves_the_logic_loss_nothing_is_refused(tiny_run, tmp_path):
+    """Before: the logic loss was 0.0000 every epoch, and nothing said why."""
+    data, _ = tiny_run
+    result = tleaf(
+        "train-task", "next-activity", data, "--kb", rules_file(tmp_path), "--logic-loss",
+        "exact", "--max-events", 1, "--epochs", 1, "-o", tmp_path / "run", "-q",
+    )  # fmt: skip
+    line = one_line(result)
+    assert "--max-events" in line and "logic loss" in line, line
+    assert not (tmp_path / "run" / "metrics.json").exists()
+
+
+def test_an_attribute_with_nothing_to_predict_is_refused_pointing_to_inputs(tmp_path):
+    """Before: a head whose loss was 0 and `accuracy_<attribute>: None`. `diag` is written on
+    each case's first event only (Sepsis' Diagnose), `kind` is a case attribute."""
+    log = tmp_path / "log.csv"
+    rows = ["case,activity,timestamp,diag,kind"]
+    for i in range(30):
+        for t, a in enumerate(VARIANTS[i % len(VARIANTS)]):
+            diag = f"d{i % 3}" if t == 0 else ""
+            rows.append(f"c{i},{a},2024-01-{1 + i % 28:02d}T0{t}:00:00Z,{diag},k{i % 2}")
+    log.write_text("\n".join(rows) + "\n")
+    data = tmp_path / "cases.parquet"
+    read = tleaf("read-log", log, "-o", data, "--attributes", "diag", "--case-attributes", "kind")
+    assert read.exit_code == 0, read.output
+    args = ["train-task", "next-activity", data, "--epochs", 1, "-o", tmp_path / "run", "-q"]
+    line = one_line(tleaf(*args, "--attributes", "diag"))
+    assert "--attributes" in line and "case's first" in line and "inputs diag" in line, line
+    line = one_line(tleaf(*args, "--attributes", "kind"))
+    assert "case attribute" in line and "case:kind" in line, line
+
+
+def test_eval_rule_weight_without_rules_and_temperature_bounds_are_one_line(tiny_run, tmp_path):
+    """Before: --rule-weight on a run without rules was accepted and weighed nothing; the
+    temperature 0 was "must be above 0", -1 "must be at least 0.0"."""
+    data, run = tiny_run
+    args = ["eval", "next-activity", run, data, "--prefix-lengths", 2, "-o", tmp_path / "e"]
+    line = one_line(tleaf(*args, "--rule-weight", 1))
+    assert "--rule-weight" in line and "without" in line, line
+    for value in (0, -1, "nan"):
+        line = one_line(tleaf(*args, "--temperature", value))
+        assert "--temperature: must be a finite number above 0" in line, line
+    assert not (tmp_path / "e").exists()
+
+
+def test_resume_without_a_checkpoint_says_it_starts_afresh(tiny_run, tmp_path):
+    """Before: --resume into a folder without a checkpoint trained from scratch silently."""
+    data, _ = tiny_run
+    out = tmp_path / "new"
+    args = ["train-task", "next-activity", data, "--epochs", 1, "--hidden", 4, "--layers", 1]
+    result = tleaf(*args, "-o", out, "--resume")
+    assert result.exit_code == 0, result.output
+    assert f"note: no checkpoint in {out}" in result.stderr and "starts afresh" in result.stderr
+    again = tleaf(*args, "-o", out, "--resume")  # now there is one: no note
+    assert again.exit_code == 0 and "no checkpoint" not in again.stderr, again.output
+
+
+def test_a_run_folder_given_with_a_trailing_slash_is_written(tiny_run, tmp_path):
+    """-o of train-task and eval next-activity is a folder: `newdir/` names it."""
+    data, _ = tiny_run
+    out = f"{tmp_path / 'newdir'}/"
+    args = ["--epochs", 1, "--hidden", 4, "--layers", 1, "-o", out, "-q"]
+    assert tleaf("train-task", "next-activity", data, *args).exit_code == 0
+    assert (tmp_path / "newdir" / "weights.pt").is_file()
+    scored = tleaf("eval", "next-activity", out, data, "-o", f"{tmp_path / 'e'}/", "-q")
+    assert scored.exit_code == 0 and (tmp_path / "e" / "metrics.json").is_file(), scored.output
+
+
+def test_the_help_names_every_model_it_trains():
+    """Before: "Train an LSTM", though it trains a Transformer or counts the prefix table too."""
+    shown = " ".join(tleaf("train-task", "next-activity", "--help").output.split())
+    assert "Train an LSTM" not in shown
+    assert "LSTM" in shown and "Transformer" in shown and "prefix-table baseline" in shown

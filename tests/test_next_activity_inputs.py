@@ -153,3 +153,19 @@ def test_a_model_reading_the_attributes_learns_what_they_tell(tmp_path, cases_pa
     assert with_inputs > without + 0.1
     # the suffix search reads them too: after `a` the rest is told by the attributes alone
     assert suffixes[1] > suffixes[0]
+
+
+def test_an_input_the_cases_do_not_keep_is_named_with_those_of_its_scope(cases_path):
+    """Before: `case:nope` was answered "it keeps: lab, unit, case:kind", event attributes
+    first, and with no case attribute kept only event attributes, as if they were the case's."""
+    cases = read_cases(cases_path)
+    with pytest.raises(InputError) as case:
+        Encoder.fit(cases, inputs=["case:nope"])
+    said = str(case.value)
+    assert (
+        "keeps no case attribute 'nope' (case attributes: case:kind; event attributes: lab, unit)"
+        in said
+    )
+    with pytest.raises(InputError) as event:
+        Encoder.fit(cases, numeric_inputs=["nope"])
+    assert "(event attributes: lab, unit; case attributes: case:kind)" in str(event.value)

@@ -59,6 +59,48 @@ def test_inspect_dot_and_draw_together_do_both(dfas: Path, tmp_path: Path) -> No
             ],
             "--decode-top-k: only with --decode constrained",
         ),
+        # next activity: what a model does not read (the refusal comes before the cases are read)
+        (
+            ["train-task", "next-activity", "{dfas}", "--model", "prefix-table", "--hidden", "8"],
+            "--hidden: the prefix table is counted",
+        ),
+        (
+            [
+                "train-task",
+                "next-activity",
+                "{dfas}",
+                "--model",
+                "prefix-table",
+                "--epochs",
+                "3",
+                "--lr",
+                "0.1",
+                "--batch-size",
+                "4",
+            ],
+            "--epochs, --lr, --batch-size: the prefix table",
+        ),
+        (
+            ["train-task", "next-activity", "{dfas}", "--model", "prefix-table", "--resume"],
+            "--resume: the prefix table",
+        ),
+        (
+            ["train-task", "next-activity", "{dfas}", "--model", "lstm", "--heads", "2"],
+            "--heads: only with --model transformer",
+        ),
+        (
+            ["train-task", "next-activity", "{dfas}", "--grid", "heads=2,4"],
+            "--grid: an LSTM reads no heads",
+        ),
+        (["train-task", "next-activity", "{dfas}", "--grid", "hidden=4,4"], "4 is named twice"),
+        (
+            ["eval", "next-activity", "{dfas}", "{dfas}", "--rule-weight", "1"],
+            "--rule-weight: only with --prefix-lengths",
+        ),
+        (
+            ["eval", "next-activity", "{dfas}", "{dfas}", "--min-suffix", "1"],
+            "--min-suffix: only with --prefix-lengths",
+        ),
     ],
 )
 def test_options_that_would_be_ignored_are_refused(

@@ -26,6 +26,7 @@ from tleaf_cli.cli.runs import (
     train_printing,
 )
 from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings
+from tleaf_cli.settings.training import grid_axes, grid_candidates
 
 NextPreset = preset_option(NextActivitySettings)
 DEFAULT_NEXT_PRESET = NextActivitySettings.default_preset()
@@ -39,8 +40,9 @@ def train_task_next_activity(
     kb: Annotated[
         Path | None,
         typer.Option(
-            help="Rules of the logic loss (.ltl: mine-declare, peer-formulas), all "
-            "conjoined; needed for --logic-loss exact / tleaf."
+            help="Rules of the logic loss (.ltl from mine-declare or peer-formulas, or a .decl "
+            "Declare model, its names matched to the log's), all conjoined; needed for "
+            "--logic-loss exact / tleaf."
         ),
     ] = None,
     embedder: EmbedderOption = None,
@@ -51,14 +53,16 @@ def train_task_next_activity(
     quiet: Quiet = False,
     **values,
 ) -> None:
-    """Train an LSTM to predict each prefix's next activity (or the end of the case), with
-    ℓ_task + λ·ℓ_logic; the best val accuracy is kept.
+    """Predict each prefix's next activity (or the end of the case): train Tax et al.'s LSTM
+    (the default) or a small causal Transformer (--model transformer) with ℓ_task + λ·ℓ_logic,
+    the best val accuracy kept, or count the prefix-table baseline (--model prefix-table).
 
     Writes config.json (settings, vocabulary, time scales), weights.pt and metrics.json (per
     epoch: task and logic loss, seconds, val accuracy; test accuracy pooled over prefixes; the
     λ used and where it came from).
     """
     from tleaf_cli.tasks.next_activity.train import train_next_activity
+    from tleaf_cli.training.run_folder import has_checkpoint
 
     targets([cases, kb, embedder, reference], folders=[out])
     settings = NextActivitySettings.preset(preset, **given(ctx, values))
@@ -67,11 +71,16 @@ def train_task_next_activity(
         refuse(["--kb"] if kb is not None else [], "only with a logic loss, not --logic-loss none")
     if settings.logic_loss != "tleaf":
         refuse(["--embedder"] if embedder is not None else [], "only with --logic-loss tleaf")
+    refuse_unread(ctx, settings, resume)
+    if resume and not has_checkpoint(out):
+        ui.summary(f"note: no checkpoint in {out} to resume; training starts afresh", quiet)
+    print_grid(settings, out, quiet)
     title = f"training next-activity ({settings.logic_loss})"
     metrics = train_printing(
         train_next_activity, (cases, kb, embedder), out, settings, title,
         resume=resume, reference=reference, quiet=quiet,
     )  # fmt: skip
+    print_grid_choice(metrics, quiet)
     unseen = metrics.get("rules_unseen") or {}
     if unseen:
         ui.summary(
@@ -93,6 +102,53 @@ def train_task_next_activity(
     )
 
 
+# why a model reads no setting of `NextActivitySettings.unread`: given with it, they are refused
+UNREAD_WHY = {
+    "lstm": "only with --model transformer (an LSTM has no attention heads)",
+    "prefix-table": "the prefix table is counted from the training cases, not trained: it has "
+    "no shape, epochs, batches, seed or checkpoint",
+}
+
+
+def refuse_unread(ctx: typer.Context, settings: NextActivitySettings, resume: bool) -> None:
+    """Refuse the options the run's model does not read (the prefix table: every training
+    option; the LSTM: --heads), unless --grid varies the model; and --resume for the prefix
+    table, which keeps no checkpoint."""
+    if "model" in grid_axes(settings):
+        return  # some candidate may read them
+    given = given_flags(ctx, *settings.unread)
+    if settings.model == "prefix-table" and resume:
+        given.append("--resume")
+    if given:
+        refuse(given, UNREAD_WHY[settings.model])
+
+
+def print_grid(settings: NextActivitySettings, out: Path, quiet: bool) -> None:
+    """With --grid, the candidates before any is trained, and where they go."""
+    if settings.grid is None:
+        return
+    from tleaf_cli.training.model_choice import CANDIDATES, candidate_name
+
+    axes = grid_axes(settings)
+    names = [candidate_name({a: getattr(c, a) for a in axes}) for c in grid_candidates(settings)]
+    ui.summary(f"grid: {len(names)} candidates into {out / CANDIDATES}: {', '.join(names)}", quiet)
+
+
+def print_grid_choice(metrics: dict, quiet: bool) -> None:
+    """With --grid, the candidate chosen on validation and every candidate's val score."""
+    grid = metrics.get("grid")
+    if not grid:
+        return
+    score = grid["score"]
+    chosen = ", ".join(f"{k}={v}" for k, v in grid["chosen"].items())
+    best = max(c[score] for c in grid["candidates"])
+    scores = ", ".join(f"{c['run'].rpartition('/')[2]} {c[score]:.4f}" for c in grid["candidates"])
+    ui.summary(
+        f"grid: chose {chosen} on validation ({score.replace('_', ' ')} {best:.4f}; {scores})",
+        quiet,
+    )
+
+
 @exits
 @with_settings(SUFFIX)
 def eval_next_activity(
@@ -102,8 +158,9 @@ def eval_next_activity(
     rules: Annotated[
         Path | None,
         typer.Option(
-            help="Other rules (.ltl) for the suffix search and --scored satisfying than those "
-            "the run trained with \\[default: the run's knowledge base, from its config.json]."
+            help="Other rules (.ltl, or a .decl with MP-Declare conditions) for the suffix "
+            "search and --scored satisfying than those the run trained with \\[default: the "
+            "run's knowledge base, from its config.json]."
         ),
     ] = None,
     rule: Annotated[
@@ -113,7 +170,7 @@ def eval_next_activity(
     scored_by: Annotated[
         Path | None,
         typer.Option(
-            help="With --scored satisfying: the rules that choose the cases (.ltl; "
+            help="With --scored satisfying: the rules that choose the cases (.ltl or .decl; "
             "default --rules)."
         ),
     ] = None,
@@ -135,9 +192,9 @@ def eval_next_activity(
     from tleaf_cli.tasks.next_activity.evaluate import evaluate_next_activity
 
     targets([run, cases, rules, scored_by], folders=[out])
-    if values.get("prefix_lengths") is None:
-        flags = given_flags(ctx, "beam_width", "max_suffix", "temperature")
-        refuse(flags, "only with --prefix-lengths")
+    if values.get("prefix_lengths") is None:  # they shape the suffixes, predicted only then
+        flags = ("beam_width", "max_suffix", "temperature", "rule_weight", "min_suffix")
+        refuse(given_flags(ctx, *flags), "only with --prefix-lengths")
     if scored_by is None and scored_rule:
         refuse(["--scored-rule"], "only with --scored-by")
     settings = SuffixSettings(**values)

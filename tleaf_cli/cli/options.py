@@ -22,6 +22,7 @@ from typing import Annotated, Any, Literal
 
 import typer
 
+from tleaf_cli.errors import SettingError
 from tleaf_cli.settings import check_value, default_of, options
 from tleaf_cli.settings.action_recognition import TaskSettings
 from tleaf_cli.settings.data import CompileSettings, FormulaSettings, TraceSettings
@@ -130,12 +131,34 @@ def _cli_default(f: Field) -> Any:
     return value
 
 
-def _from_cli(f: Field, value: Any) -> Any:
-    """An option's value as the setting's: a switch's selected value, parsed text parsed."""
+def _number_type(f: Field, cls: type) -> type | None:
+    """int or float for a setting that is a plain number (no choices, no parser of its own),
+    else None: the command line takes such a value as text and reads it itself (`_number`)."""
+    base, _ = _types(f, cls)
+    plain = f.name not in SWITCHES and f.metadata["parse"] is None and not f.metadata["choices"]
+    return base if plain and base in (int, float) else None
+
+
+def _number(f: Field, kind: type, text: str) -> int | float:
+    """The number an option's text names; SettingError otherwise, so that the call is refused
+    in one `error:` line naming the flag (click would print its usage box)."""
+    try:
+        return kind(text.strip())
+    except ValueError:
+        what = "a whole number" if kind is int else "a number"
+        raise SettingError(f.name, f"must be {what}, not {text!r}") from None
+
+
+def _from_cli(f: Field, value: Any, cls: type | None = None) -> Any:
+    """An option's value as the setting's: a switch's selected value, parsed text parsed, a
+    number read from its text (`cls`: the settings class that declares `f`)."""
     if f.name in SWITCHES:
         return SWITCHES[f.name][1] if value else default_of(f)
     if f.metadata["parse"] is not None and isinstance(value, str):
         return f.metadata["parse"](value)
+    kind = None if cls is None else _number_type(f, cls)
+    if kind is not None and isinstance(value, str):
+        return _number(f, kind, value)
     return value
 
 
@@ -151,10 +174,13 @@ def _annotation(f: Field, cls: type) -> Any:
             show_default=False,
         )
         return Annotated[bool, option]
+    metavar = None
     if meta["parse"] is not None:
         base = str
     if meta["choices"] is not None:
         base = Literal[meta["choices"]]
+    if _number_type(f, cls) is not None:  # read by `_from_cli`, refused in one `error:` line
+        metavar, base = f"<{base.__name__}>", str
     names = [flag(f.name)]
     if base is bool:
         names = [f"{flag(f.name)}/--no-{flag(f.name)[2:]}"]
@@ -162,6 +188,7 @@ def _annotation(f: Field, cls: type) -> Any:
         *names,
         help=f"{meta['help']} \\[default: {default_text(f, cls)}]",
         show_default=False,
+        metavar=metavar,
     )  # bounds are checked by `check_value` (one `error:` line, NaN included), not by click
     return Annotated[base | None if optional else base, option]
 
@@ -202,7 +229,7 @@ def with_settings(command: SettingsCommand):
         def wrapper(*args, **kwargs):
             for f in settings:
                 if f.name in kwargs:
-                    kwargs[f.name] = _from_cli(f, kwargs[f.name])
+                    kwargs[f.name] = _from_cli(f, kwargs[f.name], command.owner(f))
                     check_value(f, kwargs[f.name])
             return func(*args, **kwargs)
 

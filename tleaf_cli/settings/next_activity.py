@@ -12,11 +12,28 @@ from typing import Any, ClassVar
 
 from tleaf_cli.errors import SettingError
 from tleaf_cli.settings import check_values, setting
-from tleaf_cli.settings.training import TrainingSettings
+from tleaf_cli.settings.training import TrainingSettings, grid_axes
 
 NEXT_ACTIVITY_LOSSES = ("none", "exact", "tleaf")  # `tl.logic_loss` kinds with a gradient
 NEXT_ACTIVITY_MODELS = ("lstm", "transformer", "prefix-table")  # model.py, transformer.py, ...
 SCORED_CASES = ("all", "satisfying")  # eval next-activity: which test cases
+# each model in words, for messages
+MODEL_NAMES = {
+    "lstm": "an LSTM",
+    "transformer": "a Transformer",
+    "prefix-table": "the prefix table",
+}
+# The settings each model does not read: given with it, they would change nothing. The prefix
+# table is counted once from the training cases (whole), not trained: no shape, no epochs, no
+# batches, nothing random; an LSTM has no attention heads.
+UNREAD_BY_MODEL: dict[str, tuple[str, ...]] = {
+    "lstm": ("heads",),
+    "transformer": (),
+    "prefix-table": (
+        "hidden", "layers", "heads", "dropout", "max_events",
+        "epochs", "patience", "lr", "batch_size", "seed",
+    ),
+}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -117,11 +134,23 @@ class NextActivitySettings(TrainingSettings):
                 seen[name] = field
         if self.model == "prefix-table" and self.logic_loss != "none":
             raise SettingError("logic_loss", "the prefix table learns nothing: no logic loss")
+        varied = [name for name in grid_axes(self) if name in self.unread]
+        if varied and "model" not in grid_axes(self):
+            raise SettingError(
+                "grid",
+                f"{MODEL_NAMES[self.model]} reads no {varied[0]}: every candidate would be "
+                "the same model",
+            )
         if self.model == "transformer" and self.hidden % self.heads:
             raise SettingError(
                 "hidden",
                 f"the Transformer's width {self.hidden} is not a multiple of {self.heads} heads",
             )
+
+    @property
+    def unread(self) -> tuple[str, ...]:
+        """The settings this run's model does not read (`UNREAD_BY_MODEL`)."""
+        return UNREAD_BY_MODEL[self.model]
 
     @property
     def attribute_names(self) -> tuple[str, ...]:
@@ -164,8 +193,8 @@ class SuffixSettings:
     temperature: float | None = setting(
         None,
         "Also sample each suffix token by token at this temperature (Mezini et al.: 0.7), "
-        "with and without the rules as a hard filter; the draws are seeded (0).",
-        min=0.0,
+        "with and without the rules as a hard filter; the draws are seeded (0). A finite "
+        "number above 0.",
         auto="none: argmax and beam only",
     )
     rule_weight: float | None = setting(
@@ -193,8 +222,13 @@ class SuffixSettings:
         check_values(self)
         if self.rule_weight is not None and not math.isfinite(self.rule_weight):
             raise SettingError("rule_weight", f"must be finite, not {self.rule_weight}")
-        if self.temperature is not None and not self.temperature > 0:
-            raise SettingError("temperature", f"must be above 0, not {self.temperature}")
+        # no `min` on the field: its bound is "above 0", not "at least 0" (0 divides by zero)
+        if self.temperature is not None and not (
+            math.isfinite(self.temperature) and self.temperature > 0
+        ):
+            raise SettingError(
+                "temperature", f"must be a finite number above 0, not {self.temperature}"
+            )
         if self.prefix_lengths is not None:
             prefix_lengths(self.prefix_lengths)
 

@@ -113,7 +113,7 @@ def grid_candidates(settings: Any) -> list[Any]:
     """The settings of each combination of `settings.grid`'s values, in the grid's order (the
     last field's values turn fastest); SettingError naming what does not read: a word without
     =, a field the settings do not have or a grid may not vary, a value not of the field's
-    type, a field named twice."""
+    type, a field or a value named twice."""
     names = {f.name for f in fields(settings)}
     axes: dict[str, list[Any]] = {}
     for word in (settings.grid or "").split():
@@ -139,6 +139,9 @@ def grid_candidates(settings: Any) -> list[Any]:
             raise SettingError(
                 "grid", f"{name}: {values!r} are not {kind.__name__} values"
             ) from None
+        twice = [v for i, v in enumerate(axes[name]) if v in axes[name][:i]]
+        if twice:  # the same candidate trained again, to the same score
+            raise SettingError("grid", f"{name}: {twice[0]!r} is named twice")
     if not axes:
         raise SettingError("grid", "names no setting to vary")
     return [

@@ -30,8 +30,8 @@ from __future__ import annotations
 
 import math
 import os
-import pickle
 import time
+import zipfile
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -42,11 +42,10 @@ import torch
 from tleaf_cli.data.artifacts import atomic_path
 from tleaf_cli.errors import InputError, SettingError, TleafError
 from tleaf_cli.settings import SCHEDULES
-from tleaf_cli.training.run_folder import check_same_run
+from tleaf_cli.training.run_folder import CHECKPOINT, check_same_run
 
 B = TypeVar("B")  # a trainer's batch
 
-CHECKPOINT = "checkpoint.pt"
 WEIGHTS = "weights.pt"
 
 
@@ -322,6 +321,45 @@ def _on_cpu(weights: dict[str, torch.Tensor]) -> dict[str, torch.Tensor]:
     return {name: copies.setdefault(id(t), t.cpu()) for name, t in weights.items()}
 
 
+def read_checkpoint(checkpoint: Path) -> dict[str, Any]:
+    """The state `fit` saved in `checkpoint`; InputError naming the file when it is damaged
+    (truncated, bytes changed, emptied) or not a checkpoint at all.
+
+    torch.save writes a zip archive with a CRC-32 per member, which torch.load does not verify:
+    a changed byte of a tensor loads as another weight, one of the pickle fails in any of a dozen
+    ways (IndexError, AssertionError, torch's advice to load with weights_only=False). So the
+    archive is verified first (`_damage`), and any failure to load what passes is damage too."""
+    why = _damage(checkpoint)
+    if why is None:
+        try:
+            state = torch.load(checkpoint, map_location="cpu", weights_only=True)
+        except Exception:  # a damaged pickle fails in any type torch meets
+            state = None
+        why = None if isinstance(state, dict) else "its contents do not load"
+    if why is not None:
+        raise InputError(
+            f"{checkpoint}: not a checkpoint, or a damaged one ({why}); delete it and train "
+            "afresh without resuming"
+        )
+    return state
+
+
+def _damage(checkpoint: Path) -> str | None:
+    """What is wrong with `checkpoint` as a zip archive (the form torch.save writes), in
+    words; None for a whole one, every member's bytes matching its CRC-32."""
+    with checkpoint.open("rb") as file:  # a file that cannot be read: the OSError says why
+        if file.seek(0, os.SEEK_END) == 0:
+            return "an empty file"
+        try:
+            with zipfile.ZipFile(file) as archive:
+                bad = archive.testzip()
+        except Exception as e:  # a damaged archive fails in many types: a truncated one
+            # BadZipFile or EOFError, a changed offset OSError (EINVAL), a changed name ...
+            return f"not a whole archive: {type(e).__name__}"
+    # a member's name starts with the name torch.save wrote the archive under (a temporary one)
+    return None if bad is None else f"bytes changed in its {bad.partition('/')[2] or bad}"
+
+
 def _restore(
     checkpoint: Path,
     model: torch.nn.Module,
@@ -332,11 +370,7 @@ def _restore(
     """Load a checkpoint into the model, optimiser, schedule and torch's RNG; returns the
     run's (history, best, best weights, epochs since the best, epochs trained). InputError
     for a file that is not a checkpoint of this model, or (with `identity`) of another run."""
-    try:
-        state = torch.load(checkpoint, map_location="cpu", weights_only=True)
-    except (TypeError, ValueError, RuntimeError, EOFError, pickle.UnpicklingError) as e:
-        first = (str(e).strip().splitlines() or [type(e).__name__])[0]
-        raise InputError(f"{checkpoint}: not a checkpoint ({first}); train afresh") from None
+    state = read_checkpoint(checkpoint)
     if identity is not None:
         check_same_run(checkpoint, state.get("identity"), identity)
     try:
@@ -354,7 +388,7 @@ def _restore(
             state["stale"],
             state["epoch"],
         )
-    except (KeyError, TypeError, ValueError, RuntimeError, EOFError, pickle.UnpicklingError) as e:
+    except (KeyError, IndexError, AttributeError, TypeError, ValueError, RuntimeError) as e:
         first = (str(e).strip().splitlines() or [type(e).__name__])[0]
         raise InputError(
             f"{checkpoint}: not a checkpoint of this model and settings ({first}); "

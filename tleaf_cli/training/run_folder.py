@@ -24,6 +24,7 @@ from tleaf_cli.data.artifacts import file_sha256, read_json_file
 from tleaf_cli.errors import InputError
 
 CONFIG, METRICS = "config.json", "metrics.json"
+CHECKPOINT = "checkpoint.pt"  # the last finished epoch (training/loop.py writes it)
 RUN_FILES = (CONFIG, METRICS, "weights.pt")  # what a finished run has (and a λ choice copies)
 RESUMABLE = ("epochs", "patience", "device", "max_minutes")  # may differ when resuming
 
@@ -72,6 +73,13 @@ def check_same_run(checkpoint: Path, saved: dict[str, Any] | None, now: dict[str
             f"{checkpoint}: another run's checkpoint ({'; '.join(differ)}); resume it with its "
             "own settings and inputs, or train afresh into another folder"
         )
+
+
+def has_checkpoint(folder: str | os.PathLike) -> bool:
+    """Whether `folder` holds a checkpoint to resume from: its own, or a candidate's (a grid's
+    or a λ choice's, `<folder>/<choice>/<candidate>/checkpoint.pt`)."""
+    folder = Path(folder)
+    return (folder / CHECKPOINT).is_file() or any(folder.glob(f"*/*/{CHECKPOINT}"))
 
 
 def finished_run(folder: str | os.PathLike) -> bool:

@@ -150,7 +150,7 @@ def train_task(
         def grid_candidate(folder: Path, one: TrainingSettings) -> dict[str, Any]:
             return train_task(trainer, inputs, folder, one, on_epoch, resume, on_setup)
 
-        return train_choosing_settings(grid_candidate, out_dir, settings, trainer.score)
+        return train_choosing_settings(grid_candidate, out_dir, settings, trainer.score, resume)
     if settings.lambdas is not None:
 
         def candidate(folder: Path, one: TrainingSettings, hear) -> dict[str, Any]:

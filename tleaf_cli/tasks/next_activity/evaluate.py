@@ -187,6 +187,11 @@ def evaluate_next_activity(
         rules_path = own
     if rules_path is None and rule_names:
         raise SettingError("rule_names", f"{run_dir} trained without rules: name other rules")
+    if rules_path is None and settings.rule_weight is not None:
+        raise SettingError(
+            "rule_weight",
+            f"weighs rules, and the run {run_dir} trained without any: name other rules",
+        )
     if settings.scored == "satisfying" and rules_path is None and scored_by is None:
         raise SettingError("scored", "'satisfying' needs rules: which cases satisfy what?")
     device = torch.device("cpu")  # the run's model is loaded on the CPU (load_run)
@@ -233,6 +238,8 @@ def evaluate_next_activity(
         if not scored:
             raise InputError(f"{cases_path}: no test case satisfies the rules of {judge.path}")
     known = [c for c in scored if encoder.knows(c)]
+    if not known:
+        raise InputError(no_known_case(cases_path, scored, encoder, run_dir))
     metrics: dict = {
         "task": "next-activity",
         "run": str(run_dir),
@@ -272,6 +279,23 @@ def evaluate_next_activity(
                 on_length(done, len(lengths))
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
+
+
+def no_known_case(
+    cases_path: str | Path, scored: Sequence[Case], encoder: Encoder, run_dir: str | Path
+) -> str:
+    """Why nothing can be scored when every scored test case has an activity the run never saw
+    in training (another log, or another preprocessing of it): the next-activity accuracy would
+    be over no prefix at all."""
+    known = set(encoder.atoms)
+    pairs = {(name, atom) for c in scored for name, atom in zip(c.activities, c.atoms, strict=True)}
+    unknown = sorted(name for name, atom in pairs if atom not in known)
+    return (
+        f"{cases_path}: none of its {len(scored)} scored test case(s) has only activities "
+        f"the run {run_dir} knows ({len(unknown)} it never saw in training, such as "
+        f"{', '.join(map(repr, unknown[:3]))}): nothing to score; evaluate on cases of the log "
+        "the run was trained on"
+    )
 
 
 def leakage(

@@ -128,18 +128,23 @@ def fit_inputs(
     cases: Cases, categorical: Sequence[str], numeric: Sequence[str], train: Sequence[Case]
 ) -> tuple[AttributeInput, ...]:
     """The inputs of a cases artifact (the categorical, then the numeric ones), measured on
-    `train`; InputError for an attribute the artifact does not keep, naming those it keeps."""
+    `train`; InputError for an attribute the artifact does not keep, naming those it keeps of
+    that scope first (case or event), then the others, as an input would name them."""
+    event = list(cases.attribute_names)
+    case = [CASE_SCOPE + n for n in cases.case_attribute_names]
     for name in [*categorical, *numeric]:
         probe = AttributeInput(name, "categorical")
         kept = cases.case_attribute_names if probe.of_case else cases.attribute_names
         if probe.attribute not in kept:
-            scope = "case" if probe.of_case else "event"
-            listed = ", ".join(
-                [*cases.attribute_names, *(CASE_SCOPE + n for n in cases.case_attribute_names)]
+            scopes = {"case": case, "event": event}
+            if not probe.of_case:
+                scopes = {"event": event, "case": case}
+            listed = "; ".join(
+                f"{s} attributes: {', '.join(n) or 'none'}" for s, n in scopes.items()
             )
             raise InputError(
-                f"{cases.path}: keeps no {scope} attribute {probe.attribute!r} (it keeps: "
-                f"{listed or 'none'}); read the log keeping it"
+                f"{cases.path}: keeps no {next(iter(scopes))} attribute {probe.attribute!r} "
+                f"({listed}); read the log keeping it"
             )
     kinds = [(n, "categorical") for n in categorical] + [(n, "numeric") for n in numeric]
     return tuple(AttributeInput.fit(n, kind, train) for n, kind in kinds)

@@ -17,6 +17,7 @@ Run folder: `config.json` (settings, the encoder: vocabulary and time scales, in
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
@@ -25,9 +26,9 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from tleaf_cli.data.event_logs import Case, read_cases
+from tleaf_cli.data.event_logs import Case, Cases, read_cases
 from tleaf_cli.errors import InputError, SettingError
-from tleaf_cli.settings.next_activity import NextActivitySettings
+from tleaf_cli.settings.next_activity import MODEL_NAMES, NextActivitySettings
 from tleaf_cli.tasks.case_checks import read_case_rules
 from tleaf_cli.tasks.next_activity.batch import PAD, CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
@@ -63,6 +64,7 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         empty = [s for s in ("train", "val") if not self.splits[s]]
         if empty:
             raise InputError(f"{inputs.data}: no cases in split(s) {', '.join(empty)}")
+        check_predicted_attributes(cases, settings.attribute_names, self.splits["train"])
         self.encoder = Encoder.fit(
             cases,
             attributes=settings.attribute_names,
@@ -74,6 +76,14 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
         self.embedder = None
         longest = settings.max_events
         self.cut = sum(len(c) > longest for c in self.splits["train"]) if longest else 0
+        train = self.splits["train"]
+        if settings.logic_loss != "none" and self.cut == len(train):  # it reads whole cases
+            raise SettingError(
+                "max_events",
+                f"cuts every training case (the shortest has {min(len(c) for c in train)} "
+                f"events, more than {longest}): the logic loss reads whole cases only, and "
+                "would read none",
+            )
 
     def setup(self) -> LossSetup:
         # λ = 0 (the reference candidate of a λ choice) trains without the logic term: the same
@@ -102,7 +112,15 @@ class NextActivityTrainer(TaskTrainer[CaseBatch, NextActivitySettings]):
 
     def model(self) -> NextActivityModel:
         train = [self.encoder.indices(c) for c in self.splits["train"]]
-        self.net = new_model(self.encoder, self.settings, train).to(self.device)
+        try:
+            check_model_fits(self.encoder, self.settings, self.device)
+            self.net = new_model(self.encoder, self.settings, train).to(self.device)
+        except (MemoryError, RuntimeError) as e:  # torch's out of memory is a RuntimeError
+            if not isinstance(e, MemoryError | torch.OutOfMemoryError) and "alloc" not in str(e):
+                raise
+            raise SettingError(
+                "hidden", f"{model_size(self.settings)} does not fit in memory"
+            ) from None
         return self.net
 
     def batches(self, epoch: int, generator: torch.Generator) -> Iterator[CaseBatch]:
@@ -193,6 +211,68 @@ def train_next_activity(
     return train_task(
         NextActivityTrainer, inputs, out_dir, settings, on_epoch, resume, on_setup, reference
     )
+
+
+def check_predicted_attributes(
+    cases: Cases, attributes: Sequence[str], train: Sequence[Case]
+) -> None:
+    """SettingError for an attribute the model is to predict (`attributes`) that gives it
+    nothing to predict: a case attribute (one value per case, none per event), or an event
+    attribute no training event after a case's first has (Sepsis' Diagnose, written on the
+    first event only: a value of the case). Either is read, not predicted: as an input."""
+    for name in attributes:
+        if name not in cases.attribute_names and name in cases.case_attribute_names:
+            raise SettingError(
+                "attributes",
+                f"{name!r} is a case attribute of {cases.path} (one value per case, none per "
+                f"event to predict): read it as an input instead (inputs case:{name})",
+            )
+        if name not in cases.attribute_names:
+            continue  # Encoder.fit names those the cases keep
+        if not any(v is not None for c in train for v in c.attributes[name][1:]):
+            first = sum(c.attributes[name][0] is not None for c in train if len(c))
+            raise SettingError(
+                "attributes",
+                f"{name!r} has no value on any training event after a case's first ({first} "
+                "first events have one): nothing to predict, it is a value of the case; read "
+                f"it as an input instead (inputs {name})",
+            )
+
+
+def model_size(settings: NextActivitySettings) -> str:
+    """The model's shape in words, for a refusal: "an LSTM of 2 layer(s) of 100 units"."""
+    return f"{MODEL_NAMES[settings.model]} of {settings.layers} layer(s) of {settings.hidden} units"
+
+
+def check_model_fits(
+    encoder: Encoder, settings: NextActivitySettings, device: torch.device
+) -> None:
+    """SettingError where training the model would need more memory than the machine (or the
+    GPU) has: its parameters, counted on torch's meta device (nothing allocated), at 4 bytes
+    each, four times (weights, gradients, Adam's two moments), before any activation. Without
+    it, a model of 200,000 units fails deep inside torch's allocator, or starts swapping."""
+    if settings.model == "prefix-table":
+        return  # counted from the cases, no parameters
+    with torch.device("meta"):
+        parameters = sum(p.numel() for p in new_model(encoder, settings).parameters())
+    needed, available = 4 * 4 * parameters, memory_of(device)
+    if available is not None and needed > available:
+        raise SettingError(
+            "hidden",
+            f"{model_size(settings)} has {parameters:,} parameters, {needed / 2**30:,.1f} GiB to "
+            "train (weights, gradients and Adam's moments at 4 bytes each), more than the "
+            f"{available / 2**30:,.1f} GiB of memory of the {device.type}: make it smaller",
+        )
+
+
+def memory_of(device: torch.device) -> int | None:
+    """The memory of `device` in bytes (the machine's RAM for the CPU); None where unknown."""
+    if device.type == "cuda":
+        return torch.cuda.mem_get_info(device)[1]
+    try:
+        return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):  # not a POSIX system
+        return None
 
 
 def refuse_attribute_rules(kb: Path) -> None:
