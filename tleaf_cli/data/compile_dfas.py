@@ -139,7 +139,7 @@ def compile_file(
             f"{first.path}: {first.location}: rule {first.formula_id} has an MP-Declare "
             f"condition ({len(conditional)} rules have): a condition is true at an event together "
             "with its activity, which the one-hot alphabet (one atom per step) cannot express; "
-            "compile without --one-hot"
+            "compile it over the powerset alphabet"
         )
     if graphs_dir is not None:
         from tleaf_cli.data.graphs import graph_file_stems  # networkx: only when asked for

@@ -222,7 +222,7 @@ def rule_tests(rules: Sequence[CaseRule], cases: Cases) -> dict[str, EventCondit
                 raise InputError(
                     f"{rule.where}: rule {rule.name}'s condition reads the event attribute "
                     f"{missing[0]!r}, which {cases.path} does not keep (it keeps: {kept}): read "
-                    f"the log with `tleaf read-log --attributes {missing[0]}`"
+                    "the log again keeping that event attribute (read-log's attributes)"
                 )
             tests[atom] = test
     return tests

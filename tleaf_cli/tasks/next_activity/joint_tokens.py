@@ -138,7 +138,7 @@ def joint_rules(
         raise InputError(
             f"{path}: a condition reads the event attribute {unread[0]!r}, which the run does not "
             f"predict (it predicts: {', '.join(tokens.encoder.attributes) or 'none'}): train "
-            f"with --attributes {unread[0]}, or leave such rules out"
+            "a model that predicts it, or leave such rules out"
         )
     dfas = compile_rules(rules)
     letters = tokens.letters(tests)

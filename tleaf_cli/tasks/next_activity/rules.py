@@ -112,7 +112,7 @@ def read_rules(
             raise InputError(
                 f"{src.path}: {src.location}: rule {src.formula_id} has an MP-Declare condition "
                 f"on {', '.join(read)}: a model over activities cannot read it (a model that "
-                "predicts the attribute can: train with --attributes; or leave such rules out)"
+                "predicts the attribute can; or leave such rules out)"
             )
     if not sources:
         raise InputError(f"{path}: no rules in the file")
