@@ -231,12 +231,17 @@ class DFA:
 
     def live(self) -> np.ndarray:
         """bool [S]: the states from which some accepting state can be reached (in ≥ 0 steps)."""
-        live = self.accepting.copy()
+        return self.reaches(self.accepting)
+
+    def reaches(self, targets: np.ndarray) -> np.ndarray:
+        """bool [S]: the states from which some state of `targets` (bool [S]) can be reached in
+        zero or more steps."""
+        reach = np.asarray(targets, dtype=bool).copy()
         while True:
-            grown = live | live[self.table].any(axis=1)
-            if np.array_equal(grown, live):
-                return live
-            live = grown
+            grown = reach | reach[self.table].any(axis=1)
+            if np.array_equal(grown, reach):
+                return reach
+            reach = grown
 
     def alive_letters(self, state: int) -> np.ndarray:
         """bool [letters]: the letters after which, from `state`, the language can still be met
