@@ -221,6 +221,14 @@ def test_eval_scores_suffixes_under_the_rules_and_only_satisfying_cases(tmp_path
     assert "accuracy_rules" in every["accuracy"]
     written = json.loads((tmp_path / "kept" / "metrics.json").read_text())
     assert written["scored_by"]["names"] == ["init.a", "response.b.c"]
+    # the suffixes that stop at the length cap, beside the true suffixes that long
+    capped = evaluate_next_activity(
+        tmp_path / "run", data, tmp_path / "cap", SuffixSettings(prefix_lengths="1", max_suffix=2)
+    )["suffix"]["1"]
+    test = [c for c in read_cases(data).cases if c.split == "test"]  # min_suffix 0: all
+    assert capped["true_at_cap"] == pytest.approx(np.mean([len(c) - 1 >= 2 for c in test]))
+    for way in ("argmax", "beam"):
+        assert 0 <= capped[way]["at_cap"] <= 1
 
 
 def test_suffix_rows_say_which_prefix_they_continue():

@@ -226,3 +226,9 @@ def eval_next_activity(
             for w in ways
         )
         ui.summary(f"prefix length {k} ({row['cases']} cases): DL similarity {text}", quiet)
+        capped = ", ".join(f"{w} {100 * row[w]['at_cap']:.0f}%" for w in ways)
+        ui.summary(
+            f"  suffixes at the length cap: {capped} (true suffixes that long: "
+            f"{100 * row['true_at_cap']:.0f}%)",
+            quiet,
+        )

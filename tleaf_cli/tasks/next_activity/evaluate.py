@@ -327,7 +327,9 @@ def suffix_scores(
     with the rules a hard filter: argmax_rules, rules (the beam), sample_rules; with a rule
     weight, each again with the rules a soft score: argmax_soft, beam_soft, sample_soft), the
     mean DL similarity (of the suffix, and Mezini et al.'s of the whole trace), Jaccard
-    similarity, the share satisfying the rules, ms per case; with attributes, DL and Jaccard
+    similarity, the share satisfying the rules, ms per case, and the share of predicted suffixes
+    that stop at the length cap (`at_cap`: a search that loops until `max_suffix`) beside the
+    share of true suffixes that long (`true_at_cap`, once); with attributes, DL and Jaccard
     similarity of each attribute's values too.
 
     With event attributes (`encoder.attributes`) the search runs over events, each an activity
@@ -373,7 +375,11 @@ def suffix_scores(
             for way in searches:
                 soft = partial(searches[way], rule_weight=settings.rule_weight)
                 ways[f"{way}_soft"] = (soft, search_rules)
-    out: dict = {"cases": len(chosen), "unknown_prefixes": unreadable}
+    out: dict = {
+        "cases": len(chosen),
+        "unknown_prefixes": unreadable,
+        "true_at_cap": _mean(len(t) >= settings.max_suffix for t in truth),
+    }
     true_parts = [split(t) for t in truth]
     for way, (search, parts) in ways.items():
         stats = SearchStats()
@@ -392,6 +398,7 @@ def suffix_scores(
             "jaccard": _mean(jaccard_similarity(f[0], t[0]) for f, t in pairs),
             "ms_per_case": 1000 * seconds / len(chosen),
             "model_calls": stats.model_calls,
+            "at_cap": _mean(len(f.activities) >= settings.max_suffix for f in found),
         }
         for a, name in enumerate(encoder.attributes):
             out[way][f"dl_similarity_{name}"] = _mean(
