@@ -12,6 +12,11 @@ The public Python API (docs/design.md, "Python API"), for ``import tleaf_cli as 
   sequence the rules accept (Viterbi over steps × DFA states)
 * ``tl.Shield(rules)``                   a runtime monitor: which actions keep the rules satisfiable
 * ``tl.load_embedder(model_dir)``        a trained q (a train-meta folder)
+* ``tl.read_log(path or DataFrame, attributes=())``  an event log's cases (XES, CSV, a cases
+  artifact, or a pandas DataFrame with pm4py's column names)
+* ``tl.read_rules(path, cases=None)``     a knowledge base (`.ltl`, `.decl`), names matched to
+  the log's
+* ``tl.check_cases(cases, rules)``        every case against every rule: a DataFrame
 * ``tl.TleafError``                      every error the library raises on purpose
 
 Names load on first use, so ``import tleaf_cli`` (and every CLI command) stays fast and torch is
@@ -37,6 +42,9 @@ _PUBLIC = {
     "Shield": "tleaf_cli.shield",
     "load_embedder": "tleaf_cli.embed.load",
     "TleafError": "tleaf_cli.errors",
+    "read_log": "tleaf_cli.event_log_api",
+    "read_rules": "tleaf_cli.event_log_api",
+    "check_cases": "tleaf_cli.event_log_api",
 }
 __all__ = [
     "DFA",
@@ -44,16 +52,20 @@ __all__ = [
     "Shield",
     "TleafError",
     "check",
+    "check_cases",
     "compile_formula",
     "constrained_decode",
     "load_embedder",
     "logic_loss",
+    "read_log",
+    "read_rules",
 ]
 
 if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` loads them
     from tleaf_cli.decode import constrained_decode
     from tleaf_cli.embed.load import load_embedder
     from tleaf_cli.errors import TleafError
+    from tleaf_cli.event_log_api import check_cases, read_log, read_rules
     from tleaf_cli.logic.checker import check
     from tleaf_cli.logic.compile import compile_formula
     from tleaf_cli.logic.dfa import DFA

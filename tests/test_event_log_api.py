@@ -1,0 +1,68 @@
+"""The event-log side of the Python API: tl.read_log (a file, a cases artifact, or a DataFrame
+with pm4py's column names), tl.read_rules (names matched to the log's), tl.check_cases, each
+equal to the commands and strict about its arguments."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pyarrow.parquet as pq
+import pytest
+from typer.testing import CliRunner
+
+import tleaf_cli as tl
+from tleaf_cli.cli import app
+from tleaf_cli.errors import ArgumentError, ArgumentTypeError, InputError
+
+ROOT = Path(__file__).resolve().parent.parent
+LOG = ROOT / "examples" / "event_logs" / "helpdesk-400.csv"
+MODEL = ROOT / "examples" / "helpdesk.decl"
+
+
+def test_a_pm4py_dataframe_reads_as_the_log_and_checks_as_the_command(tmp_path: Path) -> None:
+    frame = pd.read_csv(LOG)
+    frame["time:timestamp"] = pd.to_datetime(frame["time:timestamp"])
+    cases = tl.read_log(frame)
+    from_file = tl.read_log(LOG)
+    assert [(c.case_id, c.activities) for c in cases] == [
+        (c.case_id, c.activities) for c in from_file
+    ]
+    table = tl.check_cases(cases, tl.read_rules(MODEL, cases))
+    artifact = tmp_path / "cases.parquet"
+    assert CliRunner().invoke(app, ["read-log", str(LOG), "-o", str(artifact), "-q"]).exit_code == 0
+    out = tmp_path / "checks.parquet"
+    done = CliRunner().invoke(app, ["check-cases", str(artifact), str(MODEL), "-o", str(out), "-q"])
+    assert done.exit_code == 0, done.output
+    command = pq.read_table(out).to_pandas()
+    by_command = {(r.case_id, r.rule): r.satisfied for r in command.itertuples()}
+    assert {(r.case_id, r.rule): r.satisfied for r in table.itertuples()} == by_command
+    assert 0 < table.satisfied.mean() < 1
+
+
+def test_a_cases_artifact_reads_back(tmp_path: Path) -> None:
+    artifact = tmp_path / "cases.parquet"
+    CliRunner().invoke(app, ["read-log", str(LOG), "-o", str(artifact), "-q"])
+    assert len(tl.read_log(artifact)) == len(tl.read_log(LOG)) == 400
+
+
+@pytest.mark.parametrize(
+    ("call", "error", "argument"),
+    [
+        (lambda: tl.read_log(3), ArgumentTypeError, "source"),
+        (lambda: tl.read_log(pd.DataFrame({"case": [1]})), ArgumentError, "source"),
+        (lambda: tl.read_log(LOG, attributes="org:resource"), ArgumentTypeError, "attributes"),
+        (lambda: tl.read_rules(MODEL, cases=[1]), ArgumentTypeError, "cases"),
+        (lambda: tl.check_cases(tl.read_log(LOG), []), ArgumentError, "rules"),
+        (lambda: tl.check_cases("cases", []), ArgumentTypeError, "cases"),
+    ],
+)
+def test_arguments_are_checked(call, error, argument: str) -> None:
+    with pytest.raises(error) as caught:
+        call()
+    assert caught.value.argument == argument
+
+
+def test_a_missing_file_names_it() -> None:
+    with pytest.raises(InputError, match=r"nope\.csv"):
+        tl.read_log("nope.csv")
