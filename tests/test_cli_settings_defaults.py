@@ -25,6 +25,7 @@ from tleaf_cli.settings.data import CompileSettings, TraceSettings, fractions
 SAME_WORD_OTHER_THING = {
     ("*", "embedder"): "a trained q's folder (train-meta's --embedder is the kind of q)",
     ("eval violations", "split"): "the splits to count violations on",
+    ("predict", "split"): "the split whose cases are predicted",
     ("inspect", "formula_id"): "the DFA to show",
     ("cooking-kb", "ingredients"): "the ingredient names whose rules are written",
 }

@@ -25,6 +25,7 @@ CELL_CHARS = 60
 TOP_ACTIVITIES = 10  # the most frequent activities a cases artifact's --stats lists
 TOP_VALUES = 5  # the most frequent values of each kept attribute it lists
 MAP_ROWS = 40  # the activity name -> atom pairs inspect lists
+PREDICTIONS_KIND = "predictions"  # tleaf predict's (tasks/next_activity/predictions.py)
 
 
 def show_artifact(path: Path, limit: int = 10) -> None:
@@ -47,6 +48,8 @@ def show_artifact(path: Path, limit: int = 10) -> None:
     ui.text("columns: " + ", ".join(f"{f.name} {f.type}" for f in schema))
     if prov.kind == DFA_KIND:
         rows = [_dfa_brief(r) for r in rows]
+    if prov.kind == PREDICTIONS_KIND:
+        rows = [_prediction_brief(r) for r in rows]
     if rows:
         columns = list(rows[0])
         ui.table(f"first {len(rows)} rows", columns, [[_cell(r[c]) for c in columns] for r in rows])
@@ -225,6 +228,32 @@ def _dfa_brief(row: dict) -> dict:
         "accepting": row["accepting"],
         "edges": None if row["edges"] is None else len(row["edges"]),
         "error": row["error"],
+    }
+
+
+def _prediction_brief(row: dict) -> dict:
+    """A predictions row in a few words: the next activity, the suffix, each rule's verdict and
+    probability of holding (P permanently / T temporarily, + satisfied / − violated), the
+    recommendation (the columns: docs/monitoring.md)."""
+    signs = {"permanently satisfied": "P+", "temporarily satisfied": "T+",
+             "temporarily violated": "T-", "permanently violated": "P-"}  # fmt: skip
+    top = (row.get("next_activities") or [None])[0]
+    rules = [
+        f"{r['rule']} {signs.get(r['verdict'], '?')}"
+        + ("" if r["probability"] is None else f" {r['probability']:.2f}")
+        for r in row.get("rules") or []
+    ]
+    advice = row.get("recommendation")
+    return {
+        "case_id": row.get("case_id"),
+        "k": row.get("prefix_length"),
+        "next": row.get("reason")
+        if top is None
+        else f"{top['activity']} ({top['probability']:.2f})",
+        "end": None if row.get("end_probability") is None else round(row["end_probability"], 3),
+        "suffix": None if row.get("suffix") is None else " ".join(row["suffix"]) or "(end)",
+        "rules (p holds)": "; ".join(rules) or None,
+        "recommendation": row.get("recommendation_status") if not advice else " ".join(advice),
     }
 
 

@@ -34,7 +34,7 @@ from tleaf_cli.settings.gail import GailSettings
 from tleaf_cli.settings.generators import ActivitySettings, DemoSettings
 from tleaf_cli.settings.knowledge import ExtractSettings
 from tleaf_cli.settings.meta import MetaSettings
-from tleaf_cli.settings.next_activity import NextActivitySettings, SuffixSettings
+from tleaf_cli.settings.next_activity import NextActivitySettings, PredictSettings, SuffixSettings
 from tleaf_cli.settings.procedures import StepFeatureSettings, TaskGraphSettings
 
 # The library names a setting as its keyword; the flag is `--` + that name with dashes, except here.
@@ -266,6 +266,7 @@ TASK = SettingsCommand(TaskSettings, "train-task action-recognition")
 GAIL = SettingsCommand(GailSettings, "train-task cooking")
 NEXT = SettingsCommand(NextActivitySettings, "train-task next-activity")
 SUFFIX = SettingsCommand(SuffixSettings, "eval next-activity")
+PREDICT = SettingsCommand(PredictSettings, "predict")
 EVAL = SettingsCommand(EvalSettings, "eval model-checking")
 FIGURE = SettingsCommand(FigureSettings, "eval tsne")
 ACTIVITIES = SettingsCommand(ActivitySettings, "gen-activities")
@@ -286,4 +287,5 @@ KB = SettingsCommand(ExtractSettings, "kb-extract", exclude=("alphabet",), also=
 LOG_COMMANDS = [READ_LOG, SPLIT_CASES, DECLARE]  # the event-log stages
 PROCEDURE_COMMANDS = [TASK_GRAPH, STEP_FEATURES]  # the real-procedure stages
 DATA_COMMANDS = [FORMULAS, COMPILE, TRACES, KB, ACTIVITIES, *LOG_COMMANDS, *PROCEDURE_COMMANDS]
-SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, NEXT, EVAL, SUFFIX, FIGURE, DEMOS]
+SETTINGS_COMMANDS = [*DATA_COMMANDS, EDGE, META, TASK, GAIL, NEXT, EVAL, SUFFIX, PREDICT]
+SETTINGS_COMMANDS += [FIGURE, DEMOS]

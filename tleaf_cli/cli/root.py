@@ -33,6 +33,7 @@ from tleaf_cli.cli.generate import gen_activities, gen_demos, gen_formulas, gen_
 from tleaf_cli.cli.knowledge import cooking_kb, demos_kb, kb_extract
 from tleaf_cli.cli.model_checking import eval_model_checking, eval_table, eval_tsne
 from tleaf_cli.cli.next_activity import eval_next_activity, train_task_next_activity
+from tleaf_cli.cli.predict import predict
 from tleaf_cli.cli.procedures import (
     check_recordings,
     read_recordings,
@@ -86,6 +87,7 @@ for name, function in {
     "mine-declare": mine_declare,
     "peer-formulas": peer_formulas,
     "check-cases": check_cases,
+    "predict": predict,
     "task-graph": task_graph,
     "read-recordings": read_recordings,
     "check-recordings": check_recordings,

@@ -248,3 +248,83 @@ def prefix_lengths(text: str) -> tuple[int, ...]:
     if not values:
         raise SettingError("prefix_lengths", "names no length")
     return tuple(sorted(values))
+
+
+PREDICT_WAYS = ("argmax", "beam", "sample")  # how `tleaf predict` continues a running case
+SUFFIX_RULES = ("none", "filter", "soft")  # the rules in its predicted suffix
+
+
+@dataclass(frozen=True)
+class PredictSettings:
+    """How `tleaf predict` answers for running cases (tasks/next_activity/predict.py): the next
+    event, the rest of the case, each rule's verdict and chance of holding, a recommendation."""
+
+    top_k: int = setting(3, "Next activities listed per prefix, most probable first.", min=1)
+    way: str = setting(
+        "beam",
+        "How the rest of the case is predicted: argmax (the most probable next event at each "
+        "step), beam (beam search of --beam-width) or sample (one draw at --temperature). Beam "
+        "is the default: it scored at or above argmax in most measured settings (the results "
+        "pages on event logs and on suffix knowledge); a draw is one possible future, not the "
+        "most probable one.",
+        choices=PREDICT_WAYS,
+    )
+    beam_width: int = setting(
+        5, "Continuations kept per step by the beam search (the recommendation's too).", min=1
+    )
+    temperature: float = setting(
+        0.7, "The temperature of --way sample (Mezini et al.: 0.7); a number above 0."
+    )
+    suffix_rules: str = setting(
+        "none",
+        "The rules in the predicted rest of the case: none (the model's own forecast; the "
+        "recommendation column holds the best continuation that keeps the rules), filter "
+        "(only continuations that keep every rule) or soft (each rule left unmet costs "
+        "--rule-weight in log-probability).",
+        choices=SUFFIX_RULES,
+    )
+    rule_weight: float = setting(
+        20.0,
+        "The soft score's weight μ with --suffix-rules soft (20: every Helpdesk case compliant "
+        "at the best similarity, on the suffix knowledge results page).",
+        min=0.0,
+    )
+    max_suffix: int = setting(
+        60,
+        "Most events a predicted or sampled continuation adds; a sampled one that reaches it "
+        "ends there (counted in samples_at_cap).",
+        min=1,
+    )
+    samples: int = setting(
+        200,
+        "Completions sampled per prefix (temperature 1) to estimate each rule's probability of "
+        "holding when the case ends (0: none; a permanent verdict's is exact anyway).",
+        min=0,
+    )
+    seed: int = setting(0, "Seed of the sampled completions (and of --way sample).", min=0)
+    prefix_lengths: str | None = setting(
+        None,
+        "Replay completed cases as running: each case cut at each of these lengths ('1-4' or "
+        "'1,2,3'), cases shorter than a length skipped, the true continuation kept beside the "
+        "prediction.",
+        auto="none: every case as it is, running",
+    )
+    risk: float = setting(
+        0.5,
+        "The terminal's table lists a rule not yet decided as at risk where its estimated "
+        "probability of holding is below this.",
+        min=0.0,
+    )
+
+    def check(self) -> None:
+        check_values(self)
+        if not (math.isfinite(self.temperature) and self.temperature > 0):
+            raise SettingError(
+                "temperature", f"must be a finite number above 0, not {self.temperature}"
+            )
+        if not math.isfinite(self.rule_weight):
+            raise SettingError("rule_weight", f"must be finite, not {self.rule_weight}")
+        if self.risk > 1:
+            raise SettingError("risk", f"is a probability, at most 1, not {self.risk}")
+        if self.prefix_lengths is not None:
+            prefix_lengths(self.prefix_lengths)
