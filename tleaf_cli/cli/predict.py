@@ -92,6 +92,8 @@ def show(predictions, risk: float) -> None:
             rows.append([p.case_id, str(p.prefix_length), f"— ({p.reason})", "", "", ""])
             continue
         name, q = p.next_activities[0]
+        if p.end_probability > q:
+            name, q = "(end)", p.end_probability
         broken = [r.rule for r in p.rules if r.verdict == "permanently violated"]
         at_risk = [
             f"{r.rule} ({r.probability:.2f})"

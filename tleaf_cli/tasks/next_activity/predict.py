@@ -387,27 +387,11 @@ class Predictor:
         n, s = len(prefixes), self.settings
         if self.rules is None:
             return [{"rules": (), "samples_at_cap": None} for _ in range(n)]
-        r = len(self.rules.names)
-        kept = np.zeros((n, r), dtype=np.int64)
-        at_cap = np.zeros(n, dtype=np.int64)
         draws = s.samples
         if draws:
-            group = max(1, SAMPLED_ROWS // draws)
-            for chunk, first in enumerate(range(0, n, group)):
-                ids = list(range(first, min(first + group, n)))
-                owner_of = np.repeat(ids, draws).tolist()
-                drawn = sample_suffixes(
-                    _shared(step, owner_of), [prefixes[i] for i in owner_of], self.tokens.size,
-                    temperature=1.0, max_length=s.max_suffix, seed=s.seed + chunk,
-                )  # fmt: skip
-                width = max((len(d.activities) for d in drawn), default=0)
-                padded = np.full((len(drawn), width), -1, dtype=np.int64)
-                for row, d in enumerate(drawn):
-                    padded[row, : len(d.activities)] = d.activities
-                lengths = np.array([len(d.activities) for d in drawn])
-                holds = self.rules.accepted(starts[owner_of], padded)
-                kept[ids] = holds.reshape(len(ids), draws, r).sum(axis=1)
-                at_cap[ids] = (lengths == s.max_suffix).reshape(len(ids), draws).sum(axis=1)
+            kept, at_cap = sample_holds(
+                step, prefixes, starts, self.rules, self.tokens.size, draws, s.max_suffix, s.seed
+            )
             low, high = wilson(kept, draws)
         out = []
         for i in range(n):
@@ -466,6 +450,41 @@ class Predictor:
                 "recommendation_relative": float(math.exp(found.log_prob - free[i].log_prob)),
             }
         return out
+
+
+def sample_holds(
+    step: NextLogProbs,
+    prefixes: Sequence[tuple[int, ...]],
+    starts: np.ndarray,
+    rules: MonitoredRules,
+    num_tokens: int,
+    samples: int,
+    max_length: int,
+    seed: int = 0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per prefix, `samples` completions drawn from the model `step` at temperature 1 (at most
+    `max_length` tokens: one reaching it ends there), and how many of them each rule accepts,
+    its DFA continuing from `starts` [n, R]: (kept int [n, R], reached the cap int [n])."""
+    n, r = len(prefixes), len(rules.names)
+    kept = np.zeros((n, r), dtype=np.int64)
+    at_cap = np.zeros(n, dtype=np.int64)
+    group = max(1, SAMPLED_ROWS // samples)
+    for chunk, first in enumerate(range(0, n, group)):
+        ids = list(range(first, min(first + group, n)))
+        owner_of = np.repeat(ids, samples).tolist()
+        drawn = sample_suffixes(
+            _shared(step, owner_of), [prefixes[i] for i in owner_of], num_tokens,
+            temperature=1.0, max_length=max_length, seed=seed + chunk,
+        )  # fmt: skip
+        width = max((len(d.activities) for d in drawn), default=0)
+        padded = np.full((len(drawn), width), -1, dtype=np.int64)
+        for row, d in enumerate(drawn):
+            padded[row, : len(d.activities)] = d.activities
+        lengths = np.array([len(d.activities) for d in drawn])
+        holds = rules.accepted(starts[owner_of], padded)
+        kept[ids] = holds.reshape(len(ids), samples, r).sum(axis=1)
+        at_cap[ids] = (lengths == max_length).reshape(len(ids), samples).sum(axis=1)
+    return kept, at_cap
 
 
 def _unpredicted(case: Case, reason: str, verdicts: list[tuple[str, Verdict]]) -> Prediction:
