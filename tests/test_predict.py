@@ -22,7 +22,7 @@ from tleaf_cli.settings.next_activity import PredictSettings
 from tleaf_cli.tasks.case_checks import compile_rules, read_case_rules
 from tleaf_cli.tasks.next_activity.encoding import Encoder
 from tleaf_cli.tasks.next_activity.joint_tokens import JointTokens
-from tleaf_cli.tasks.next_activity.predict import monitored_rules, sample_holds, wilson
+from tleaf_cli.tasks.next_activity.monitoring import monitored_rules, sample_holds, wilson
 from tleaf_cli.tasks.next_activity.predictions import predict_cases
 
 runner = CliRunner()
