@@ -286,3 +286,25 @@ def test_a_folder_that_is_no_next_activity_run_and_a_condition_it_cannot_read(ma
     )  # fmt: skip
     assert result.exit_code == 2 and "MP-Declare condition on org:resource" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not out.exists()
+
+
+def test_a_run_that_predicts_the_resource_reads_conditions_and_names_values(made, tmp_path):
+    run = tmp_path / "joint"
+    result = runner.invoke(
+        app,
+        ["train-task", "next-activity", str(made["cases"]), "-o", str(run), "--hidden", "8",
+         "--layers", "1", "--epochs", "1", "--attributes", "org:resource", "-q"],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    out = tmp_path / "p.parquet"
+    settings = PredictSettings(prefix_lengths="2", samples=10, max_suffix=4)
+    predict_cases(run, made["cases"], out, settings, made["decl"])
+    rows = pq.read_table(out).to_pylist()
+    assert rows and all(r["rules"][0]["rule"] == "existence.c" for r in rows)
+    for row in rows:
+        (attribute,) = row["next_attributes"]
+        assert attribute["attribute"] == "org:resource" and 0 < attribute["probability"] <= 1
+        assert attribute["value"] in {"r1", "r2", "r3", "r4", None}
+        assert all(len(values) == 1 for values in row["suffix_values"])
+        total = sum(a["probability"] for a in row["next_activities"]) + row["end_probability"]
+        assert total == pytest.approx(1.0)  # three activities: the marginal sums to one
