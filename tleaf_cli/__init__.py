@@ -42,9 +42,9 @@ _PUBLIC = {
     "Shield": "tleaf_cli.shield",
     "load_embedder": "tleaf_cli.embed.load",
     "TleafError": "tleaf_cli.errors",
-    "read_log": "tleaf_cli.event_log_api",
-    "read_rules": "tleaf_cli.event_log_api",
-    "check_cases": "tleaf_cli.event_log_api",
+    "read_log": "tleaf_cli.tasks.event_log_api",
+    "read_rules": "tleaf_cli.tasks.event_log_api",
+    "check_cases": "tleaf_cli.tasks.event_log_api",
 }
 __all__ = [
     "DFA",
@@ -65,13 +65,13 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` lo
     from tleaf_cli.decode import constrained_decode
     from tleaf_cli.embed.load import load_embedder
     from tleaf_cli.errors import TleafError
-    from tleaf_cli.event_log_api import check_cases, read_log, read_rules
     from tleaf_cli.logic.checker import check
     from tleaf_cli.logic.compile import compile_formula
     from tleaf_cli.logic.dfa import DFA
     from tleaf_cli.losses.logic_loss import logic_loss
     from tleaf_cli.rule_set import RuleSet
     from tleaf_cli.shield import Shield
+    from tleaf_cli.tasks.event_log_api import check_cases, read_log, read_rules
 
 
 def __getattr__(name: str) -> Any:
