@@ -66,3 +66,32 @@ def test_arguments_are_checked(call, error, argument: str) -> None:
 def test_a_missing_file_names_it() -> None:
     with pytest.raises(InputError, match=r"nope\.csv"):
         tl.read_log("nope.csv")
+
+
+def test_a_run_predicts_from_a_dataframe_as_the_command_does(tmp_path: Path) -> None:
+    """tl.read_log of a pm4py DataFrame, tl.load_run, .predict: the rows of `tleaf predict`
+    on the same cases, to the digit (the split column aside: a DataFrame read here is one
+    split)."""
+    artifact = tmp_path / "cases.parquet"
+    runner = CliRunner()
+    assert runner.invoke(app, ["read-log", str(LOG), "-o", str(artifact), "-q"]).exit_code == 0
+    run = tmp_path / "run"
+    trained = runner.invoke(
+        app,
+        ["train-task", "next-activity", str(artifact), "-o", str(run), "--epochs", "2",
+         "--hidden", "8", "--layers", "1", "-q"],
+    )  # fmt: skip
+    assert trained.exit_code == 0, trained.output
+    out = tmp_path / "predictions.parquet"
+    args = ["--rules", str(MODEL), "--prefix-lengths", "1-2", "--samples", "40"]
+    done = runner.invoke(app, ["predict", str(run), str(artifact), "-o", str(out), *args, "-q"])
+    assert done.exit_code == 0, done.output
+    frame = pd.read_csv(LOG)
+    frame["time:timestamp"] = pd.to_datetime(frame["time:timestamp"])
+    got = tl.load_run(run, rules=MODEL, samples=40).predict(
+        tl.read_log(frame), prefix_lengths="1-2"
+    )
+    command = pq.read_table(out).to_pandas()
+    assert len(got) == len(command) > 400
+    for column in command.columns.drop("split"):
+        assert got[column].astype(str).tolist() == command[column].astype(str).tolist(), column

@@ -29,6 +29,7 @@ def test_the_public_names_are_there_and_import_torch_lazily() -> None:
     assert set(tl.__all__) == {
         "compile_formula", "DFA", "check", "RuleSet", "logic_loss", "load_embedder", "TleafError",
         "constrained_decode", "Shield", "read_log", "read_rules", "check_cases",
+        "load_run",
     }  # fmt: skip
     code = "import sys, tleaf_cli as tl; tl.TleafError; tl.DFA; print('torch' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -17,6 +17,8 @@ The public Python API (docs/design.md, "Python API"), for ``import tleaf_cli as 
 * ``tl.read_rules(path, cases=None)``     a knowledge base (`.ltl`, `.decl`), names matched to
   the log's
 * ``tl.check_cases(cases, rules)``        every case against every rule: a DataFrame
+* ``tl.load_run(run_dir, rules=None)``    a next-activity run; ``.predict(cases)``: tleaf
+  predict's rows for running cases, a DataFrame
 * ``tl.TleafError``                      every error the library raises on purpose
 
 Names load on first use, so ``import tleaf_cli`` (and every CLI command) stays fast and torch is
@@ -45,6 +47,7 @@ _PUBLIC = {
     "read_log": "tleaf_cli.tasks.event_log_api",
     "read_rules": "tleaf_cli.tasks.event_log_api",
     "check_cases": "tleaf_cli.tasks.event_log_api",
+    "load_run": "tleaf_cli.tasks.event_log_api",
 }
 __all__ = [
     "DFA",
@@ -56,6 +59,7 @@ __all__ = [
     "compile_formula",
     "constrained_decode",
     "load_embedder",
+    "load_run",
     "logic_loss",
     "read_log",
     "read_rules",
@@ -71,7 +75,7 @@ if TYPE_CHECKING:  # for type checkers and editors; at run time `__getattr__` lo
     from tleaf_cli.losses.logic_loss import logic_loss
     from tleaf_cli.rule_set import RuleSet
     from tleaf_cli.shield import Shield
-    from tleaf_cli.tasks.event_log_api import check_cases, read_log, read_rules
+    from tleaf_cli.tasks.event_log_api import check_cases, load_run, read_log, read_rules
 
 
 def __getattr__(name: str) -> Any:

@@ -5,6 +5,8 @@ LTLf knowledge base, and the conformance of every case to every rule, as the com
     cases = tl.read_log("helpdesk.xes.gz", attributes=["org:resource"])   # or a DataFrame
     rules = tl.read_rules("kb.decl", cases)        # its names matched to the log's exactly
     table = tl.check_cases(cases, rules)           # one row per case and rule
+    run = tl.load_run("run/", rules="kb.decl")     # a next-activity run (train-task's folder)
+    frame = run.predict(cases)                     # tleaf predict's rows, as a DataFrame
 
 `read_log` takes a log file (XES or CSV), a cases artifact, or a pandas DataFrame with pm4py's
 column names (`case:concept:name`, `concept:name`, `time:timestamp`, attributes beside them), as
@@ -25,10 +27,18 @@ from tleaf_cli.arguments import given
 from tleaf_cli.data.cases import Cases
 from tleaf_cli.data.event_logs import read_cases
 from tleaf_cli.data.log_readers import read_log as read_log_file
-from tleaf_cli.errors import ArgumentError, ArgumentTypeError
+from tleaf_cli.errors import ArgumentError, ArgumentTypeError, TleafError
 from tleaf_cli.settings.event_logs import LogSettings
+from tleaf_cli.settings.next_activity import PredictSettings, prefix_lengths
 from tleaf_cli.tasks.case_checks import CaseRule, read_case_rules
 from tleaf_cli.tasks.case_checks import check_cases as check_all
+from tleaf_cli.tasks.next_activity.evaluate import check_same_log
+from tleaf_cli.tasks.next_activity.predict import Predictor
+from tleaf_cli.tasks.next_activity.predictions import (
+    predict_pairs,
+    predictions_table,
+    running_prefixes,
+)
 
 PM4PY_COLUMNS = ("case:concept:name", "concept:name", "time:timestamp")
 
@@ -96,6 +106,72 @@ def check_cases(cases: Cases, rules: Sequence[CaseRule]) -> Any:
             "satisfied": checks.satisfied.ravel(),
         }
     )
+
+
+class Run:
+    """A trained next-activity run, ready to predict for running cases (`tl.load_run`)."""
+
+    def __init__(self, run_dir: str | os.PathLike, predictor: Predictor) -> None:
+        self.path = os.fspath(run_dir)
+        self.predictor = predictor
+
+    @property
+    def rule_names(self) -> tuple[str, ...]:
+        """The rules it watches, in the order of the `rules` column."""
+        return self.predictor.rule_names
+
+    def predict(
+        self, cases: Cases, prefix_lengths: str | None = None, split: str | None = None
+    ) -> Any:
+        """`tleaf predict`'s rows for `cases` (`tl.read_log`'s) as a pandas DataFrame, its
+        columns docs/monitoring.md's: every case as running, or with `prefix_lengths` ("1-4")
+        each case replayed cut at those lengths; `split`: only that split's cases."""
+        if not isinstance(cases, Cases):
+            raise ArgumentTypeError("cases", f"expected tl.read_log's cases, not {given(cases)}")
+        lengths = None
+        if prefix_lengths is not None:
+            if not isinstance(prefix_lengths, str):
+                raise ArgumentTypeError(
+                    "prefix_lengths", f"expected text such as '1-4', not {given(prefix_lengths)}"
+                )
+            lengths = _parsed_lengths(prefix_lengths)
+        check_same_log(cases, self.predictor.encoder, self.path)
+        chosen = [c for c in cases.cases if split is None or c.split == split]
+        if not chosen:
+            raise ArgumentError("split", f"no case in the split {split!r}")
+        pairs = running_prefixes(chosen, lengths)
+        if not pairs:
+            raise ArgumentError("prefix_lengths", f"no case reaches the lengths {prefix_lengths}")
+        predictions = predict_pairs(self.predictor, pairs)
+        return predictions_table(pairs, predictions, replayed=lengths is not None).to_pandas()
+
+
+def load_run(
+    run_dir: str | os.PathLike,
+    rules: str | os.PathLike | None = None,
+    rule_names: Sequence[str] = (),
+    **settings: Any,
+) -> Run:
+    """A next-activity run folder (`tleaf train-task next-activity`'s) and the rules it watches
+    (`rules`, a `.ltl` or `.decl`; default: the run's own knowledge base), with `tleaf
+    predict`'s settings as keywords (way="beam", samples=200, top_k=3, ...: PredictSettings)."""
+    if not isinstance(run_dir, str | os.PathLike):
+        raise ArgumentTypeError("run_dir", f"expected a run folder's path, not {given(run_dir)}")
+    if rules is not None and not isinstance(rules, str | os.PathLike):
+        raise ArgumentTypeError("rules", f"expected a rule file's path, not {given(rules)}")
+    names = _names(rule_names, "rule_names")
+    try:
+        chosen = PredictSettings(**settings)
+    except TypeError as e:
+        raise ArgumentError("settings", str(e)) from None
+    return Run(run_dir, Predictor.load(run_dir, chosen, rules, names))
+
+
+def _parsed_lengths(text: str) -> tuple[int, ...]:
+    try:
+        return prefix_lengths(text)
+    except TleafError as e:  # the settings' own error, said as this argument's
+        raise ArgumentError("prefix_lengths", str(e)) from None
 
 
 def _names(value: object, argument: str) -> tuple[str, ...]:

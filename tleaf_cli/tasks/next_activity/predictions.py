@@ -126,11 +126,7 @@ def predict_cases(
     if not pairs:
         raise InputError(f"{cases_path}: no case reaches the prefix lengths {lengths}")
     start = time.perf_counter()
-    predictions: list[Prediction] = []
-    for first in range(0, len(pairs), BATCH):
-        predictions += predictor.predict([p for _, p in pairs[first : first + BATCH]])
-        if on_progress is not None:
-            on_progress(min(first + BATCH, len(pairs)), len(pairs))
+    predictions = predict_pairs(predictor, pairs, on_progress)
     seconds = time.perf_counter() - start
     table = predictions_table(pairs, predictions, replayed=lengths is not None)
     params = {
@@ -155,6 +151,21 @@ def predict_cases(
         "predictions": predictions,
         "seconds": seconds,
     }
+
+
+def predict_pairs(
+    predictor: Predictor,
+    pairs: Sequence[tuple[Case, Case]],
+    on_progress: Callable[[int, int], None] | None = None,
+) -> list[Prediction]:
+    """The predictions of `running_prefixes`' pairs, BATCH prefixes at a time (the batches seed
+    the samples: the command and `tl.load_run(...).predict` batch alike, so they agree)."""
+    predictions: list[Prediction] = []
+    for first in range(0, len(pairs), BATCH):
+        predictions += predictor.predict([p for _, p in pairs[first : first + BATCH]])
+        if on_progress is not None:
+            on_progress(min(first + BATCH, len(pairs)), len(pairs))
+    return predictions
 
 
 def predictions_table(
