@@ -26,6 +26,7 @@ TOP_ACTIVITIES = 10  # the most frequent activities a cases artifact's --stats l
 TOP_VALUES = 5  # the most frequent values of each kept attribute it lists
 MAP_ROWS = 40  # the activity name -> atom pairs inspect lists
 PREDICTIONS_KIND = "predictions"  # tleaf predict's (tasks/next_activity/predictions.py)
+ACTION_PREDICTIONS_KIND = "action_predictions"  # on action-recognition runs (its predict.py)
 
 
 def show_artifact(path: Path, limit: int = 10) -> None:
@@ -50,6 +51,8 @@ def show_artifact(path: Path, limit: int = 10) -> None:
         rows = [_dfa_brief(r) for r in rows]
     if prov.kind == PREDICTIONS_KIND:
         rows = [_prediction_brief(r) for r in rows]
+    if prov.kind == ACTION_PREDICTIONS_KIND:
+        rows = [_action_prediction_brief(r) for r in rows]
     if rows:
         columns = list(rows[0])
         ui.table(f"first {len(rows)} rows", columns, [[_cell(r[c]) for c in columns] for r in rows])
@@ -254,6 +257,30 @@ def _prediction_brief(row: dict) -> dict:
         "suffix": None if row.get("suffix") is None else " ".join(row["suffix"]) or "(end)",
         "rules (p holds)": "; ".join(rules) or None,
         "recommendation": row.get("recommendation_status") if not advice else " ".join(advice),
+    }
+
+
+def _action_prediction_brief(row: dict) -> dict:
+    """An action_predictions row in a few words: the argmax pair with each head's probability,
+    the pair under the rules with its probability, the label, and per video the rules the
+    argmax labels break and whether the labels under the rules keep theirs (the columns:
+    docs/monitoring.md)."""
+    broken = row.get("argmax_broken") or []
+    kept = not row.get("constrained_broken")
+    return {
+        "video_id": row.get("video_id"),
+        "step": row.get("step"),
+        "argmax (p action, p ingredient)": f"{row['action']}_{row['ingredient']} "
+        f"({row['action_probability']:.2f}, {row['ingredient_probability']:.2f})",
+        "under the rules (p)": f"{row['constrained_action']}_{row['constrained_ingredient']} "
+        f"({row['constrained_probability']:.2f})",
+        "label": None
+        if row.get("true_action") is None
+        else f"{row['true_action']}_{row.get('true_ingredient')}",
+        "argmax breaks": f"{len(broken)} of {row.get('argmax_rules')}: {', '.join(broken)}"
+        if broken
+        else f"none of {row.get('argmax_rules')}",
+        "rules keep": f"all {row.get('constrained_rules')}" if kept else "no",
     }
 
 

@@ -20,11 +20,15 @@ SHOWN_ROWS = 12  # predictions the terminal's table shows
 @with_settings(PREDICT)
 def predict(
     ctx: typer.Context,
-    run: Annotated[Path, typer.Argument(help="A train-task next-activity run directory.")],
+    run: Annotated[
+        Path,
+        typer.Argument(help="A train-task next-activity or action-recognition run directory."),
+    ],
     cases: Annotated[
         Path,
         typer.Argument(
-            help="A cases artifact (read-log) of the run's log: each case taken as running."
+            help="A cases artifact (read-log) of the run's log: each case taken as running; "
+            "for an action-recognition run, an activities artifact (labels optional)."
         ),
     ],
     rules: Annotated[
@@ -58,10 +62,19 @@ def predict(
     --prefix-lengths replays completed cases as running, the true continuation kept beside the
     prediction. A case with an activity the run never saw gets a row with its reason and no
     prediction. Prints the first cases as a table; the columns: docs/monitoring.md.
+
+    An action-recognition run instead decodes every video of an activities artifact (features;
+    labels optional, kept beside): per step the argmax labels and the labels under its rules,
+    per video the rules the argmax labels break (--rules, --rule, --split, --top-k apply).
     """
+    from tleaf_cli.tasks.action_recognition.predict import RUN_KIND, run_kind
     from tleaf_cli.tasks.next_activity.predictions import predict_cases
 
     targets([run, cases, rules], [out])
+    if run_kind(run) == RUN_KIND:  # an action-recognition run: its videos decoded
+        from tleaf_cli.cli.predict_actions import predict_actions
+
+        return predict_actions(ctx, run, cases, rules, rule, split, out, quiet, values)
     settings = PredictSettings(**given(ctx, values))
     with ui.progress("predicting", quiet) as update:
         summary = predict_cases(

@@ -34,6 +34,8 @@ from tleaf_cli.knowledge.base import atom
 KIND = "activities"
 SCHEMA_VERSION = 1
 REQUIRED = ("video_id", "step", "action", "ingredient", "feature")
+LABELS = ("action", "ingredient")  # optional with `labels=False`
+NO_LABEL = -1  # a Video's index where a step has no label (read with `labels=False`)
 # Videos whose labels training never reads: the logic loss (which needs none) may use them.
 UNLABELLED = "unlabelled"
 ACTIVITY_SPLITS = (*SPLITS, UNLABELLED)
@@ -65,9 +67,10 @@ class Video:
     actions: np.ndarray  # int64 [T], indices into Activities.actions
     ingredients: np.ndarray  # int64 [T], indices into Activities.ingredients
     features: np.ndarray  # float32 [T, D]
+    first_step: int = 0  # the file's step number of the first step
 
     def __len__(self) -> int:
-        return len(self.actions)
+        return len(self.features)
 
 
 @dataclass
@@ -109,23 +112,29 @@ def read_activities(
     path: str | os.PathLike,
     fractions: tuple[float, float, float] = DEFAULT_FRACTIONS,
     seed: int = 0,
+    labels: bool = True,
 ) -> Activities:
     """Load and check an activities file; InputError naming the file and row when it is unusable.
 
     Without a `split` column, videos are assigned to train/val/test by `fractions`, by video
-    (never one video in two splits), the same way for the same `seed`.
+    (never one video in two splits), the same way for the same `seed`. With `labels=False`
+    (new videos, features only: `tleaf predict`) the `action` and `ingredient` columns may be
+    missing or have empty cells; a step without a label has index `NO_LABEL` (-1), and the
+    vocabularies are those of the labels present (empty without any).
     """
     name = str(path)
     table, params = _read_table(Path(path))
-    missing = [c for c in REQUIRED if c not in table.column_names]
+    required = REQUIRED if labels else tuple(c for c in REQUIRED if c not in LABELS)
+    missing = [c for c in required if c not in table.column_names]
     if missing:
+        optional = "split" if labels else "action, ingredient, split"
         raise InputError(
             f"{name}: missing column(s) {', '.join(missing)}; expected "
-            f"{', '.join(REQUIRED)} and optionally split"
+            f"{', '.join(required)} and optionally {optional}"
         )
     if table.num_rows == 0:
         raise InputError(f"{name}: no rows")
-    present = [c for c in (*REQUIRED, "split") if c in table.column_names]
+    present = [c for c in (*required, "split") if c in table.column_names]
     for column in present:
         nulls = pc.is_null(table.column(column)).to_numpy(zero_copy_only=False)
         if nulls.any():
@@ -133,16 +142,16 @@ def read_activities(
 
     ids = _strings(table, "video_id", name, cast=True)
     steps = _steps(table, name)
-    actions = _strings(table, "action", name)
-    ingredients = _strings(table, "ingredient", name)
+    actions = _labels(table, "action", name)
+    ingredients = _labels(table, "ingredient", name)
     features = _features(table.column("feature"), name)
     runs = _video_runs(ids, steps, name)
     _check_names(actions, "action", name)
     _check_names(ingredients, "ingredient", name)
     split_of = _splits(table, ids, runs, name, fractions, seed)
 
-    action_vocab = tuple(sorted(set(actions)))
-    ingredient_vocab = tuple(sorted(set(ingredients)))
+    action_vocab = tuple(sorted({a for a in actions if a is not None}))
+    ingredient_vocab = tuple(sorted({i for i in ingredients if i is not None}))
     action_idx = _indices(actions, action_vocab)
     ingredient_idx = _indices(ingredients, ingredient_vocab)
     videos = [
@@ -152,6 +161,7 @@ def read_activities(
             actions=action_idx[start:end],
             ingredients=ingredient_idx[start:end],
             features=features[start:end],
+            first_step=int(steps[start]),
         )
         for start, end in runs
     ]
@@ -203,6 +213,18 @@ def _strings(table: pa.Table, column: str, name: str, cast: bool = False) -> lis
     if cast and (pa.types.is_integer(col.type) or pa.types.is_string(col.type)):
         col = col.cast(pa.string())
     if not (pa.types.is_string(col.type) or pa.types.is_large_string(col.type)):
+        raise InputError(f"{name}: column {column} is {col.type}, expected strings")
+    return col.to_pylist()
+
+
+def _labels(table: pa.Table, column: str, name: str) -> list[str | None]:
+    """A label column's values (None where a cell is empty), or None per row without it."""
+    if column not in table.column_names:
+        return [None] * table.num_rows
+    col = table.column(column)
+    if not (pa.types.is_string(col.type) or pa.types.is_large_string(col.type)) and not (
+        pa.types.is_null(col.type)
+    ):
         raise InputError(f"{name}: column {column} is {col.type}, expected strings")
     return col.to_pylist()
 
@@ -264,8 +286,10 @@ def _video_runs(ids: list[str], steps: np.ndarray, name: str) -> list[tuple[int,
     return list(zip(starts, [*starts[1:], len(ids)], strict=True))
 
 
-def _check_names(values: list[str], role: str, name: str) -> None:
+def _check_names(values: list[str | None], role: str, name: str) -> None:
     for value in dict.fromkeys(values):  # each distinct name once, in file order
+        if value is None:  # no label (read with labels=False)
+            continue
         problem = name_problem(value, role)
         if problem:
             raise InputError(f"{name}: row {values.index(value)}: {problem}")
@@ -300,6 +324,8 @@ def _splits(
     return split_of
 
 
-def _indices(values: list[str], vocabulary: tuple[str, ...]) -> np.ndarray:
+def _indices(values: list[str | None], vocabulary: tuple[str, ...]) -> np.ndarray:
     index = {v: k for k, v in enumerate(vocabulary)}
-    return np.fromiter((index[v] for v in values), dtype=np.int64, count=len(values))
+    return np.fromiter(
+        (NO_LABEL if v is None else index[v] for v in values), dtype=np.int64, count=len(values)
+    )
