@@ -291,7 +291,7 @@ def test_large_and_float_ranges_are_read_as_numbers() -> None:
 
 
 def test_values_that_fold_to_one_word_stay_two_conditions() -> None:
-    """"a b" and "a_b" read the same in atom characters; each condition is its own atom, met by
+    """ "a b" and "a_b" read the same in atom characters; each condition is its own atom, met by
     its own value only."""
     text = "activity A\nbind A: x\nx: a b, a_b\n"
     model = parse_decl(text + "Existence[A] |A.x is a b |\nAbsence[A] |A.x is a_b |\n", "m.decl")

@@ -232,10 +232,7 @@ def test_mine_log_writes_the_rules_and_their_test_support(tmp_path) -> None:
     by_rule = {row.split("\t")[0]: row.split("\t") for row in table[1:]}
     assert list(by_rule) == list(rules)
     # assign once: 18 of 20 train cases, 9 of 10 test cases (implies existence.assign)
-    assert (
-        by_rule["exactly.assign"][2] == "0.9000"
-        and by_rule["exactly.assign"][-1] == "0.9000"
-    )
+    assert by_rule["exactly.assign"][2] == "0.9000" and by_rule["exactly.assign"][-1] == "0.9000"
     assert "atom open_ticket = activity 'Open ticket'" in (tmp_path / "kb.ltl").read_text()
     assert found.test_joint == 0.9  # the test case without assign breaks exactly.assign
     jointly = mine_log(
