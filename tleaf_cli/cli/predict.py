@@ -11,6 +11,7 @@ import typer
 from tleaf_cli import ui
 from tleaf_cli.cli.common import Quiet, exits, file_path, targets
 from tleaf_cli.cli.options import PREDICT, given, with_settings
+from tleaf_cli.errors import InputError
 from tleaf_cli.settings.next_activity import PredictSettings
 
 SHOWN_ROWS = 12  # predictions the terminal's table shows
@@ -25,12 +26,14 @@ def predict(
         typer.Argument(help="A train-task next-activity or action-recognition run directory."),
     ],
     cases: Annotated[
-        Path,
+        Path | None,
         typer.Argument(
             help="A cases artifact (read-log) of the run's log: each case taken as running; "
-            "for an action-recognition run, an activities artifact (labels optional)."
+            "for an action-recognition run, an activities artifact (labels optional). With "
+            "--follow: the events, JSON lines, a file followed as it grows or - (stdin, the "
+            "default)."
         ),
-    ],
+    ] = None,
     rules: Annotated[
         Path | None,
         typer.Option(
@@ -50,6 +53,28 @@ def predict(
         Path,
         typer.Option("--out", "-o", parser=file_path, help="The predictions.parquet to write."),
     ] = Path("predictions.parquet"),
+    follow: Annotated[
+        bool,
+        typer.Option(
+            help="A live stream: events as JSON lines (stdin, or the file given, read as it "
+            "grows), one prediction per event as a JSON line (stdout, or -o FILE.jsonl); "
+            "docs/monitoring.md, Live stream."
+        ),
+    ] = False,
+    until_idle: Annotated[
+        float | None,
+        typer.Option(
+            help="With --follow: stop once no event came for this many seconds "
+            "\\[default: until the input ends or Ctrl-C]."
+        ),
+    ] = None,
+    suffix: Annotated[
+        bool,
+        typer.Option(
+            help="With --follow: each line also holds the predicted rest of the case and the "
+            "recommendation (a search per event)."
+        ),
+    ] = False,
     quiet: Quiet = False,
     **values,
 ) -> None:
@@ -70,6 +95,16 @@ def predict(
     from tleaf_cli.tasks.action_recognition.predict import RUN_KIND, run_kind
     from tleaf_cli.tasks.next_activity.predictions import predict_cases
 
+    if follow:  # a live stream of events
+        from tleaf_cli.cli.predict_stream import follow_stream
+
+        return follow_stream(ctx, run, cases, rules, rule, out, until_idle, suffix, quiet, values)
+    if cases is None or until_idle is not None or suffix:
+        raise InputError(
+            "--until-idle and --suffix need --follow"
+            if cases is not None
+            else "give the cases artifact to predict (or --follow for a stream of events)"
+        )
     targets([run, cases, rules], [out])
     if run_kind(run) == RUN_KIND:  # an action-recognition run: its videos decoded
         from tleaf_cli.cli.predict_actions import predict_actions
