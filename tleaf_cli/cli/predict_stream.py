@@ -57,6 +57,11 @@ def follow_stream(
         targets([run, rules, None if str(source) == "-" else source], [out])
     settings = PredictSettings(**given(ctx, values))
     settings.check()
+    import torch
+
+    # one event's model call is too small to share out: more threads only wait on each other
+    # (ten times slower per event on a busy 2-core machine, measured)
+    torch.set_num_threads(1)
     predictor = Predictor.load(run, settings, rules, tuple(rule or ()))
     monitor = StreamMonitor(predictor, suffix=suffix)
     ui.summary(
