@@ -1,7 +1,7 @@
 """tleaf predict RUN --follow: a live stream of events. After each event the streamed verdicts are
 the batch command's for the same prefix, and so are the next-activity probabilities (to 1e-6,
 with --samples 0): for an LSTM stepped from its cached state, for one that predicts the resource
-too, and for the prefix table, which re-reads the prefix. Bad lines of every kind, 1 % of a
+too, for one that reads it as an input, and for the prefix table, which re-reads the prefix. Bad lines of every kind, 1 % of a
 stream, are skipped and counted exactly by reason, and every good event still gets its line; an
 ended case is dropped, its verdicts final, and a later event for it refused; stdin and a file
 that grows both work through the command."""
@@ -84,7 +84,7 @@ def _train(cases: Path, out: Path, *extra: str) -> Path:
 @pytest.fixture(scope="module")
 def made(tmp_path_factory) -> dict[str, Path]:
     """A cases artifact keeping the resource, an LSTM over activities, one that predicts the
-    resource too, a prefix table, and the rules."""
+    resource too, one that reads it as an input, a prefix table, and the rules."""
     folder = tmp_path_factory.mktemp("stream")
     cases = folder / "cases.parquet"
     result = runner.invoke(
@@ -100,6 +100,7 @@ def made(tmp_path_factory) -> dict[str, Path]:
         "cases": cases,
         "lstm": _train(cases, folder / "lstm"),
         "joint": _train(cases, folder / "joint", "--attributes", "org:resource"),
+        "inputs": _train(cases, folder / "inputs", "--inputs", "org:resource"),
         "table": _train(cases, folder / "table", "--model", "prefix-table"),
         "kb": kb,
     }
@@ -127,7 +128,7 @@ def _events(cases_path: Path, copies: int = 1, end: bool = False) -> list[dict]:
     return sorted(events, key=lambda e: e["timestamp"])
 
 
-@pytest.mark.parametrize("model", ["lstm", "joint", "table"])
+@pytest.mark.parametrize("model", ["lstm", "joint", "inputs", "table"])
 def test_streamed_predictions_equal_the_batch_ones_prefix_by_prefix(made, model):
     settings = PredictSettings(samples=0, way="argmax", max_suffix=4, prefix_lengths="1-4")
     out = made["folder"] / f"batch-{model}.parquet"

@@ -11,8 +11,10 @@ the event. What it keeps per open case (`OpenCase`):
   one table lookup per rule, all rules at once (`_Tables`), the verdict read off the state;
 - the case's events so far (activities, atoms, times, attribute values), which the model reads;
 - for an LSTM (`NextActivityLSTM`), its hidden and cell state after the last event, so the next
-  event costs one LSTM step; any other model (the transformer, the prefix table) re-reads the
-  whole prefix at each event, as the batch predictor does. The rule probabilities
+  event costs one LSTM step (`_Cell`: the model's weights stepped in numpy; the new event's
+  features read off it, the one before it and the case's first); any other model (the
+  transformer, the prefix table) re-reads the whole prefix at each event, as the batch
+  predictor does. The rule probabilities
   (`samples` > 0) and the suffix and recommendation (`suffix=True`) re-read the prefix too:
   they are `Predictor`'s, on the case as it stands.
 
