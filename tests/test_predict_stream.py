@@ -1,10 +1,10 @@
 """tleaf predict RUN --follow: a live stream of events. After each event the streamed verdicts are
 the batch command's for the same prefix, and so are the next-activity probabilities (to 1e-6,
 with --samples 0): for an LSTM stepped from its cached state, for one that predicts the resource
-too, for one that reads it as an input, and for the prefix table, which re-reads the prefix. Bad lines of every kind, 1 % of a
-stream, are skipped and counted exactly by reason, and every good event still gets its line; an
-ended case is dropped, its verdicts final, and a later event for it refused; stdin and a file
-that grows both work through the command."""
+too, for one that reads it as an input, and for the prefix table, which re-reads the prefix.
+Bad lines of every kind, 1 % of a stream, are skipped and counted exactly by reason, and every
+good event still gets its line; an ended case is dropped, its verdicts final, and a later event
+for it refused; stdin and a file that grows both work through the command."""
 
 from __future__ import annotations
 
