@@ -404,3 +404,25 @@ def test_a_model_over_activities_refuses_a_condition_by_the_rule_name(tmp_path: 
     message = str(caught.value)
     assert "line 6: rule existence.closed has an MP-Declare condition on org:resource" in message
     assert "|" not in message and "a model that predicts the attribute can" in message
+
+
+def test_the_product_of_a_hundred_rules_is_their_conjunction() -> None:
+    """A combination of the rules' states keyed by a mixed-radix int64 wrapped past 2^63
+    (3 states ^ 45 rules): combinations that differ merged, a silent wrong automaton."""
+    from tleaf_cli.logic.compile import compile_formula
+    from tleaf_cli.tasks.next_activity.rule_automaton import RuleAutomaton
+
+    formulas = ["F(a & X F b)", "F(b & X F c)", "F(c & X F a)"] * 15
+    dfas = [compile_formula(f, "one-hot") for f in formulas]
+    atoms = ["a", "b", "c", "d"]
+    letters = [np.array([d.alphabet.index({x}) for x in atoms]) for d in dfas]
+    joined = RuleAutomaton.of_letters(dfas, letters)
+    assert len(joined.following) == 1  # one product, not parts
+    rng = np.random.default_rng(1)
+    kept = 0
+    for _ in range(300):
+        word = tuple(rng.integers(0, 4, rng.integers(1, 9)).tolist())
+        truth = all(d.accepts([{atoms[t]} for t in word]) for d in dfas)
+        assert joined.accepts(word) == truth, word
+        kept += truth
+    assert kept > 0

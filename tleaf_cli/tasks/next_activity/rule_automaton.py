@@ -178,30 +178,34 @@ def _product(
     max_states: int,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The reachable product of token-level DFAs (tables [S_k, T]): its table [S, T] from
-    state 0, and its accepting states (every DFA accepts); None past `max_states`."""
-    sizes = np.array([t.shape[0] for t in tables], dtype=np.int64)
-    radix = np.cumprod(np.concatenate([[1], sizes[:-1]]))
-    start = int(np.dot(initial, radix))
-    number = {start: 0}  # a combination's mixed-radix code -> its state
+    state 0, and its accepting states (every DFA accepts); None past `max_states`.
+
+    A combination of part states is keyed by its bytes, not by a mixed-radix number: the
+    number of combinations of a hundred rules passes any integer type (3^106 wrapped int64 and
+    merged combinations that differ)."""
+    start = np.asarray(initial, dtype=np.int64)
+    number = {start.tobytes(): 0}  # a combination's bytes -> its state
+    combos = [start]  # state -> its parts' states
     rows: list[np.ndarray] = []
-    frontier = [start]
-    while frontier:
-        codes = np.array(frontier, dtype=np.int64)
-        parts = (codes[:, None] // radix[None, :]) % sizes[None, :]  # [n, K]
-        nxt = sum(t[parts[:, k]] * radix[k] for k, t in enumerate(tables))  # [n, T] codes
-        frontier = []
-        for code in np.unique(nxt).tolist():
-            if code not in number:
-                number[code] = len(number)
-                frontier.append(code)
-        if len(number) > max_states:
+    first = 0
+    while first < len(combos):
+        parts = np.stack(combos[first:])  # [n, K]
+        first = len(combos)
+        nxt = np.stack([t[parts[:, k]] for k, t in enumerate(tables)], axis=-1)  # [n, T, K]
+        distinct, inverse = np.unique(nxt.reshape(-1, nxt.shape[-1]), axis=0, return_inverse=True)
+        found = np.empty(len(distinct), dtype=np.int64)
+        for d, combo in enumerate(distinct):
+            key = combo.tobytes()
+            if key not in number:
+                number[key] = len(combos)
+                combos.append(combo)
+            found[d] = number[key]
+        if len(combos) > max_states:
             return None
-        rows.extend(nxt)
-    lookup = np.vectorize(number.__getitem__, otypes=[np.int64])
-    table = lookup(np.stack(rows)) if rows else np.zeros((1, 0), dtype=np.int64)
-    codes = np.array(sorted(number, key=number.__getitem__), dtype=np.int64)
-    parts = (codes[:, None] // radix[None, :]) % sizes[None, :]
-    accepts = np.ones(len(codes), dtype=bool)
+        rows.extend(found[inverse.reshape(nxt.shape[:2])])
+    table = np.stack(rows) if rows else np.zeros((1, 0), dtype=np.int64)
+    states = np.stack(combos)
+    accepts = np.ones(len(combos), dtype=bool)
     for k, acc in enumerate(accepting):
-        accepts &= np.asarray(acc, dtype=bool)[parts[:, k]]
+        accepts &= np.asarray(acc, dtype=bool)[states[:, k]]
     return table, accepts
