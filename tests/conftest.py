@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import random
 import subprocess
 import sys
 from pathlib import Path
@@ -115,3 +116,19 @@ def with_actions(data: Path, actions: list, out: Path) -> Path:
         inputs=[],
     )  # fmt: skip
     return out
+
+
+def resource_log(path: Path, cases: int = 40, seed: int = 0, interleave: bool = False) -> Path:
+    """A CSV log with a resource: a by r1, then b by r2 (once or twice), then c by r3 (r4 in a
+    tenth of the cases, so a model learns r3 for c). `interleave`: the cases of one day start
+    a minute apart, so that their events interleave in time (a stream's order)."""
+    rng = random.Random(seed)
+    rows = ["case:concept:name,concept:name,time:timestamp,org:resource"]
+    for i in range(cases):
+        events = [("a", "r1")] + [("b", "r2")] * rng.choice([1, 2])
+        events.append(("c", "r4" if i % 10 == 0 else "r3"))
+        minute = i % 60 if interleave else 0
+        for t, (act, res) in enumerate(events):
+            rows.append(f"k{i},{act},2020-01-{1 + i % 28:02d}T{10 + t:02d}:{minute:02d}:00,{res}")
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path

@@ -5,7 +5,6 @@ and predicts the resource, end to end through train-task and eval."""
 from __future__ import annotations
 
 import json
-import random
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +12,7 @@ import pytest
 import torch
 from typer.testing import CliRunner
 
+from tests.conftest import resource_log
 from tleaf_cli.cli.root import app
 from tleaf_cli.data.event_logs import read_cases
 from tleaf_cli.settings.next_activity import NextActivitySettings
@@ -39,17 +39,7 @@ Chain Precedence[b, c] |A.org:resource is r4 | |
 
 
 def _log(path: Path, cases: int = 60, seed: int = 0) -> Path:
-    """A CSV log: a by r1, then b by r2 (sometimes twice), then c by r3 (r4 in a tenth of the
-    cases, so the model learns r3 for c)."""
-    rng = random.Random(seed)
-    rows = ["case:concept:name,concept:name,time:timestamp,org:resource"]
-    for i in range(cases):
-        events = [("a", "r1")] + [("b", "r2")] * rng.choice([1, 2])
-        events.append(("c", "r4" if i % 10 == 0 else "r3"))
-        for t, (act, res) in enumerate(events):
-            rows.append(f"k{i},{act},2020-01-{1 + i % 28:02d}T{10 + t:02d}:00:00,{res}")
-    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
-    return path
+    return resource_log(path, cases, seed)
 
 
 @pytest.fixture(scope="module")

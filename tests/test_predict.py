@@ -6,7 +6,6 @@ command writes its artifact and table or refuses in one line, writing nothing.""
 
 from __future__ import annotations
 
-import random
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +13,7 @@ import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
+from tests.conftest import resource_log
 from tleaf_cli.cli.root import app
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.event_logs import read_cases
@@ -41,16 +41,7 @@ Existence[c] |A.org:resource is r4 |
 
 
 def _log(path: Path, cases: int = 40, seed: int = 0) -> Path:
-    """a by r1, b by r2 once or twice, c by r3 (r4 in a tenth of the cases)."""
-    rng = random.Random(seed)
-    rows = ["case:concept:name,concept:name,time:timestamp,org:resource"]
-    for i in range(cases):
-        events = [("a", "r1")] + [("b", "r2")] * rng.choice([1, 2])
-        events.append(("c", "r4" if i % 10 == 0 else "r3"))
-        for t, (act, res) in enumerate(events):
-            rows.append(f"k{i},{act},2020-01-{1 + i % 28:02d}T{10 + t:02d}:00:00,{res}")
-    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
-    return path
+    return resource_log(path, cases, seed)
 
 
 @pytest.fixture(scope="module")

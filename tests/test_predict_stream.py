@@ -19,13 +19,15 @@ import pytest
 import torch
 from typer.testing import CliRunner
 
+from tests.conftest import resource_log
 from tleaf_cli.cli.root import app
 from tleaf_cli.data.event_logs import read_cases
 from tleaf_cli.logic.verdicts import Verdict
 from tleaf_cli.settings.next_activity import PredictSettings
 from tleaf_cli.tasks.next_activity.predict import Predictor
 from tleaf_cli.tasks.next_activity.predictions import predict_cases
-from tleaf_cli.tasks.next_activity.stream import (
+from tleaf_cli.tasks.next_activity.stream import StreamMonitor
+from tleaf_cli.tasks.next_activity.stream_events import (
     BAD_FIELD,
     CLOSED,
     MALFORMED,
@@ -34,7 +36,6 @@ from tleaf_cli.tasks.next_activity.stream import (
     OUT_OF_ORDER,
     REASONS,
     BadEvent,
-    StreamMonitor,
     read_lines,
     run_stream,
 )
@@ -49,17 +50,7 @@ c_after_b: (!c U b) | G !c
 
 
 def _log(path: Path, cases: int = 40, seed: int = 0) -> Path:
-    """a by r1, b by r2 once or twice, c by r3 (r4 in a tenth of the cases); cases of one day
-    interleave."""
-    rng = random.Random(seed)
-    rows = ["case:concept:name,concept:name,time:timestamp,org:resource"]
-    for i in range(cases):
-        events = [("a", "r1")] + [("b", "r2")] * rng.choice([1, 2])
-        events.append(("c", "r4" if i % 10 == 0 else "r3"))
-        for t, (act, res) in enumerate(events):
-            rows.append(f"k{i},{act},2020-01-{1 + i % 28:02d}T{10 + t:02d}:{i:02d}:00,{res}")
-    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
-    return path
+    return resource_log(path, cases, seed, interleave=True)
 
 
 @pytest.fixture(scope="module", autouse=True)

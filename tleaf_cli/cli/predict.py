@@ -1,16 +1,21 @@
-"""`tleaf predict`: a trained next-activity run on the running cases of a log (the library's
-tasks/next_activity/predict.py and predictions.py)."""
+"""`tleaf predict`: a trained run on new data. A next-activity run on the running cases of a
+log (the library's tasks/next_activity/predict.py and predictions.py), or on a live stream of
+events with --follow (tasks/next_activity/stream.py); an action-recognition run on new videos
+(tasks/action_recognition/predict.py)."""
 
 from __future__ import annotations
 
+import json
+import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
 from tleaf_cli import ui
-from tleaf_cli.cli.common import Quiet, exits, file_path, targets
+from tleaf_cli.cli.common import Quiet, exits, file_path, given_flags, refuse, targets
 from tleaf_cli.cli.options import PREDICT, given, with_settings
+from tleaf_cli.cli.prediction_tables import show, show_videos
 from tleaf_cli.errors import InputError
 from tleaf_cli.settings.next_activity import PredictSettings
 
@@ -56,9 +61,10 @@ def predict(
     follow: Annotated[
         bool,
         typer.Option(
+            "--follow",
             help="A live stream: events as JSON lines (stdin, or the file given, read as it "
             "grows), one prediction per event as a JSON line (stdout, or -o FILE.jsonl); "
-            "docs/monitoring.md, Live stream."
+            "docs/monitoring.md, Live stream.",
         ),
     ] = False,
     until_idle: Annotated[
@@ -71,8 +77,9 @@ def predict(
     suffix: Annotated[
         bool,
         typer.Option(
+            "--suffix",
             help="With --follow: each line also holds the predicted rest of the case and the "
-            "recommendation (a search per event)."
+            "recommendation (a search per event).",
         ),
     ] = False,
     quiet: Quiet = False,
@@ -96,8 +103,6 @@ def predict(
     from tleaf_cli.tasks.next_activity.predictions import predict_cases
 
     if follow:  # a live stream of events
-        from tleaf_cli.cli.predict_stream import follow_stream
-
         return follow_stream(ctx, run, cases, rules, rule, out, until_idle, suffix, quiet, values)
     if cases is None or until_idle is not None or suffix:
         raise InputError(
@@ -107,8 +112,6 @@ def predict(
         )
     targets([run, cases, rules], [out])
     if run_kind(run) == RUN_KIND:  # an action-recognition run: its videos decoded
-        from tleaf_cli.cli.predict_actions import predict_actions
-
         return predict_actions(ctx, run, cases, rules, rule, split, out, quiet, values)
     settings = PredictSettings(**given(ctx, values))
     with ui.progress("predicting", quiet) as update:
@@ -130,35 +133,125 @@ def predict(
     )
 
 
-def show(predictions, risk: float) -> None:
-    """The first predictions as a table: case, prefix length, next activity (p), the rules
-    broken for good and those at risk (undecided, probability of holding below `risk`), the
-    recommendation."""
-    rows = []
-    for p in predictions:
-        if p.reason is not None:
-            rows.append([p.case_id, str(p.prefix_length), f"— ({p.reason})", "", "", ""])
-            continue
-        name, q = p.next_activities[0]
-        if p.end_probability > q:
-            name, q = "(end)", p.end_probability
-        broken = [r.rule for r in p.rules if r.verdict == "permanently violated"]
-        at_risk = [
-            f"{r.rule} ({r.probability:.2f})"
-            for r in p.rules
-            if r.method == "sampled" and r.probability < risk
-        ]
-        advice = ""
-        if p.recommendation_status == "found":
-            advice = f"{' → '.join(p.recommendation)} (×{p.recommendation_relative:.2g})"
-        elif p.recommendation_status == "none":
-            advice = "no continuation keeps every rule"
-        rows.append(
-            [p.case_id, str(p.prefix_length), f"{name} ({q:.2f})", ", ".join(broken) or "—",
-             ", ".join(at_risk) or "—", advice or "—"]
+SHOWN_VIDEOS = 8  # videos the terminal's table shows
+# PredictSettings' options that only a next-activity run reads (--top-k applies to both)
+NEXT_ACTIVITY_ONLY = (
+    "way", "beam_width", "temperature", "suffix_rules", "rule_weight", "max_suffix", "samples",
+    "seed", "prefix_lengths", "risk",
+)  # fmt: skip
+
+
+def predict_actions(
+    ctx: typer.Context,
+    run: Path,
+    activities: Path,
+    rules: Path | None,
+    rule: list[str] | None,
+    split: str | None,
+    out: Path,
+    quiet: bool,
+    values: dict[str, Any],
+) -> None:
+    """Decode the activities' videos with the action-recognition run `run` and print the first."""
+    from tleaf_cli.tasks.action_recognition.predict import predict_activities
+
+    refuse(given_flags(ctx, *NEXT_ACTIVITY_ONLY), "only for a next-activity run")
+    with ui.progress("predicting", quiet) as update:
+        summary = predict_activities(
+            run, activities, out, rules, tuple(rule or ()), split, values["top_k"],
+            on_progress=update,
         )  # fmt: skip
-    ui.table(
-        f"first {len(rows)} predictions",
-        ["case", "k", "next (p)", "broken", "at risk (p holds)", "recommendation (× p)"],
-        rows,
+    if not quiet:
+        show_videos(summary["predictions"][:SHOWN_VIDEOS])
+    videos, accuracy = summary["videos"], summary["accuracy"]
+    labelled = (
+        ""
+        if accuracy is None
+        else f"; action accuracy against the file's labels {100 * accuracy['argmax']:.2f}% by "
+        f"argmax, {100 * accuracy['constrained']:.2f}% under the rules"
     )
+    ui.summary(
+        f"{out}: {videos} videos, {summary['steps']} steps; the argmax labels break a rule in "
+        f"{summary['argmax_breaking']} videos, the labels under the rules in "
+        f"{summary['constrained_breaking']} ({summary['rules']} rules){labelled}; "
+        f"{1000 * summary['seconds'] / max(videos, 1):.1f} ms per video",
+        quiet,
+    )
+
+
+BATCH_ONLY = ("split", "prefix_lengths", "risk")  # options of the artifact, not of a stream
+
+
+def follow_stream(
+    ctx: typer.Context,
+    run: Path,
+    source: Path | None,
+    rules: Path | None,
+    rule: list[str] | None,
+    out: Path,
+    until_idle: float | None,
+    suffix: bool,
+    quiet: bool,
+    values: dict,
+) -> None:
+    """Read events from `source` (None or `-`: stdin; a file: followed as it grows), write one
+    prediction per event to stdout or `out` (with a summary JSON beside it), report skipped
+    lines on stderr; exit 1 where some line was skipped."""
+    from tleaf_cli.data.artifacts import write_text_atomic
+    from tleaf_cli.tasks.next_activity.predict import Predictor
+    from tleaf_cli.tasks.next_activity.stream import StreamMonitor
+    from tleaf_cli.tasks.next_activity.stream_events import read_lines, run_stream, summary_path
+
+    chosen = given(ctx, {name: None for name in ("split", *values)})
+    refused = [name for name in BATCH_ONLY if name in chosen]
+    if refused:
+        flag = "--" + refused[0].replace("_", "-")
+        raise InputError(f"{flag} applies to a cases artifact, not to --follow's stream")
+    source = source if source is not None else Path("-")
+    to_stdout = ctx.get_parameter_source("out").name == "DEFAULT" or str(out) == "-"
+    if str(source) != "-" and not Path(source).is_file():
+        raise InputError(f"{source}: no such file to follow")
+    if until_idle is not None and not until_idle >= 0:
+        raise InputError(f"--until-idle: a number of seconds, 0 or more, not {until_idle}")
+    if not to_stdout:
+        targets([run, rules, None if str(source) == "-" else source], [out])
+    settings = PredictSettings(**given(ctx, values))
+    settings.check()
+    import torch
+
+    # one event's model call is too small to share out: more threads only wait on each other
+    # (ten times slower per event on a busy 2-core machine, measured)
+    torch.set_num_threads(1)
+    predictor = Predictor.load(run, settings, rules, tuple(rule or ()))
+    monitor = StreamMonitor(predictor, suffix=suffix)
+    ui.summary(
+        f"following {'stdin' if str(source) == '-' else source}: "
+        f"{len(monitor.rule_names)} rules watched, samples {settings.samples}"
+        + (", suffix and recommendation" if suffix else ""),
+        quiet,
+    )
+    sink = sys.stdout if to_stdout else open(out, "w", encoding="utf-8")  # noqa: SIM115
+    try:
+
+        def write(line: str) -> None:
+            sink.write(line + "\n")
+            sink.flush()
+
+        def report(line: str) -> None:
+            ui.err.print(ui.visible(line), markup=False, soft_wrap=True, highlight=False)
+
+        summary = run_stream(monitor, read_lines(source, True, until_idle), write, report)
+    finally:
+        if not to_stdout:
+            sink.close()
+    if not to_stdout:
+        record = {"out": str(out), "rule_names": list(monitor.rule_names), **summary.as_dict()}
+        write_text_atomic(summary_path(out), json.dumps(record, indent=2) + "\n")
+    ui.summary(
+        ("" if to_stdout else f"{out}: ")
+        + summary.line()
+        + f"; {1000 * summary.seconds / max(summary.lines, 1):.2f} ms per line",
+        quiet,
+    )
+    if summary.skipped:
+        raise typer.Exit(1)

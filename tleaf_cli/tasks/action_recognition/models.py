@@ -89,6 +89,20 @@ class ActionRecognizer(nn.Module):
         self.action_out = nn.Linear(2 * head_hidden, num_actions)
         self.ingredient_out = nn.Linear(2 * head_hidden, num_ingredients)
 
+    @classmethod
+    def from_config(cls, config: dict) -> ActionRecognizer:
+        """The untrained model a run's config.json describes (its weights load apart)."""
+        s = config["settings"]
+        return cls(
+            s["model"],
+            int(config["feature_dim"]),
+            len(config["actions"]),
+            len(config["ingredients"]),
+            hidden=s["hidden"],
+            head_hidden=s["head_hidden"],
+            dropout=s["dropout"],
+        )
+
     def forward(
         self, features: torch.Tensor, lengths: torch.Tensor
     ) -> tuple[torch.Tensor, torch.Tensor]:

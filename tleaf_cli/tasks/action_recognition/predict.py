@@ -163,20 +163,14 @@ class ActionPredictor:
         if not finished_run(run_dir):
             raise InputError(f"{run_dir}: not a finished train-task action-recognition run")
         s = config["settings"]
-        model = ActionRecognizer(
-            s["model"],
-            int(config["feature_dim"]),
-            len(config["actions"]),
-            len(config["ingredients"]),
-            hidden=s["hidden"],
-            head_hidden=s["head_hidden"],
-            dropout=s["dropout"],
-        )
+        model = ActionRecognizer.from_config(config)
         load_weights(model, run_dir, RUN_KIND)
         if rules_path is None:
             rules_path = recorded_input(run_dir, config, "kb")
             if rules_path is None:
-                raise InputError(f"{run_dir}: config.json records no knowledge base; give --rules")
+                raise InputError(
+                    f"{run_dir}: config.json records no knowledge base; name a rule file to use"
+                )
         if Path(rules_path).suffix != ".ltl":
             raise InputError(
                 f"{rules_path}: an action-recognition run decodes under a .ltl knowledge base "

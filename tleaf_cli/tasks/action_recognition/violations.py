@@ -128,15 +128,7 @@ def load_run(run_dir: str | Path, cache: dict[tuple[Path, Path], Inputs] | None 
     data, s = inputs.data, config["settings"]
     if (list(data.actions), list(data.ingredients)) != (config["actions"], config["ingredients"]):
         raise InputError(f"{run_dir}: its actions or ingredients are not its activities file's")
-    model = ActionRecognizer(
-        s["model"],
-        int(config["feature_dim"]),
-        len(config["actions"]),
-        len(config["ingredients"]),
-        hidden=s["hidden"],
-        head_hidden=s["head_hidden"],
-        dropout=s["dropout"],
-    )
+    model = ActionRecognizer.from_config(config)
     try:
         weights = torch.load(run_dir / "weights.pt", map_location=CPU, weights_only=True)
         model.load_state_dict(weights)

@@ -11,10 +11,10 @@ the event. What it keeps per open case (`OpenCase`):
   one table lookup per rule, all rules at once (`_Tables`), the verdict read off the state;
 - the case's events so far (activities, atoms, times, attribute values), which the model reads;
 - for an LSTM (`NextActivityLSTM`), its hidden and cell state after the last event, so the next
-  event costs one LSTM step (`_Cell`: the model's weights stepped in numpy; the new event's
-  features read off it, the one before it and the case's first); any other model (the
-  transformer, the prefix table) re-reads the whole prefix at each event, as the batch
-  predictor does. The rule probabilities
+  event costs one LSTM step (`LSTMStep`, lstm_step.py: the model's weights stepped in numpy;
+  the new event's features read off it, the one before it and the case's first); any other
+  model (the transformer, the prefix table) re-reads the whole prefix at each event, as the
+  batch predictor does. The rule probabilities
   (`samples` > 0) and the suffix and recommendation (`suffix=True`) re-read the prefix too:
   they are `Predictor`'s, on the case as it stands.
 
@@ -26,59 +26,44 @@ case's prediction is null with its `reason` — as a batch row of such a prefix.
 case ended, so a temporarily satisfied rule is permanently satisfied, a temporarily violated
 one permanently violated), the case is dropped, and a later event for it is refused.
 
-A bad event raises a `BadEvent` whose `reason` is one of `REASONS`, and changes nothing:
-`run_stream` reports it, counts it and goes on. `read_lines` reads stdin or follows a growing
-file (like `tail -f`).
+A bad event raises a `BadEvent` (stream_events.py: the protocol, its reasons, the loop that
+reports and counts them) and changes nothing.
 """
 
 from __future__ import annotations
 
 import functools
 import json
-import os
-import queue
-import sys
-import threading
-import time
-from collections import Counter
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from datetime import UTC, datetime
-from pathlib import Path
+from datetime import datetime
 
 import numpy as np
 import torch
 
 from tleaf_cli.data.activity_names import attribute_atom, bind_atoms
 from tleaf_cli.data.cases import Case
-from tleaf_cli.errors import InputError
 from tleaf_cli.logic.verdicts import Verdict
 from tleaf_cli.tasks.next_activity.joint_tokens import joint_log_probs
+from tleaf_cli.tasks.next_activity.lstm_step import LSTMStep
 from tleaf_cli.tasks.next_activity.model import NextActivityLSTM
 from tleaf_cli.tasks.next_activity.monitoring import MonitoredRules, sample_holds, wilson
 from tleaf_cli.tasks.next_activity.predict import Predictor
+from tleaf_cli.tasks.next_activity.stream_events import (
+    CASE_SCOPE,
+    CLOSED,
+    ENDED,
+    MALFORMED,
+    NOT_OPEN,
+    OUT_OF_ORDER,
+    BadEvent,
+    event_fields,
+    first_line,
+)
 from tleaf_cli.tasks.next_activity.suffix_search import Rows
 
-MALFORMED = "malformed JSON"
-MISSING = "missing field"
-BAD_FIELD = "bad field"
-OUT_OF_ORDER = "timestamp before the case's previous event"
-CLOSED = "case already ended"
-NOT_OPEN = "end mark for a case not open"
-REASONS = (MALFORMED, MISSING, BAD_FIELD, OUT_OF_ORDER, CLOSED, NOT_OPEN)
-UNKNOWN_ACTIVITY = "unknown activity"  # not skipped: the case goes on without a prediction
-ENDED = "the case ended"  # the reason of an end mark's line: no next event to predict
-CASE_SCOPE = "case:"  # an attribute named case:<name> is a case attribute
 _LETTER_CACHE = 1 << 16  # distinct event letters whose columns are kept
 _attribute_atom = functools.lru_cache(maxsize=1 << 16)(attribute_atom)  # values repeat
-
-
-class BadEvent(InputError):
-    """An input line that is not a usable event (`reason`: one of `REASONS`); nothing changed."""
-
-    def __init__(self, reason: str, message: str) -> None:
-        super().__init__(message)
-        self.reason = reason
 
 
 @dataclass
@@ -152,59 +137,6 @@ class _Tables:
         return self.accepting[self.state_base + states]
 
 
-class _Cell:
-    """A `NextActivityLSTM`'s layers as numpy arrays, one step of one case at a time: what
-    torch's LSTM computes (gates i, f, g, o), without its per-call cost (a tenth of a
-    millisecond against a few microseconds for a 100-unit cell)."""
-
-    def __init__(self, model: NextActivityLSTM) -> None:
-        lstm = model.lstm
-        self.layers = lstm.num_layers
-        self.inputs = lstm.input_size
-
-        def array(name: str) -> np.ndarray:
-            return getattr(lstm, name).detach().cpu().numpy().astype(np.float32)
-
-        self.w_ih = [array(f"weight_ih_l{k}") for k in range(self.layers)]
-        self.w_hh = [array(f"weight_hh_l{k}") for k in range(self.layers)]
-        self.b_ih = [array(f"bias_ih_l{k}") for k in range(self.layers)]
-        self.b_hh = [array(f"bias_hh_l{k}") for k in range(self.layers)]
-        self.hidden = lstm.hidden_size
-        self.out_weight = model.out.weight.detach().cpu().numpy().astype(np.float32)
-        self.out_bias = model.out.bias.detach().cpu().numpy().astype(np.float32)
-        self.embeddings = [
-            e.weight.detach().cpu().numpy().astype(np.float32) for e in model.values.embeddings
-        ]
-
-    def step(
-        self, x: np.ndarray, memory: tuple[np.ndarray, np.ndarray] | None
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """(h, c), each float32 [layers, hidden], after input x [inputs] from `memory`."""
-        h0, c0 = memory if memory is not None else (None, None)
-        hs, cs = [], []
-        for k in range(self.layers):
-            gates = self.w_ih[k] @ x + self.b_ih[k] + self.b_hh[k]
-            c_before = np.zeros(self.hidden, dtype=np.float32) if c0 is None else c0[k]
-            if h0 is not None:
-                gates += self.w_hh[k] @ h0[k]
-            i, f, g, o = np.split(gates, 4)
-            c = _sigmoid(f) * c_before + _sigmoid(i) * np.tanh(g)
-            h = _sigmoid(o) * np.tanh(c)
-            hs.append(h)
-            cs.append(c)
-            x = h
-        return np.stack(hs), np.stack(cs)
-
-
-def _sigmoid(x: np.ndarray) -> np.ndarray:
-    return 1.0 / (1.0 + np.exp(-x))
-
-
-def _logsumexp(x: np.ndarray) -> float:
-    top = x.max()
-    return float(top + np.log(np.exp(x - top).sum()))
-
-
 class StreamMonitor:
     """The open cases of a stream and what a run says about each after every event (module
     docstring). `predictor.settings` give top-k, samples, max-suffix, seed and the suffix's
@@ -220,7 +152,7 @@ class StreamMonitor:
         self.rules = predictor.rules
         self.model = predictor.model
         self.lstm = isinstance(self.model, NextActivityLSTM)
-        self.cell = _Cell(self.model) if self.lstm else None
+        self.cell = LSTMStep(self.model) if self.lstm else None
         self.tables = _Tables(self.rules)
         self.names = self.encoder.names()  # activity name -> atom, as the run's log maps them
         self.index = {a: i for i, a in enumerate(self.encoder.atoms)}
@@ -268,7 +200,7 @@ class StreamMonitor:
                 text = text.decode("utf-8")
             event = json.loads(text)
         except (UnicodeDecodeError, json.JSONDecodeError) as e:
-            raise BadEvent(MALFORMED, f"not a JSON line ({_first_line(e)})") from None
+            raise BadEvent(MALFORMED, f"not a JSON line ({first_line(e)})") from None
         if not isinstance(event, dict):
             raise BadEvent(MALFORMED, f"a JSON {type(event).__name__}, not an object")
         return self.feed(event, line)
@@ -276,7 +208,7 @@ class StreamMonitor:
     def feed(self, event: Mapping, line: int | None = None) -> dict:
         """The output line's content after `event` (module docstring; `line`: the input line's
         number, echoed); BadEvent, nothing changed, for an event that cannot be taken."""
-        case_id, activity, stamp, attributes, end = _fields(event)
+        case_id, activity, stamp, attributes, end = event_fields(event)
         if case_id in self.closed:
             raise BadEvent(CLOSED, f"case {case_id!r} already ended (an end mark came before)")
         opened = self.open.get(case_id)
@@ -517,205 +449,6 @@ def _plain(value):
     return value
 
 
-def _first_line(e: Exception) -> str:
-    return str(e).splitlines()[0] if str(e) else type(e).__name__
-
-
-def _fields(event: Mapping) -> tuple[str, str | None, datetime | None, dict, bool]:
-    """(case id, activity or None for an end mark alone, UTC time, attributes, end) of an
-    event; BadEvent for a field missing or of the wrong kind."""
-    if "case" not in event:
-        raise BadEvent(MISSING, "no 'case'")
-    case_id = event["case"]
-    if isinstance(case_id, bool) or not isinstance(case_id, str | int) or case_id == "":
-        raise BadEvent(BAD_FIELD, f"'case' must be a non-empty string, not {case_id!r}")
-    case_id = str(case_id)
-    end = event.get("end", False)
-    if end is None:
-        end = False
-    if not isinstance(end, bool):
-        raise BadEvent(BAD_FIELD, f"'end' must be true or false, not {end!r}")
-    activity = event.get("activity")
-    if activity is None:
-        if end:  # the mark alone: its other fields are not read
-            return case_id, None, None, {}, True
-        raise BadEvent(MISSING, f"case {case_id!r}: no 'activity'")
-    if not isinstance(activity, str) or not activity:
-        raise BadEvent(BAD_FIELD, f"'activity' must be a non-empty string, not {activity!r}")
-    if "timestamp" not in event or event["timestamp"] is None:
-        raise BadEvent(MISSING, f"case {case_id!r}: no 'timestamp'")
-    text = event["timestamp"]
-    try:
-        if not isinstance(text, str):
-            raise ValueError
-        stamp = datetime.fromisoformat(text.strip())
-    except ValueError:
-        raise BadEvent(BAD_FIELD, f"'timestamp' is no ISO 8601 time: {text!r}") from None
-    stamp = stamp.replace(tzinfo=UTC) if stamp.tzinfo is None else stamp.astimezone(UTC)
-    raw = event.get("attributes") or {}
-    if not isinstance(raw, dict):
-        raise BadEvent(BAD_FIELD, f"'attributes' must be an object, not {raw!r}")
-    attributes: dict[str, str | None] = {}
-    for name, value in raw.items():
-        if value is None or isinstance(value, str):
-            attributes[name] = value
-        elif isinstance(value, bool):
-            attributes[name] = "true" if value else "false"
-        elif isinstance(value, int | float):
-            attributes[name] = str(value)
-        else:
-            raise BadEvent(BAD_FIELD, f"attribute {name!r}: a value, not {value!r}")
-    return case_id, activity, stamp, attributes, end
-
-
-# -------------------------------------------------------------------- the loop
-@dataclass
-class StreamSummary:
-    """What a stream did: lines read (blank ones not counted), output lines, the lines skipped
-    by reason, events with an activity the run never saw (not skipped), cases ended, cases
-    still open, whether it was interrupted, seconds."""
-
-    lines: int = 0
-    written: int = 0
-    skipped: Counter = field(default_factory=Counter)
-    unknown_activity: int = 0
-    ended: int = 0
-    open: int = 0
-    interrupted: bool = False
-    seconds: float = 0.0
-
-    def as_dict(self) -> dict:
-        return {
-            "lines": self.lines,
-            "written": self.written,
-            "skipped": sum(self.skipped.values()),
-            "skipped_by_reason": dict(sorted(self.skipped.items())),
-            "unknown_activity": self.unknown_activity,
-            "ended": self.ended,
-            "open": self.open,
-            "interrupted": self.interrupted,
-            "seconds": round(self.seconds, 3),
-        }
-
-    def line(self) -> str:
-        """The one-line account at the end of a stream."""
-        skipped = sum(self.skipped.values())
-        reasons = ", ".join(f"{n} {r}" for r, n in sorted(self.skipped.items()))
-        return (
-            f"{self.lines} lines read, {self.written} predictions written"
-            + (f", {skipped} skipped ({reasons})" if skipped else ", none skipped")
-            + (
-                f", {self.unknown_activity} events with an activity the run never saw "
-                "(verdicts only)"
-                if self.unknown_activity
-                else ""
-            )
-            + f"; {self.ended} cases ended, {self.open} still open"
-            + (" (interrupted)" if self.interrupted else "")
-        )
-
-
-def run_stream(
-    monitor: StreamMonitor,
-    lines: Iterable[str | bytes],
-    write: Callable[[str], None],
-    report: Callable[[str], None],
-) -> StreamSummary:
-    """Feed every line to `monitor`, `write` each output line (JSON, no newline), `report` each
-    skipped line and each event of an activity the run never saw (one line naming the input
-    line's number and why); stops at the end of `lines` or at an interrupt (Ctrl-C)."""
-    summary = StreamSummary()
-    start = time.perf_counter()
-    try:
-        for number, text in enumerate(lines, 1):
-            if not text.strip():
-                continue
-            summary.lines += 1
-            try:
-                out = monitor.feed_line(text, number)
-            except BadEvent as e:
-                summary.skipped[e.reason] += 1
-                report(f"line {number}: skipped, {e.reason}: {e}")
-                continue
-            write(json.dumps(out, ensure_ascii=False))
-            summary.written += 1
-            summary.ended += bool(out["ended"])
-            if not monitor.knows(out["activity"]):
-                summary.unknown_activity += 1
-                report(
-                    f"line {number}: {UNKNOWN_ACTIVITY} {out['activity']!r}: the run never saw "
-                    f"it; case {out['case_id']!r} goes on with verdicts only, no prediction"
-                )
-    except KeyboardInterrupt:
-        summary.interrupted = True
-    summary.open = len(monitor.open)
-    summary.seconds = time.perf_counter() - start
-    return summary
-
-
-def read_lines(
-    source: str | os.PathLike,
-    follow: bool = True,
-    until_idle: float | None = None,
-    poll: float = 0.05,
-) -> Iterator[bytes]:
-    """The lines of `source`: `-` is stdin, read to its end (or until no line came for
-    `until_idle` seconds); a file is read to its end and, with `follow`, kept being read as it
-    grows (a line counted once its newline is written) until `until_idle` seconds pass with
-    nothing new (None: until interrupted). A file that shrinks is read again from its start."""
-    if os.fspath(source) == "-":
-        yield from _stdin_lines(until_idle)
-        return
-    with open(source, "rb") as f:
-        pending = b""
-        idle_since = time.monotonic()
-        while True:
-            chunk = f.readline()
-            if chunk:
-                pending += chunk
-                if pending.endswith(b"\n"):
-                    yield pending
-                    pending = b""
-                idle_since = time.monotonic()
-                continue
-            if not follow or (
-                until_idle is not None and time.monotonic() - idle_since >= until_idle
-            ):
-                break
-            if os.fstat(f.fileno()).st_size < f.tell():  # truncated: start again
-                f.seek(0)
-                pending = b""
-            time.sleep(poll)
-        if pending:
-            yield pending
-
-
-def _stdin_lines(until_idle: float | None) -> Iterator[bytes]:
-    stream = getattr(sys.stdin, "buffer", sys.stdin)
-    done = "" if stream is sys.stdin else b""  # readline's answer at the end
-    if until_idle is None:
-        yield from iter(stream.readline, done)
-        return
-    lines: queue.Queue = queue.Queue()
-
-    def pump() -> None:
-        for line in iter(stream.readline, done):
-            lines.put(line)
-        lines.put(None)
-
-    threading.Thread(target=pump, daemon=True).start()
-    while True:
-        try:
-            line = lines.get(timeout=until_idle)
-        except queue.Empty:
-            return
-        if line is None:
-            return
-        yield line
-
-
-def summary_path(out: str | os.PathLike) -> Path:
-    """The summary JSON written beside a stream's output file: predictions.jsonl ->
-    predictions.summary.json."""
-    out = Path(out)
-    return out.with_name(f"{out.stem}.summary.json")
+def _logsumexp(x: np.ndarray) -> float:
+    top = x.max()
+    return float(top + np.log(np.exp(x - top).sum()))
