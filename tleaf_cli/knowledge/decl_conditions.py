@@ -13,8 +13,8 @@ event): a test on an attribute the event has no value for is false (`is not` too
 negates the whole; `is`, `is not`, `in`, `not in` compare text, or numbers where the attribute's
 declared domain is a number range; `<`, `<=`, `=`, `!=`, `>=`, `>` compare numbers ("573.0" meets
 `= 573`), and a value that is no number meets none of them. A value outside the attribute's
-declared domain is tested as it is (`is not Value 3` holds for "Value 23"); `outside` finds such
-values, for the caller to count and report.
+declared domain is tested as it is (`is not Value 3` holds for "Value 23"); check-cases counts
+such values (`AttributeDomain.holds`).
 
 **Atoms.** `condition_atoms` names each distinct condition (the same test on the activation and
 on a target is one: it is a property of the event) by its words, `<attribute>__<operator>__<values>`
@@ -126,17 +126,6 @@ class EventCondition:
         """The condition on an event whose attribute values are `values` (attribute -> value,
         None or absent where the event has none)."""
         return _holds(self.tree, values, self.domains)
-
-    def outside(self, values: Mapping[str, str | None]) -> list[tuple[str, str]]:
-        """(attribute, value) for each value of an attribute it reads that the attribute's
-        declared domain does not hold."""
-        out = []
-        for attribute in self.attributes:
-            value = values.get(attribute)
-            domain = self.domains.get(attribute)
-            if value is not None and domain is not None and not domain.holds(value):
-                out.append((attribute, value))
-        return out
 
     def text(self) -> str:
         """The condition written back in `.decl` syntax, on the event itself (no `A.`/`T.`)."""

@@ -50,9 +50,6 @@ class Verdict(IntEnum):
         return self in (Verdict.PERMANENTLY_SATISFIED, Verdict.TEMPORARILY_SATISFIED)
 
 
-VERDICTS: tuple[str, ...] = tuple(str(v) for v in Verdict)
-
-
 def state_verdicts(dfa: DFA) -> np.ndarray:
     """int8 [S]: each state's `Verdict` (module docstring)."""
     live = dfa.live()  # some continuation keeps the rule
