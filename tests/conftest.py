@@ -132,3 +132,18 @@ def resource_log(path: Path, cases: int = 40, seed: int = 0, interleave: bool = 
             rows.append(f"k{i},{act},2020-01-{1 + i % 28:02d}T{10 + t:02d}:{minute:02d}:00,{res}")
     path.write_text("\n".join(rows) + "\n", encoding="utf-8")
     return path
+
+
+def resource_cases(folder: Path, cases: int = 40, interleave: bool = False) -> Path:
+    """`resource_log` read by `tleaf read-log --attributes org:resource`: folder/cases.parquet."""
+    from typer.testing import CliRunner
+
+    from tleaf_cli.cli import app
+
+    out = folder / "cases.parquet"
+    log = resource_log(folder / "log.csv", cases, interleave=interleave)
+    result = CliRunner().invoke(
+        app, ["read-log", str(log), "-o", str(out), "--attributes", "org:resource", "-q"]
+    )
+    assert result.exit_code == 0, result.output
+    return out

@@ -12,7 +12,7 @@ import pytest
 import torch
 from typer.testing import CliRunner
 
-from tests.conftest import resource_log
+from tests.conftest import resource_cases, resource_log
 from tleaf_cli.cli.root import app
 from tleaf_cli.data.event_logs import read_cases
 from tleaf_cli.settings.next_activity import NextActivitySettings
@@ -44,14 +44,7 @@ def _log(path: Path, cases: int = 60, seed: int = 0) -> Path:
 
 @pytest.fixture(scope="module")
 def cases_path(tmp_path_factory) -> Path:
-    folder = tmp_path_factory.mktemp("joint")
-    log = _log(folder / "log.csv")
-    out = folder / "cases.parquet"
-    result = runner.invoke(
-        app, ["read-log", str(log), "-o", str(out), "--attributes", "org:resource", "-q"]
-    )
-    assert result.exit_code == 0, result.output
-    return out
+    return resource_cases(tmp_path_factory.mktemp("joint"), 60)
 
 
 @pytest.fixture(scope="module")

@@ -13,7 +13,7 @@ import pyarrow.parquet as pq
 import pytest
 from typer.testing import CliRunner
 
-from tests.conftest import resource_log
+from tests.conftest import resource_cases
 from tleaf_cli.cli.root import app
 from tleaf_cli.data.artifacts import read_provenance
 from tleaf_cli.data.event_logs import read_cases
@@ -40,21 +40,11 @@ Existence[c] |A.org:resource is r4 |
 """
 
 
-def _log(path: Path, cases: int = 40, seed: int = 0) -> Path:
-    return resource_log(path, cases, seed)
-
-
 @pytest.fixture(scope="module")
 def made(tmp_path_factory) -> dict[str, Path]:
     """A cases artifact, an activity-only run trained one epoch, and the rules."""
     folder = tmp_path_factory.mktemp("predict")
-    cases = folder / "cases.parquet"
-    result = runner.invoke(
-        app,
-        ["read-log", str(_log(folder / "log.csv")), "-o", str(cases), "--attributes",
-         "org:resource", "-q"],
-    )  # fmt: skip
-    assert result.exit_code == 0, result.output
+    cases = resource_cases(folder)
     run = folder / "run"
     result = runner.invoke(
         app,

@@ -19,7 +19,7 @@ import pytest
 import torch
 from typer.testing import CliRunner
 
-from tests.conftest import resource_log
+from tests.conftest import resource_cases
 from tleaf_cli.cli.root import app
 from tleaf_cli.data.event_logs import read_cases
 from tleaf_cli.logic.verdicts import Verdict
@@ -49,10 +49,6 @@ c_after_b: (!c U b) | G !c
 """
 
 
-def _log(path: Path, cases: int = 40, seed: int = 0) -> Path:
-    return resource_log(path, cases, seed, interleave=True)
-
-
 @pytest.fixture(scope="module", autouse=True)
 def one_thread():
     """One torch thread, as the command streams (one event's model call is too small to share
@@ -77,13 +73,7 @@ def made(tmp_path_factory) -> dict[str, Path]:
     """A cases artifact keeping the resource, an LSTM over activities, one that predicts the
     resource too, one that reads it as an input, a prefix table, and the rules."""
     folder = tmp_path_factory.mktemp("stream")
-    cases = folder / "cases.parquet"
-    result = runner.invoke(
-        app,
-        ["read-log", str(_log(folder / "log.csv")), "-o", str(cases), "--attributes",
-         "org:resource", "-q"],
-    )  # fmt: skip
-    assert result.exit_code == 0, result.output
+    cases = resource_cases(folder, interleave=True)
     kb = folder / "kb.ltl"
     kb.write_text(KB, encoding="utf-8")
     return {
