@@ -154,7 +154,9 @@ def print_grid_choice(metrics: dict, quiet: bool) -> None:
 def eval_next_activity(
     ctx: typer.Context,
     run: Annotated[Path, typer.Argument(help="A train-task next-activity run directory.")],
-    cases: Annotated[Path, typer.Argument(help="The cases artifact whose test split to score.")],
+    cases: Annotated[
+        Path, typer.Argument(help="The cases artifact whose test split (or --split) to score.")
+    ],
     rules: Annotated[
         Path | None,
         typer.Option(
@@ -185,15 +187,19 @@ def eval_next_activity(
     **values,
 ) -> None:
     """Next-activity accuracy on the test split, and suffix prediction from prefixes of
-    --prefix-lengths: by argmax, by beam search, and under --rules (the most probable
-    continuation whose completed case satisfies them), each with Damerau-Levenshtein
-    similarity, the share satisfying the rules and ms per case.
+    --prefix-lengths: by argmax, by beam search, by minimum Bayes risk (--mbr-samples), and
+    under --rules (the most probable continuation whose completed case satisfies them), each
+    with Damerau-Levenshtein similarity per prefix length and pooled over all prefixes, the
+    share satisfying the rules and ms per case.
     """
     from tleaf_cli.tasks.next_activity.evaluate import evaluate_next_activity
 
     targets([run, cases, rules, scored_by], folders=[out])
     if values.get("prefix_lengths") is None:  # they shape the suffixes, predicted only then
-        flags = ("beam_width", "max_suffix", "temperature", "rule_weight", "min_suffix")
+        flags = (
+            "beam_width", "max_suffix", "temperature", "rule_weight", "min_suffix",
+            "mbr_samples",
+        )  # fmt: skip
         refuse(given_flags(ctx, *flags), "only with --prefix-lengths")
     if scored_by is None and scored_rule:
         refuse(["--scored-rule"], "only with --scored-by")
@@ -213,9 +219,22 @@ def eval_next_activity(
     ui.summary(
         f"{out}: next-activity accuracy {100 * acc['accuracy']:.2f}%"
         + ("" if under is None else f" ({100 * under:.2f}% under {whose})")
-        + f" over {acc['prefixes']} prefixes of {metrics['scored_cases']} test cases",
+        + f" over {acc['prefixes']} prefixes of {metrics['scored_cases']} "
+        f"{metrics['split']} cases",
         quiet,
     )
+    pooled = metrics.get("suffix_pooled") or {}
+    ways = [w for w, figures in pooled.items() if isinstance(figures, dict)]
+    if ways:
+        text = ", ".join(
+            f"{w} {pooled[w]['dl_similarity']:.3f} ({100 * pooled[w]['at_cap']:.0f}% at the cap)"
+            for w in ways
+        )
+        ui.summary(
+            f"all {pooled['prefixes']} prefixes pooled: DL similarity {text}; true suffixes "
+            f"at the cap: {100 * pooled['true_at_cap']:.0f}%",
+            quiet,
+        )
     for k, row in metrics["suffix"].items():
         if not row.get("cases"):
             continue

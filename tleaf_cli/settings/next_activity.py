@@ -205,6 +205,14 @@ class SuffixSettings:
         min=0.0,
         auto="none: the rules a hard filter only",
     )
+    mbr_samples: int | None = setting(
+        None,
+        "Also choose each suffix by minimum Bayes risk: of this many completions drawn from "
+        "the model, the one most similar to the others on average (Damerau-Levenshtein); "
+        "mbr, and under the rules mbr_rules and mbr_soft. The draws are seeded (0).",
+        min=1,
+        auto="none: no such choice",
+    )
     min_suffix: int = setting(
         0,
         "Score only the prefixes whose true suffix has at least this many activities "
@@ -216,6 +224,12 @@ class SuffixSettings:
         "The test cases scored: all, or those that satisfy --rules (Di Francescomarino et al.'s "
         "protocol).",
         choices=SCORED_CASES,
+    )
+    split: str = setting(
+        "test",
+        "The split scored: test, or val to choose settings (a suffix way, a sample count) on "
+        "validation.",
+        choices=("test", "val"),
     )
 
     def check(self) -> None:

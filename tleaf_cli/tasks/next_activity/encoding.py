@@ -202,24 +202,59 @@ class Encoder:
             times.append(times[-1] + timedelta(seconds=self.activity_gap[a]))
         seconds = _seconds(times)
         gap = np.diff(seconds, prepend=seconds[0])
-        midnight = np.array(
-            [t.hour * 3600 + t.minute * 60 + t.second + t.microsecond / 1e6 for t in times]
-        )
-        time = np.stack(
-            [
-                np.arange(1, len(times) + 1) / max(self.mean_length, 1e-9),
-                gap / max(self.mean_gap, 1e-9),
-                (seconds - seconds[0]) / max(self.mean_elapsed, 1e-9),
-                midnight / _DAY,
-                np.array([t.weekday() for t in times]) / 7.0,
-            ],
-            axis=1,
-        ).astype(np.float32)
+        time = self._time_rows(np.arange(1, len(times) + 1), gap, seconds, times)
         if not self.inputs:
             return time
         if inputs is None:
             inputs = np.zeros((0, self.feature_count - TIME_FEATURES), dtype=np.float32)
         return np.concatenate([time, extend_columns(self.inputs, inputs, len(times))], axis=1)
+
+    def appended_event(
+        self, activity: int, position: int, previous: datetime, first: datetime
+    ) -> tuple[np.ndarray, datetime]:
+        """An event of `activity` appended at `position` (1-based) after an event at
+        `previous`, in a case that began at `first`: its time features float32
+        [TIME_FEATURES] and its time, `features`' for an event past the given timestamps, one
+        event at a time (a suffix search advancing a row by one event)."""
+        t = previous + timedelta(seconds=self.activity_gap[activity])
+        row = self._time_rows(
+            np.array([position]),
+            np.array([(t - previous).total_seconds()]),
+            np.array([(t - first).total_seconds()]),
+            [t],
+        )
+        return row[0], t
+
+    def appended_inputs(self, inputs: np.ndarray | None) -> np.ndarray:
+        """float32 [feature_count − TIME_FEATURES]: the input columns of an event appended
+        after the given ones `inputs` (as `features` places them: the case attributes kept, no
+        event attribute value)."""
+        width = self.feature_count - TIME_FEATURES
+        known = np.zeros((0, width), dtype=np.float32) if inputs is None else inputs
+        return extend_columns(self.inputs, known, len(known) + 1)[-1]
+
+    def _time_rows(
+        self,
+        positions: np.ndarray,
+        gaps: np.ndarray,
+        elapsed: np.ndarray,
+        times: Sequence[datetime],
+    ) -> np.ndarray:
+        """float32 [n, TIME_FEATURES] of events at `positions` (1-based), `gaps` seconds after
+        the event before them, `elapsed` seconds after the case's first, at `times`."""
+        midnight = np.array(
+            [t.hour * 3600 + t.minute * 60 + t.second + t.microsecond / 1e6 for t in times]
+        )
+        return np.stack(
+            [
+                positions / max(self.mean_length, 1e-9),
+                gaps / max(self.mean_gap, 1e-9),
+                elapsed / max(self.mean_elapsed, 1e-9),
+                midnight / _DAY,
+                np.array([t.weekday() for t in times]) / 7.0,
+            ],
+            axis=1,
+        ).astype(np.float32)
 
 
 def _seconds(times: Sequence[datetime]) -> np.ndarray:

@@ -1,16 +1,19 @@
-"""Scoring a next-activity run on the test split (`tleaf eval next-activity`).
+"""Scoring a next-activity run on the test split (`tleaf eval next-activity`; the validation
+split with `split="val"`, to choose settings there).
 
 - **Next-activity accuracy**, pooled over every prefix of length ≥ 1 of the test cases, the end
   of case a target (Rama-Maneiro et al.'s protocol; train.accuracy).
 - **Suffix prediction** from the prefixes of the given lengths k (every test case with at least
-  k activities; Tax et al.'s and Di Francescomarino et al.'s protocol), three ways:
+  k activities; Tax et al.'s and Di Francescomarino et al.'s protocol), several ways:
   `argmax` (the most probable next activity at each step, Tax et al.'s), `beam` (beam search,
-  no rules) and, with rules, `rules` (the most probable continuation whose completed case
-  satisfies them, searched in the product of the model and the rules' DFA:
+  no rules), with `mbr_samples` `mbr` (minimum Bayes risk: suffix_mbr.py) and, with rules,
+  `rules` (the most probable continuation whose completed case satisfies them, searched in the
+  product of the model and the rules' DFA:
   suffix_search.py). Each: the mean Damerau-Levenshtein similarity of the predicted and the
   true suffix (similarity.py; and Mezini et al.'s over the whole trace with an end symbol,
   `trace_dl_similarity`), the share of predicted cases that satisfy the rules, and
-  milliseconds per case.
+  milliseconds per case; `suffix_pooled`: the same over every scored prefix of every length
+  (Rama-Maneiro et al.'s and Tax et al.'s mean over all (case, prefix) pairs).
 
 With `scored="satisfying"`, only the test cases that satisfy the rules are scored (Di
 Francescomarino et al. evaluate on the cases whose outcome their formula describes).
@@ -53,6 +56,7 @@ from tleaf_cli.tasks.next_activity.similarity import (
     jaccard_similarity,
     trace_dl_similarity,
 )
+from tleaf_cli.tasks.next_activity.suffix_mbr import mbr_suffixes
 from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
 from tleaf_cli.tasks.next_activity.suffix_search import SearchStats, predict_suffixes
 from tleaf_cli.tasks.next_activity.train import accuracy, attribute_accuracy, new_model
@@ -198,9 +202,9 @@ def evaluate_next_activity(
     cases = read_cases(cases_path)
     check_same_log(cases, encoder, run_dir)
     warnings = compare_with_training(cases, recorded_input(run_dir, config, "data"), run_dir)
-    test = [c for c in cases.cases if c.split == "test"]
+    test = [c for c in cases.cases if c.split == settings.split]
     if not test:
-        raise InputError(f"{cases_path}: no cases in the test split")
+        raise InputError(f"{cases_path}: no cases in the {settings.split} split")
     strange = [c for c in test if not encoder.knows(c)]
     if strange:
         warnings.append(
@@ -243,6 +247,7 @@ def evaluate_next_activity(
     metrics: dict = {
         "task": "next-activity",
         "run": str(run_dir),
+        "split": settings.split,
         "test_cases": len(test),
         "scored_cases": len(scored),
         "rules": None
@@ -277,6 +282,7 @@ def evaluate_next_activity(
             )
             if on_length is not None:
                 on_length(done, len(lengths))
+        metrics["suffix_pooled"] = pooled(metrics["suffix"])
     write_text_atomic(out_dir / "metrics.json", json.dumps(metrics, indent=2))
     return metrics
 
@@ -367,6 +373,10 @@ def suffix_scores(
     }
     if settings.temperature is not None:
         searches["sample"] = partial(sample_suffixes, temperature=settings.temperature)
+    if settings.mbr_samples is not None:
+        searches["mbr"] = partial(
+            mbr_suffixes, samples=settings.mbr_samples, compared=lambda t: split(t)[0]
+        )
     ways = {way: (search, None) for way, search in searches.items()}
     if automaton is not None:  # each way again, the rules a hard filter
         ways.update({f"{way}_rules": (s, search_rules) for way, s in searches.items()})
@@ -419,3 +429,28 @@ def suffix_scores(
 
 def _mean(values) -> float:
     return float(np.mean(list(values)))
+
+
+POOLED = ("dl_similarity", "trace_dl_similarity", "jaccard", "at_cap", "satisfying")
+
+
+def pooled(by_length: dict) -> dict:
+    """The suffix figures over every scored prefix of every length, each length weighted by
+    its prefixes (Rama-Maneiro et al.'s and Tax et al.'s "mean DL" over all (case, prefix)
+    rows): per way, the pooled means of `POOLED` it has, and `prefixes`, `true_at_cap`."""
+    rows = [r for r in by_length.values() if r.get("cases")]
+    if not rows:
+        return {}
+    weights = np.array([r["cases"] for r in rows], dtype=np.float64)
+    out: dict = {
+        "prefixes": int(weights.sum()),
+        "true_at_cap": float(np.average([r["true_at_cap"] for r in rows], weights=weights)),
+    }
+    ways = [w for w, figures in rows[0].items() if isinstance(figures, dict)]
+    for way in ways:
+        out[way] = {
+            name: float(np.average([r[way][name] for r in rows], weights=weights))
+            for name in POOLED
+            if name in rows[0][way]
+        }
+    return out

@@ -24,6 +24,7 @@ import math
 import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 import torch
@@ -34,6 +35,8 @@ from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.tasks.case_checks import compile_rules, read_case_rules
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
 from tleaf_cli.tasks.next_activity.encoding import Encoder
+from tleaf_cli.tasks.next_activity.lstm_calls import LSTMCalls
+from tleaf_cli.tasks.next_activity.model import NextActivityLSTM
 from tleaf_cli.tasks.next_activity.rule_automaton import RuleAutomaton
 from tleaf_cli.tasks.next_activity.suffix_search import Rows
 
@@ -164,10 +167,13 @@ def joint_log_probs(
     """The suffix search's model over the tokens: log-probabilities [N, tokens + 1] of the
     event after each row (the last column: the end of the case), a row's times and input
     columns those of its prefix (`stamps[owner]`, `inputs[owner]`), the appended events'
-    placed by the encoder. Without attributes
-    the tokens are the activities, and any next-activity model (the prefix table too) serves."""
+    placed by the encoder. Without attributes any next-activity model (the prefix table too)
+    serves. An LSTM in eval mode advances each row of the call before by one event
+    (lstm_calls.py) instead of rereading it: the same answer, O(1) per row and step."""
     device = torch.device("cpu")
-    v = len(encoder.atoms)
+    scores = partial(_state_scores, model, len(encoder.atoms))
+    if isinstance(model, NextActivityLSTM) and not model.training:
+        return LSTMCalls(model, encoder, tokens, stamps, inputs, scores)
 
     def call(rows: Rows) -> np.ndarray:
         out = []
@@ -190,15 +196,19 @@ def joint_log_probs(
                     out.append(torch.log_softmax(logits.double(), dim=-1).numpy())
                     continue
                 h = model.states(batch.activities, batch.times, batch.lengths, batch.attributes)
-                last = h[rows_at]
-                activity = torch.log_softmax(model.out(last).double(), dim=-1)
-                joint = activity[:, :v]
-                for values in model.heads.every(last):  # [N, V, R_k + 1]
-                    joint = joint[..., None] + values.double().reshape(
-                        len(part), v, *([1] * (joint.dim() - 2)), -1
-                    )
-                flat = joint.reshape(len(part), -1)
-                out.append(torch.cat([flat, activity[:, v:]], dim=1).numpy())
+                out.append(scores(h[rows_at], len(part)))
         return np.concatenate(out)
 
     return call
+
+
+def _state_scores(model, v: int, last: torch.Tensor, n: int) -> np.ndarray:
+    """float64 [n, tokens + 1]: the joint log-probabilities of the next event (activity, then
+    each predicted attribute's value given the activity) and of the end, from the model's state
+    after each of n rows (`last` [n, hidden])."""
+    activity = torch.log_softmax(model.out(last).double(), dim=-1)
+    joint = activity[:, :v]
+    for values in model.heads.every(last):  # [N, V, R_k + 1]
+        joint = joint[..., None] + values.double().reshape(n, v, *([1] * (joint.dim() - 2)), -1)
+    flat = joint.reshape(n, -1)
+    return torch.cat([flat, activity[:, v:]], dim=1).numpy()

@@ -71,13 +71,31 @@ class NextActivityLSTM(nn.Module):
         values: torch.Tensor | None = None,
     ) -> torch.Tensor:
         """h [B, T, hidden]: the state after each event, what `out` and `heads` read."""
+        h, _ = self.run(self.inputs(activities, times, values), lengths)
+        return h
+
+    def inputs(
+        self, activities: torch.Tensor, times: torch.Tensor, values: torch.Tensor | None = None
+    ) -> torch.Tensor:
+        """x [B, T, input width]: what the LSTM reads at each event (the activity one-hot, its
+        features, its attribute values' embedding), after dropout."""
         onehot = nn.functional.one_hot(activities.clamp(min=0), self.num_activities)
         parts = [onehot.to(times.dtype), times, self.values(values, times).to(times.dtype)]
-        x = self.dropout(torch.cat(parts, dim=-1))
+        return self.dropout(torch.cat(parts, dim=-1))
+
+    def run(
+        self,
+        x: torch.Tensor,
+        lengths: torch.Tensor,
+        state: tuple[torch.Tensor, torch.Tensor] | None = None,
+    ) -> tuple[torch.Tensor, tuple[torch.Tensor, torch.Tensor]]:
+        """The LSTM over inputs x [B, T, ·] of `lengths`, from `state` (h, c [layers, B,
+        hidden]; zeros where None): h [B, T, hidden] after dropout, and the state after each
+        row's last event (so a row can be continued by one more event later)."""
         packed = pack_padded_sequence(x, lengths.cpu(), batch_first=True, enforce_sorted=False)
-        h, _ = self.lstm(packed)
+        h, last = self.lstm(packed, state)
         h, _ = pad_packed_sequence(h, batch_first=True, total_length=x.shape[1])
-        return self.dropout(h)
+        return self.dropout(h), last
 
     def forward(
         self,
