@@ -1,0 +1,202 @@
+"""The suffix benchmark on real event logs (pipelines/suffix_benchmark.mk): its page.
+
+Reads OUT/<log>/fold<k>/{val,test}/metrics.json (eval next-activity with every way, its
+`suffix_pooled`: the DL similarity pooled over every (case, prefix) pair, as Rama-Maneiro et
+al.'s "Mean DL") and OUT/<log>/fold<k>/*.times.tsv (each command's wall and CPU seconds), and
+writes a page:
+
+- per log, each way's test DL similarity (×100), mean ± sd over the folds; the way chosen per
+  fold on validation (the best pooled DL there) and its test figure; the share of its predicted
+  suffixes that reach the length cap beside the share of true suffixes that long; Tax et al.'s
+  and the best published approach's mean over their folds (their suffix_full_results.csv);
+- per fold, the way chosen and every way's validation figure;
+- the cost of each log on the machine that ran it.
+
+    python pipelines/suffix_benchmark_report.py OUT -o PAGE.md --logs "A B" [--published CSV]
+        [--command "make ..."]
+    python pipelines/suffix_benchmark_report.py --longest CASES   # the longest case's events
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import statistics
+import sys
+from collections import defaultdict
+from pathlib import Path
+
+WAYS = {  # eval's way -> the page's name
+    "argmax": "argmax",
+    "beam": "beam",
+    "mbr": "MBR",
+    "argmax_rules": "argmax, rules",
+    "rules": "beam, rules",
+    "mbr_rules": "MBR, rules",
+}
+
+
+def read_fold(unit: Path) -> dict | None:
+    """A fold's pooled figures per split ({"val": {...}, "test": {...}}), None unless both are
+    there."""
+    out = {}
+    for split in ("val", "test"):
+        path = unit / split / "metrics.json"
+        if not path.is_file():
+            return None
+        out[split] = json.loads(path.read_text())["suffix_pooled"]
+    return out
+
+
+def chosen_way(val: dict) -> str:
+    """The way with the best pooled DL similarity on validation (ties: the first of WAYS)."""
+    ways = [w for w in WAYS if w in val]
+    return max(ways, key=lambda w: (val[w]["dl_similarity"], -ways.index(w)))
+
+
+def spread(values: list[float]) -> str:
+    if not values:
+        return "–"
+    mean = statistics.fmean(values)
+    sd = statistics.stdev(values) if len(values) > 1 else 0.0
+    return f"{100 * mean:.2f} ± {100 * sd:.2f}"
+
+
+def published(path: Path | None) -> dict[str, dict[str, float]]:
+    """log (lower case) -> approach -> its DL similarity, mean over the folds."""
+    if path is None:
+        return {}
+    values: dict[str, dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
+    with path.open(newline="") as f:
+        for row in csv.DictReader(f):
+            values[row["log"]][row["approach"]].append(float(row["accuracy"]))
+    return {
+        log: {a: statistics.fmean(v) for a, v in approaches.items()}
+        for log, approaches in values.items()
+    }
+
+
+def seconds(unit: Path) -> tuple[float, float]:
+    """Wall and CPU seconds of a fold's timed commands."""
+    wall = cpu = 0.0
+    for times in unit.glob("*.times.tsv"):
+        for line in times.read_text().splitlines():
+            fields = line.split("\t")
+            wall += float(fields[0])
+            cpu += float(fields[1]) + float(fields[2])
+    return wall, cpu
+
+
+def page(out: Path, logs: list[str], peers: dict, command: str) -> str:
+    summary, details, costs = [], [], []
+    above = 0
+    for log in logs:
+        units = sorted((out / log).glob("fold*"))
+        folds = [(u, f) for u in units if (f := read_fold(u)) is not None]
+        if not folds:
+            continue
+        ways = [w for w in WAYS if w in folds[0][1]["test"]]
+        choice = [chosen_way(f["val"]) for _, f in folds]
+        chosen = [f["test"][w]["dl_similarity"] for (_, f), w in zip(folds, choice, strict=True)]
+        capped = [f["test"][w]["at_cap"] for (_, f), w in zip(folds, choice, strict=True)]
+        true_capped = [f["test"]["true_at_cap"] for _, f in folds]
+        theirs = peers.get(log.lower(), {})
+        best = max(theirs.items(), key=lambda kv: kv[1]) if theirs else None
+        mine = statistics.fmean(chosen)
+        if best is not None and mine >= best[1]:
+            above += 1
+        cells = [
+            spread([f["test"][w]["dl_similarity"] for _, f in folds]) if w in ways else "–"
+            for w in WAYS
+        ]
+        cap = f"{100 * statistics.fmean(capped):.1f} / {100 * statistics.fmean(true_capped):.1f}"
+        summary.append(
+            [
+                log,
+                str(len(folds)),
+                str(folds[0][1]["test"]["prefixes"]),
+                *cells,
+                f"**{spread(chosen)}**",
+                cap,
+                f"{100 * theirs['Tax']:.2f}" if "Tax" in theirs else "–",
+                f"{100 * best[1]:.2f} ({best[0]})" if best else "–",
+            ]
+        )
+        for (unit, f), w in zip(folds, choice, strict=True):
+            val = ", ".join(f"{WAYS[x]} {100 * f['val'][x]['dl_similarity']:.2f}" for x in ways)
+            test = f"{100 * f['test'][w]['dl_similarity']:.2f}"
+            details.append([log, unit.name, WAYS[w], val, test])
+        wall, cpu = map(sum, zip(*(seconds(u) for u, _ in folds), strict=True))
+        costs.append([log, str(len(folds)), f"{wall / 60:.1f}", f"{cpu / 60:.1f}"])
+    header = ["log", "folds", "test prefixes (fold 1)"] + [WAYS[w] for w in WAYS]
+    header += [
+        "**chosen on val**",
+        "chosen: at the cap / true suffixes that long (%)",
+        "Tax et al. (published)",
+        "best published",
+    ]
+    lines = [
+        "# Results: suffix prediction on real event logs (Rama-Maneiro et al.'s benchmark)",
+        "",
+        f"Measured by `{command}` on 2 CPU cores. REAL data: public event logs in Rama-Maneiro "
+        "et al.'s preprocessing and folds.",
+        "",
+        "## Suffix DL similarity, means ± sd over the folds (×100)",
+        "",
+        "Damerau-Levenshtein similarity of the predicted and the true rest of the case, pooled "
+        "over every (case, prefix of 1 .. n−1 events) pair of a fold's test cases, as their "
+        "`tax/code/train.py --test_suffix` computes it; the cap on a predicted suffix is the "
+        "log's longest case.",
+        "",
+        _table(header, summary),
+        "",
+        f"- the way chosen on validation at or above the best published approach: {above} of "
+        f"{len(summary)} logs.",
+        "",
+        "## The way chosen on validation, per fold",
+        "",
+        _table(["log", "fold", "chosen", "val DL per way", "test DL"], details),
+        "",
+        "## Cost",
+        "",
+        "Every command of the log's folds (training, mining, both evaluations), as "
+        "pipelines/timed-tleaf measured them.",
+        "",
+        _table(["log", "folds", "wall (min, summed)", "CPU (min)"], costs),
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _table(header: list[str], rows: list[list[str]]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", nargs="?", type=Path)
+    parser.add_argument("-o", "--page", type=Path)
+    parser.add_argument("--logs", default="")
+    parser.add_argument("--published", type=Path)
+    parser.add_argument("--command", default="make -f pipelines/suffix_benchmark.mk DATA=PATH")
+    parser.add_argument("--longest", type=Path, help="print the longest case's event count")
+    args = parser.parse_args(argv)
+    if args.longest is not None:
+        from tleaf_cli.data.event_logs import read_cases
+
+        print(max(len(c) for c in read_cases(args.longest).cases))
+        return 0
+    if args.out is None or args.page is None:
+        parser.error("OUT and -o PAGE are needed")
+    text = page(args.out, args.logs.split(), published(args.published), args.command)
+    tmp = args.page.with_suffix(".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(args.page)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
