@@ -327,3 +327,17 @@ def test_a_growing_file_is_followed_until_idle(made, tmp_path):
     writer.join()
     assert [g.decode().rstrip("\n") for g in got] == events
     assert list(read_lines(path, follow=False)) == got
+
+
+def test_the_memory_of_ended_cases_is_bounded(made):
+    """Before: every ended case's id was kept for the stream's life (a set that only grew)."""
+    monitor = StreamMonitor(Predictor.load(made["lstm"], PredictSettings(samples=0), made["kb"]))
+    monitor.closed_memory = 3
+    t = "2024-01-01T10:00:00Z"
+    for i in range(5):
+        monitor.feed({"case": f"k{i}", "activity": "a", "timestamp": t, "end": True})
+    assert list(monitor.closed) == ["k2", "k3", "k4"]  # the last three, oldest first
+    with pytest.raises(BadEvent):
+        monitor.feed({"case": "k4", "activity": "a", "timestamp": t})
+    line = monitor.feed({"case": "k0", "activity": "a", "timestamp": t})  # forgotten: new case
+    assert line["prefix_length"] == 1 and "k0" in monitor.open

@@ -24,7 +24,9 @@ read another activity), but the model cannot read the prefix any more, so from t
 case's prediction is null with its `reason` — as a batch row of such a prefix. An end mark
 (`"end": true`, with an event or alone) closes the case: the line gives its final verdicts (the
 case ended, so a temporarily satisfied rule is permanently satisfied, a temporarily violated
-one permanently violated), the case is dropped, and a later event for it is refused.
+one permanently violated), the case is dropped, and a later event for it is refused (for the
+last `StreamMonitor.closed_memory` ended cases: the memory of a stream that runs for months stays
+bounded).
 
 A bad event raises a `BadEvent` (stream_events.py: the protocol, its reasons, the loop that
 reports and counts them) and changes nothing.
@@ -141,7 +143,10 @@ class StreamMonitor:
     """The open cases of a stream and what a run says about each after every event (module
     docstring). `predictor.settings` give top-k, samples, max-suffix, seed and the suffix's
     way; `suffix`: also the predicted rest of the case and the recommendation (they cost a
-    search per event)."""
+    search per event). The ids of the last `closed_memory` ended cases are remembered, to refuse
+    their later events; an event for a case that ended before them opens a new case."""
+
+    closed_memory = 100_000  # ended case ids remembered: ~10 MB
 
     def __init__(self, predictor: Predictor, suffix: bool = False) -> None:
         self.predictor = predictor
@@ -182,7 +187,7 @@ class StreamMonitor:
             else None
         )
         self.open: dict[str, OpenCase] = {}
-        self.closed: set[str] = set()
+        self.closed: dict[str, None] = {}  # the ended cases' ids, oldest first
 
     @property
     def rule_names(self) -> tuple[str, ...]:
@@ -427,7 +432,9 @@ class StreamMonitor:
         if self.suffix:
             out |= self._suffix(case, False)
         del self.open[case.case_id]
-        self.closed.add(case.case_id)
+        self.closed[case.case_id] = None
+        if len(self.closed) > self.closed_memory:  # a stream runs for months: forget the oldest
+            del self.closed[next(iter(self.closed))]
         return out
 
 
