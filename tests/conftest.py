@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import random
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -80,6 +81,40 @@ def make_small(
     return subprocess.run(
         [*command, *args], cwd=root, capture_output=True, text=True, timeout=timeout
     )
+
+
+def shared_small(tmp_path_factory, makefile: str, *args: str, timeout: int = 600) -> Path:
+    """`make_small(makefile, OUT, *args)` run once for the whole test run, its OUT returned (make's
+    success asserted): with pytest-xdist the first worker to ask runs it, under a lock in the
+    folder the workers of one run share, and the others wait for it and get the same OUT (a
+    session fixture alone runs once per worker). For tests that read OUT or run `make -q` on it;
+    one that changes OUT changes only what no other test reads."""
+    import fcntl
+    import json
+    import os
+
+    # a folder name make reads as one word (no "=", ":" or spaces)
+    key = re.sub(r"[^A-Za-z0-9_.-]", "_", "-".join([makefile.removesuffix(".mk"), *args]))
+    if os.environ.get("PYTEST_XDIST_WORKER") is None:
+        root = tmp_path_factory.mktemp(key)
+    else:  # <basetemp>/popen-gwN: its parent is this run's, shared by the workers
+        root = tmp_path_factory.getbasetemp().parent / key
+        root.mkdir(exist_ok=True)
+    out, done = root / "small", root / "make.json"
+    with open(root / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.is_file():
+            result = make_small(makefile, out, *args, timeout=timeout)
+            done.write_text(json.dumps([result.returncode, result.stderr[-2000:]]))
+    returncode, stderr = json.loads(done.read_text())
+    assert returncode == 0, stderr
+    return out
+
+
+@pytest.fixture(scope="session")
+def captaincook_small(tmp_path_factory) -> Path:
+    """pipelines/captaincook.mk SMALL=1 (`all`: the curve and the Table I chain), once a run."""
+    return shared_small(tmp_path_factory, "captaincook.mk", "-j2")
 
 
 def tiny_activities(folder: Path, unlabelled: int = 0) -> tuple[Path, Path]:

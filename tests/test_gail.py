@@ -13,7 +13,7 @@ import torch
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from tests.conftest import make_small
+from tests.conftest import make_small, shared_small
 from tleaf_cli.data.artifacts import write_artifact
 from tleaf_cli.errors import SettingError
 from tleaf_cli.settings.gail import GailSettings
@@ -353,13 +353,11 @@ def test_eval_report_curves_stderr_and_steps_to_90(tmp_path: Path, chain_cli) ->
     assert result.exit_code == 2 and "metrics.json" in result.output
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def small_pipeline(tmp_path_factory) -> Path:
-    """pipelines/cooking.mk SMALL=1 (2 seeds) with none, tleaf and checker."""
-    out = tmp_path_factory.mktemp("cooking") / "small"
-    result = make_small("cooking.mk", out, "LOSSES=none tleaf checker", timeout=900)
-    assert result.returncode == 0, result.stderr[-2000:]
-    return out
+    """pipelines/cooking.mk SMALL=1 (2 seeds) with none, tleaf and checker, once a run (its
+    three tests may run on different xdist workers)."""
+    return shared_small(tmp_path_factory, "cooking.mk", "LOSSES=none tleaf checker", timeout=900)
 
 
 @pytest.mark.slow
