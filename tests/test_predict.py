@@ -238,6 +238,8 @@ def test_an_activity_the_run_never_saw_gets_a_reason(made, tmp_path):
     [
         (["--rule", "nope"], "no rule named nope"),
         (["--rule", "resp", "--split", "nosuch"], "no cases in the split 'nosuch'"),
+        (["--mbr-samples", "8"], "--mbr-samples: only with --way mbr"),
+        (["--temperature", "0.5"], "--temperature: only with --way sample"),
     ],
 )
 def test_bad_calls_exit_2_in_one_line_and_write_nothing(made, tmp_path, extra, says):
@@ -289,3 +291,29 @@ def test_a_run_that_predicts_the_resource_reads_conditions_and_names_values(made
         assert all(len(values) == 1 for values in row["suffix_values"])
         total = sum(a["probability"] for a in row["next_activities"]) + row["end_probability"]
         assert total == pytest.approx(1.0)  # three activities: the marginal sums to one
+
+
+def test_the_mbr_way_under_the_rules_keeps_them(made, tmp_path):
+    out = tmp_path / "p.parquet"
+    settings = PredictSettings(
+        prefix_lengths="1-2", max_suffix=6, samples=0, way="mbr", mbr_samples=12,
+        suffix_rules="filter",
+    )  # fmt: skip
+    predict_cases(made["run"], made["cases"], out, settings, made["kb"])
+    rows = pq.read_table(out).to_pylist()
+    dfas = compile_rules(read_case_rules(made["kb"]))
+    atoms = read_cases(made["cases"]).activity_atoms
+
+    def keeps(names) -> bool:
+        states = [dfa.initial for dfa in dfas]
+        for name in names:
+            states = [
+                int(d.table[s, d.alphabet.index({atoms[name]})])
+                for d, s in zip(dfas, states, strict=True)
+            ]
+        return all(bool(d.accepting[s]) for d, s in zip(dfas, states, strict=True))
+
+    found = [r for r in rows if r["suffix_found"]]
+    assert len(found) > len(rows) // 2
+    assert all(keeps(r["prefix"] + r["suffix"]) for r in found)
+    assert all(len(r["suffix"]) <= 6 for r in rows)

@@ -114,6 +114,9 @@ def predict(
     if run_kind(run) == RUN_KIND:  # an action-recognition run: its videos decoded
         return predict_actions(ctx, run, cases, rules, rule, split, out, quiet, values)
     settings = PredictSettings(**given(ctx, values))
+    for name, way in WAY_ONLY.items():
+        if settings.way != way:
+            refuse(given_flags(ctx, name), f"only with --way {way}")
     with ui.progress("predicting", quiet) as update:
         summary = predict_cases(
             run, cases, out, settings, rules, tuple(rule or ()), split, on_progress=update
@@ -136,8 +139,8 @@ def predict(
 SHOWN_VIDEOS = 8  # videos the terminal's table shows
 # PredictSettings' options that only a next-activity run reads (--top-k applies to both)
 NEXT_ACTIVITY_ONLY = (
-    "way", "beam_width", "temperature", "suffix_rules", "rule_weight", "max_suffix", "samples",
-    "seed", "prefix_lengths", "risk",
+    "way", "beam_width", "temperature", "mbr_samples", "suffix_rules", "rule_weight",
+    "max_suffix", "samples", "seed", "prefix_lengths", "risk",
 )  # fmt: skip
 
 
@@ -179,6 +182,7 @@ def predict_actions(
     )
 
 
+WAY_ONLY = {"temperature": "sample", "mbr_samples": "mbr"}  # an option only one way reads
 BATCH_ONLY = ("split", "prefix_lengths", "risk")  # options of the artifact, not of a stream
 
 

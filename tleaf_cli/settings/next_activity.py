@@ -264,7 +264,7 @@ def prefix_lengths(text: str) -> tuple[int, ...]:
     return tuple(sorted(values))
 
 
-PREDICT_WAYS = ("argmax", "beam", "sample")  # how `tleaf predict` continues a running case
+PREDICT_WAYS = ("argmax", "beam", "sample", "mbr")  # how `tleaf predict` continues a running case
 SUFFIX_RULES = ("none", "filter", "soft")  # the rules in its predicted suffix
 
 
@@ -277,14 +277,18 @@ class PredictSettings:
     way: str = setting(
         "beam",
         "How the rest of the case is predicted: argmax (the most probable next event at each "
-        "step), beam (beam search of --beam-width) or sample (one draw at --temperature). Beam "
-        "is the default: it scored at or above argmax in most measured settings (the results "
-        "pages on event logs and on suffix knowledge); a draw is one possible future, not the "
-        "most probable one.",
+        "step), beam (beam search of --beam-width), sample (one draw at --temperature) or mbr "
+        "(of --mbr-samples draws, the one most similar to the others: the continuation "
+        "expected to score best). Beam is the default: it scored at or above argmax in most "
+        "measured settings (the results pages on event logs and on suffix knowledge); a draw "
+        "is one possible future, not the most probable one.",
         choices=PREDICT_WAYS,
     )
     beam_width: int = setting(
         5, "Continuations kept per step by the beam search (the recommendation's too).", min=1
+    )
+    mbr_samples: int = setting(
+        32, "Draws --way mbr chooses among (temperature 1, seeded by --seed).", min=1
     )
     temperature: float = setting(
         0.7, "The temperature of --way sample (Mezini et al.: 0.7); a number above 0."

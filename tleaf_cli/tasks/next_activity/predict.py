@@ -8,7 +8,8 @@ Per prefix (`Predictor.predict`, a batch of prefixes at once, so a stream can ca
   values where the run predicts attributes: joint tokens, joint_tokens.py), the probability
   that the case ends now, and for the top activity the most probable value of each predicted
   attribute, p(value | prefix, activity);
-- **the rest of the case** by argmax, beam search or a draw (`PredictSettings.way`), the rules
+- **the rest of the case** by argmax, beam search, a draw or minimum Bayes risk over draws
+  (suffix_mbr.py; `PredictSettings.way`), the rules
   out of it, a hard filter or a soft score (`suffix_rules`), with its log-probability;
 - **per rule**: its RV-LTL verdict now (`logic/verdicts.py`: the state its own DFA is in after
   the prefix's events, read as `Case.letters` gives them, MP-Declare conditions included), and
@@ -47,6 +48,7 @@ from tleaf_cli.tasks.next_activity.monitoring import (
     shared,
     wilson,
 )
+from tleaf_cli.tasks.next_activity.suffix_mbr import mbr_suffixes
 from tleaf_cli.tasks.next_activity.suffix_sampling import sample_suffixes
 from tleaf_cli.tasks.next_activity.suffix_search import NextLogProbs, Rows, predict_suffixes
 from tleaf_cli.training.run_folder import read_run_config, recorded_input
@@ -199,6 +201,12 @@ class Predictor:
             suffixes = sample_suffixes(
                 step, prefixes, size, rules=ruled, temperature=s.temperature,
                 max_length=s.max_suffix, seed=s.seed, rule_weight=weight,
+            )  # fmt: skip
+        elif s.way == "mbr":
+            suffixes = mbr_suffixes(
+                step, prefixes, size, rules=ruled, samples=s.mbr_samples,
+                max_length=s.max_suffix, seed=s.seed, rule_weight=weight,
+                compared=lambda t: tokens.decode(t)[0],
             )  # fmt: skip
         else:
             width = 1 if s.way == "argmax" else s.beam_width
