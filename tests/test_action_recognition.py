@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from tests.conftest import make_small, tiny_activities, with_actions
+from tests.conftest import make_small, shared_small, tiny_activities, with_actions
 from tleaf_cli.tasks.action_recognition.models import ActionRecognizer
 
 
@@ -26,13 +26,13 @@ def test_padding_does_not_change_a_videos_outputs(backbone: str) -> None:
     assert torch.allclose(both_i[0, :3], alone_i[0], atol=1e-5)
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")
 def small_pipeline(tmp_path_factory) -> Path:
-    """pipelines/action_recognition.mk SMALL=1 for the LSTM, with none, tleaf and checker."""
-    out = tmp_path_factory.mktemp("ar") / "small"
-    result = make_small("action_recognition.mk", out, "MODELS=lstm", "LOSSES=none tleaf checker")
-    assert result.returncode == 0, result.stderr[-2000:]
-    return out
+    """pipelines/action_recognition.mk SMALL=1 for the LSTM, with none, tleaf and checker, once
+    a run (its tests may run on different xdist workers; they read it, and write elsewhere)."""
+    return shared_small(
+        tmp_path_factory, "action_recognition.mk", "MODELS=lstm", "LOSSES=none tleaf checker"
+    )
 
 
 @pytest.mark.slow
