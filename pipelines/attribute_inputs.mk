@@ -27,27 +27,7 @@ SEED ?= 0
 LAMBDAS ?= 0.1,1
 export OMP_NUM_THREADS ?= 1
 
-# what each log's XES keeps that its activities do not say, names apart by spaces (numbers that
-# are codes, e.g. a resource id, are categorical: INPUTS; NUMERIC: numbers)
-EVENT_Helpdesk := org:resource
-INPUTS_Helpdesk := org:resource
-EVENT_BPI_Challenge_2012_W_Complete := org:resource
-CASE_BPI_Challenge_2012_W_Complete := AMOUNT_REQ
-INPUTS_BPI_Challenge_2012_W_Complete := org:resource
-NUMERIC_BPI_Challenge_2012_W_Complete := case:AMOUNT_REQ
-EVENT_bpi_challenge_2013_incidents := org:resource org:group org:role impact product
-INPUTS_bpi_challenge_2013_incidents := $(EVENT_bpi_challenge_2013_incidents)
-EVENT_BPI_Challenge_2013_closed_problems := org:resource org:group
-INPUTS_BPI_Challenge_2013_closed_problems := $(EVENT_BPI_Challenge_2013_closed_problems)
-INPUTS_SEPSIS := org:group Diagnose InfectionSuspected SIRSCriteria2OrMore DiagnosticBlood \
-    Hypotensie
-NUMERIC_SEPSIS := CRP Leucocytes LacticAcid Age
-EVENT_SEPSIS := $(INPUTS_SEPSIS) $(NUMERIC_SEPSIS)
-EVENT_env_permit := org:resource org:group
-CASE_env_permit := department channel responsible group
-INPUTS_env_permit := $(EVENT_env_permit) $(addprefix case:,$(CASE_env_permit))
-EVENT_mezini-closed := org:resource
-INPUTS_mezini-closed := org:resource
+include $(dir $(lastword $(MAKEFILE_LIST)))log_attributes.mk
 
 ALL := BPI_Challenge_2013_closed_problems env_permit Helpdesk SEPSIS \
     bpi_challenge_2013_incidents BPI_Challenge_2012_W_Complete
@@ -96,14 +76,7 @@ runs: $(EVALS)
 
 train = rm -f $$(@D).times.tsv; TLEAF_BIN=$(TLEAF) TLEAF_TIMES=$$(@D).times.tsv \
     pipelines/timed-tleaf train-task next-activity
-space := $() $()
-comma := ,
-csv = $(subst $(space),$(comma),$(strip $(1)))
-reads = $(if $(EVENT_$(1)),--attributes $(call csv,$(EVENT_$(1)))) \
-    $(if $(CASE_$(1)),--case-attributes $(call csv,$(CASE_$(1))))
 grid = $(or $(GRID_$(1)),$(GRID))
-inputs = $(if $(INPUTS_$(1)),--inputs $(call csv,$(INPUTS_$(1)))) \
-    $(if $(NUMERIC_$(1)),--numeric-inputs $(call csv,$(NUMERIC_$(1))))
 
 # the XES's cases under the benchmark CSV's case ids (pipelines/rm_case_ids.py): the folds are
 # the benchmark's, case for case (SMALL: the sample's own ids)

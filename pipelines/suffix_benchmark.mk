@@ -15,7 +15,12 @@
 # DL similarity on validation and reports its test figure beside every way's and the published
 # approaches' (DATA/published/suffix_full_results.csv).
 #   make -f pipelines/suffix_benchmark.mk DATA=PATH [OUT=out/suffix_benchmark] [LOGS="..."]
-#       [FOLDS="0 1 2 3 4"] [SAMPLES=32] [BEAM=3] [PAGE=FILE.md] [SMALL=1] [-j2]
+#       [FOLDS="0 1 2 3 4"] [SAMPLES=32] [BEAM=3] [RULES=1] [INPUTS=0] [PAGE=FILE.md]
+#       [SMALL=1] [-j2]
+# RULES=0: no mined rules, the three ways without them (half the evaluation's time). INPUTS=1:
+# the model reads the attributes the CSVs drop (pipelines/log_attributes.mk: the log's XES
+# under the CSV's case ids, pipelines/rm_case_ids.py, so the folds stay the benchmark's; as
+# pipelines/attribute_inputs.mk), OUT defaulting to out/suffix_benchmark-inputs.
 # DATA: the folder of pipelines/event_logs.mk (docs/event_logs.md, "Data for the published
 # comparisons"). SMALL=1 runs the chain on the shipped Helpdesk sample (two folds, two epochs).
 # make tracks files, not settings: a new OUT when changing SAMPLES, BEAM or the training.
@@ -25,6 +30,8 @@ SMALL ?= 0
 SEED ?= 0
 SAMPLES ?= 32
 BEAM ?= 3
+RULES ?= 1
+INPUTS ?= 0
 export OMP_NUM_THREADS ?= 1
 
 ALL := BPI_Challenge_2013_closed_problems env_permit Helpdesk SEPSIS \
@@ -43,18 +50,22 @@ else
 ifndef DATA
 $(error DATA=PATH is required: the downloaded logs, laid out as docs/event_logs.md says)
 endif
-OUT ?= out/suffix_benchmark
+OUT ?= out/suffix_benchmark$(if $(filter 1,$(INPUTS)),-inputs)
 LOGS ?= $(ALL)
 FOLDS ?= 0 1 2 3 4
 NFOLDS := 5
 TASK :=
 log_csv = $(DATA)/preprocessed/$(1).csv
+log_xes = $(DATA)/xes/$(1).xes.gz
 PUBLISHED ?= $(DATA)/published/suffix_full_results.csv
 endif
+include $(dir $(lastword $(MAKEFILE_LIST)))log_attributes.mk
+read_inputs := $(filter 1,$(INPUTS))
 
 PAGE ?=
 page := $(or $(PAGE),$(OUT)/suffix_benchmark.md)
-needed := $(foreach l,$(LOGS),$(call log_csv,$(l))) $(PUBLISHED)
+needed := $(foreach l,$(LOGS),$(call log_csv,$(l)) $(if $(read_inputs),$(call log_xes,$(l)))) \
+    $(PUBLISHED)
 source := docs/event_logs.md, "Data for the published comparisons"
 include $(dir $(lastword $(MAKEFILE_LIST)))inputs.mk
 
@@ -69,9 +80,20 @@ runs: $(EVALS)
 timed = rm -f $(1).times.tsv; TLEAF_BIN=$(TLEAF) TLEAF_TIMES=$(1).times.tsv pipelines/timed-tleaf
 
 define LOG
+ifeq ($(read_inputs),)
 $(OUT)/$(1)/cases.parquet: $(call log_csv,$(1))
 	@mkdir -p $$(@D)
 	$(TLEAF) read-log $$< -o $$@ -q
+else
+$(OUT)/$(1)/xes.parquet: $(call log_xes,$(1))
+	@mkdir -p $$(@D)
+	$(TLEAF) read-log $$< $(call reads,$(1)) -o $$@ -q
+$(OUT)/$(1)/csv.parquet: $(call log_csv,$(1))
+	@mkdir -p $$(@D)
+	$(TLEAF) read-log $$< -o $$@ -q
+$(OUT)/$(1)/cases.parquet: $(OUT)/$(1)/xes.parquet $(OUT)/$(1)/csv.parquet pipelines/rm_case_ids.py
+	$(PYTHON) pipelines/rm_case_ids.py $$(wordlist 1,2,$$^) -o $$@
+endif
 $(OUT)/$(1)/longest.txt: $(OUT)/$(1)/cases.parquet
 	$(PYTHON) $(REPORT) --longest $$< > $$@.tmp && mv $$@.tmp $$@
 endef
@@ -80,20 +102,23 @@ $(foreach l,$(LOGS),$(eval $(call LOG,$(l))))
 # an evaluation of the fold $(1) on the split $(2): every prefix with an event after it, the cap
 # the log's longest case
 define EVAL
-$(1)/$(2)/metrics.json: $(1)/run/metrics.json $(1)/mined.ltl $(dir $(1))longest.txt
+$(1)/$(2)/metrics.json: $(1)/run/metrics.json $(if $(RULES:0=),$(1)/mined.ltl) \
+    $(dir $(1))longest.txt
 	n=$$$$(cat $(dir $(1))longest.txt) && $(call timed,$$(@D)) eval next-activity $(1)/run \
-	    $(1)/cases.parquet --split $(2) --rules $(1)/mined.ltl --prefix-lengths 1-$$$$((n - 1)) \
+	    $(1)/cases.parquet --split $(2) $(if $(RULES:0=),--rules $(1)/mined.ltl) \
+	    --prefix-lengths 1-$$$$((n - 1)) \
 	    --min-suffix 1 --max-suffix $$$$n --beam-width $(BEAM) --mbr-samples $(SAMPLES) \
 	    -o $$(@D) -q
 endef
 
+log_of = $(notdir $(patsubst %/,%,$(dir $(1))))
 define FOLD
 $(1)/cases.parquet: $(dir $(1))cases.parquet
 	@mkdir -p $$(@D)
 	$(TLEAF) split-cases $$< --folds $(NFOLDS) --fold $(patsubst fold%,%,$(notdir $(1))) -o $$@ -q
 $(1)/run/metrics.json: $(1)/cases.parquet
 	$(call timed,$$(@D)) train-task next-activity $$< --model lstm --seed $(SEED) $(TASK) \
-	    -o $$(@D) -q
+	    $(if $(read_inputs),$(call inputs,$(call log_of,$(1)))) -o $$(@D) -q
 $(1)/mined.ltl: $(1)/cases.parquet
 	$(TLEAF) mine-declare $$< -o $$@
 $(call EVAL,$(1),val)
@@ -105,7 +130,7 @@ $(page): $(EVALS) $(REPORT)
 	@mkdir -p $(@D)
 	$(PYTHON) $(REPORT) $(OUT) -o $@ --logs "$(LOGS)" $(if $(PUBLISHED),--published $(PUBLISHED)) \
 	    --command 'make -f pipelines/suffix_benchmark.mk DATA=PATH $(strip LOGS="$(LOGS)" \
-	    FOLDS="$(FOLDS)" SAMPLES=$(SAMPLES) BEAM=$(BEAM) SEED=$(SEED))$(if $(filter 1,$(SMALL)), SMALL=1)'
+	    FOLDS="$(FOLDS)" SAMPLES=$(SAMPLES) BEAM=$(BEAM) RULES=$(RULES) INPUTS=$(INPUTS) SEED=$(SEED))$(if $(filter 1,$(SMALL)), SMALL=1)'
 
 clean:
 	rm -rf $(OUT)

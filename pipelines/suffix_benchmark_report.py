@@ -37,21 +37,43 @@ WAYS = {  # eval's way -> the page's name
 }
 
 
-def read_fold(unit: Path) -> dict | None:
-    """A fold's pooled figures per split ({"val": {...}, "test": {...}}), None unless both are
-    there."""
-    out = {}
-    for split in ("val", "test"):
-        path = unit / split / "metrics.json"
-        if not path.is_file():
-            return None
-        out[split] = json.loads(path.read_text())["suffix_pooled"]
+INPUTS = "inputs"  # the variant whose model reads the log's attributes (INPUTS=1)
+
+
+def read_fold(units: dict[str, Path]) -> dict | None:
+    """A fold's pooled figures per split ({"val": {...}, "test": {...}}) over its variants
+    (label -> the fold's folder; a way of the variant "inputs" keyed "inputs:way"), None
+    unless every variant has both splits."""
+    out: dict = {"val": {}, "test": {}}
+    for label, unit in units.items():
+        for split in ("val", "test"):
+            path = unit / split / "metrics.json"
+            if not path.is_file():
+                return None
+            pooled = json.loads(path.read_text())["suffix_pooled"]
+            for key, figures in pooled.items():
+                if isinstance(figures, dict):
+                    out[split][f"{label}:{key}" if label else key] = figures
+                elif not label:
+                    out[split][key] = figures
     return out
 
 
+def name(key: str) -> str:
+    """A way's name on the page ("inputs:mbr" -> "MBR, attributes read")."""
+    label, _, way = key.rpartition(":")
+    return WAYS[way] + (", attributes read" if label else "")
+
+
+def keys_of(figures: dict) -> list[str]:
+    """The ways of a fold's figures, in the page's order: the plain model's, then the inputs'."""
+    order = [*WAYS, *(f"{INPUTS}:{w}" for w in WAYS)]
+    return [k for k in order if k in figures]
+
+
 def chosen_way(val: dict) -> str:
-    """The way with the best pooled DL similarity on validation (ties: the first of WAYS)."""
-    ways = [w for w in WAYS if w in val]
+    """The way with the best pooled DL similarity on validation (ties: the first)."""
+    ways = keys_of(val)
     return max(ways, key=lambda w: (val[w]["dl_similarity"], -ways.index(w)))
 
 
@@ -88,15 +110,20 @@ def seconds(unit: Path) -> tuple[float, float]:
     return wall, cpu
 
 
-def page(out: Path, logs: list[str], peers: dict, command: str) -> str:
+def page(out: Path, logs: list[str], peers: dict, command: str, inputs: Path | None = None) -> str:
     summary, details, costs = [], [], []
     above = 0
+    columns = [*WAYS, f"{INPUTS}:mbr"] if inputs is not None else list(WAYS)
     for log in logs:
-        units = sorted((out / log).glob("fold*"))
-        folds = [(u, f) for u in units if (f := read_fold(u)) is not None]
+        variants = {"": out / log}
+        if inputs is not None and (inputs / log).is_dir():
+            variants[INPUTS] = inputs / log
+        names = sorted({u.name for u in (out / log).glob("fold*")})
+        read = [(k, read_fold({v: d / k for v, d in variants.items()})) for k in names]
+        folds = [(k, f) for k, f in read if f is not None]
         if not folds:
             continue
-        ways = [w for w in WAYS if w in folds[0][1]["test"]]
+        ways = keys_of(folds[0][1]["test"])
         choice = [chosen_way(f["val"]) for _, f in folds]
         chosen = [f["test"][w]["dl_similarity"] for (_, f), w in zip(folds, choice, strict=True)]
         capped = [f["test"][w]["at_cap"] for (_, f), w in zip(folds, choice, strict=True)]
@@ -108,7 +135,7 @@ def page(out: Path, logs: list[str], peers: dict, command: str) -> str:
             above += 1
         cells = [
             spread([f["test"][w]["dl_similarity"] for _, f in folds]) if w in ways else "–"
-            for w in WAYS
+            for w in columns
         ]
         cap = f"{100 * statistics.fmean(capped):.1f} / {100 * statistics.fmean(true_capped):.1f}"
         summary.append(
@@ -123,13 +150,14 @@ def page(out: Path, logs: list[str], peers: dict, command: str) -> str:
                 f"{100 * best[1]:.2f} ({best[0]})" if best else "–",
             ]
         )
-        for (unit, f), w in zip(folds, choice, strict=True):
-            val = ", ".join(f"{WAYS[x]} {100 * f['val'][x]['dl_similarity']:.2f}" for x in ways)
+        for (fold, f), w in zip(folds, choice, strict=True):
+            val = ", ".join(f"{name(x)} {100 * f['val'][x]['dl_similarity']:.2f}" for x in ways)
             test = f"{100 * f['test'][w]['dl_similarity']:.2f}"
-            details.append([log, unit.name, WAYS[w], val, test])
-        wall, cpu = map(sum, zip(*(seconds(u) for u, _ in folds), strict=True))
+            details.append([log, fold, name(w), val, test])
+        units = [d / k for k, _ in folds for d in variants.values()]
+        wall, cpu = map(sum, zip(*(seconds(u) for u in units), strict=True))
         costs.append([log, str(len(folds)), f"{wall / 60:.1f}", f"{cpu / 60:.1f}"])
-    header = ["log", "folds", "test prefixes (fold 1)"] + [WAYS[w] for w in WAYS]
+    header = ["log", "folds", "test prefixes (fold 1)"] + [name(w) for w in columns]
     header += [
         "**chosen on val**",
         "chosen: at the cap / true suffixes that long (%)",
@@ -181,6 +209,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("-o", "--page", type=Path)
     parser.add_argument("--logs", default="")
     parser.add_argument("--published", type=Path)
+    parser.add_argument("--inputs", type=Path, help="the INPUTS=1 run's OUT, a variant more")
     parser.add_argument("--command", default="make -f pipelines/suffix_benchmark.mk DATA=PATH")
     parser.add_argument("--longest", type=Path, help="print the longest case's event count")
     args = parser.parse_args(argv)
@@ -191,7 +220,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.out is None or args.page is None:
         parser.error("OUT and -o PAGE are needed")
-    text = page(args.out, args.logs.split(), published(args.published), args.command)
+    text = page(args.out, args.logs.split(), published(args.published), args.command, args.inputs)
     tmp = args.page.with_suffix(".tmp")
     tmp.write_text(text, encoding="utf-8")
     tmp.replace(args.page)

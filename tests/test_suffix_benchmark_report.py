@@ -57,3 +57,17 @@ def test_an_unfinished_fold_is_left_out(tmp_path: Path) -> None:
     text = report.page(tmp_path, ["L"], {}, "make ...")
     row = next(line for line in text.splitlines() if line.startswith("| L |"))
     assert row.startswith("| L | 1 |") and "**40.00 ± 0.00**" in row
+
+
+def test_the_model_reading_attributes_competes_on_validation(tmp_path: Path) -> None:
+    plain, inputs = tmp_path / "plain", tmp_path / "inputs"
+    _fold(plain / "L" / "fold0", {"argmax": 0.1, "mbr": 0.3}, {"argmax": 0.2, "mbr": 0.4})
+    _fold(inputs / "L" / "fold0", {"argmax": 0.2, "mbr": 0.5}, {"argmax": 0.3, "mbr": 0.7})
+    _fold(plain / "L" / "fold1", {"argmax": 0.1, "mbr": 0.6}, {"argmax": 0.2, "mbr": 0.5})
+    _fold(inputs / "L" / "fold1", {"argmax": 0.2, "mbr": 0.5}, {"argmax": 0.3, "mbr": 0.9})
+    _fold(plain / "L" / "fold2", {"mbr": 0.6}, {"mbr": 0.5})  # the inputs' fold 2 not run
+    text = report.page(plain, ["L"], {}, "make ...", inputs)
+    row = next(line for line in text.splitlines() if line.startswith("| L |"))
+    assert row.startswith("| L | 2 |")  # fold 2 waits for its other variant
+    assert "**60.00 ± 14.14**" in row  # (0.7 + 0.5) / 2: inputs' mbr in fold 0, plain's in 1
+    assert "| L | fold0 | MBR, attributes read |" in text and "| L | fold1 | MBR |" in text
