@@ -28,6 +28,7 @@ fewer timestamps than activities). No torch here: arrays in, arrays out.
 
 from __future__ import annotations
 
+import calendar
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from datetime import datetime, timedelta
@@ -45,6 +46,7 @@ from tleaf_cli.tasks.next_activity.inputs import (
 
 TIME_FEATURES = 5
 _DAY = 86400.0
+_THURSDAY = 3  # 1970-01-01's weekday (Monday 0)
 
 
 @dataclass(frozen=True)
@@ -202,28 +204,29 @@ class Encoder:
             times.append(times[-1] + timedelta(seconds=self.activity_gap[a]))
         seconds = _seconds(times)
         gap = np.diff(seconds, prepend=seconds[0])
-        time = self._time_rows(np.arange(1, len(times) + 1), gap, seconds, times)
+        clocks = np.array([clock(t) for t in times])
+        time = self._time_rows(np.arange(1, len(times) + 1), gap, seconds, clocks)
         if not self.inputs:
             return time
         if inputs is None:
             inputs = np.zeros((0, self.feature_count - TIME_FEATURES), dtype=np.float32)
         return np.concatenate([time, extend_columns(self.inputs, inputs, len(times))], axis=1)
 
-    def appended_event(
-        self, activity: int, position: int, previous: datetime, first: datetime
-    ) -> tuple[np.ndarray, datetime]:
-        """An event of `activity` appended at `position` (1-based) after an event at
-        `previous`, in a case that began at `first`: its time features float32
-        [TIME_FEATURES] and its time, `features`' for an event past the given timestamps, one
-        event at a time (a suffix search advancing a row by one event)."""
-        t = previous + timedelta(seconds=self.activity_gap[activity])
-        row = self._time_rows(
-            np.array([position]),
-            np.array([(t - previous).total_seconds()]),
-            np.array([(t - first).total_seconds()]),
-            [t],
-        )
-        return row[0], t
+    def appended_events(
+        self,
+        activities: np.ndarray,
+        positions: np.ndarray,
+        previous: np.ndarray,
+        first: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Events of `activities` [n] appended at `positions` (1-based) after events at the
+        clocks `previous` [n] (`clock`), in cases that began at `first` [n]: their time
+        features float32 [n, TIME_FEATURES] and their clocks; `features`' for events past the
+        given timestamps, many rows at a time (a suffix search advancing its rows by one
+        event)."""
+        gaps = np.asarray(self.activity_gap, dtype=np.float64)[activities]
+        now = previous + gaps
+        return self._time_rows(positions, gaps, now - first, now), now
 
     def appended_inputs(self, inputs: np.ndarray | None) -> np.ndarray:
         """float32 [feature_count − TIME_FEATURES]: the input columns of an event appended
@@ -238,23 +241,27 @@ class Encoder:
         positions: np.ndarray,
         gaps: np.ndarray,
         elapsed: np.ndarray,
-        times: Sequence[datetime],
+        clocks: np.ndarray,
     ) -> np.ndarray:
         """float32 [n, TIME_FEATURES] of events at `positions` (1-based), `gaps` seconds after
-        the event before them, `elapsed` seconds after the case's first, at `times`."""
-        midnight = np.array(
-            [t.hour * 3600 + t.minute * 60 + t.second + t.microsecond / 1e6 for t in times]
-        )
+        the event before them, `elapsed` seconds after the case's first, at `clocks`."""
+        days, midnight = np.divmod(clocks, _DAY)
         return np.stack(
             [
                 positions / max(self.mean_length, 1e-9),
                 gaps / max(self.mean_gap, 1e-9),
                 elapsed / max(self.mean_elapsed, 1e-9),
                 midnight / _DAY,
-                np.array([t.weekday() for t in times]) / 7.0,
+                (days + _THURSDAY) % 7 / 7.0,
             ],
             axis=1,
         ).astype(np.float32)
+
+
+def clock(t: datetime) -> float:
+    """Seconds from 1970-01-01 00:00 to `t` read by its own fields (its date and time of day,
+    whatever its time zone): what the time of day and the weekday are read from."""
+    return calendar.timegm(t.timetuple()) + t.microsecond / 1e6
 
 
 def _seconds(times: Sequence[datetime]) -> np.ndarray:

@@ -1,16 +1,17 @@
 """The LSTM as a suffix search's model, advancing each row by one event instead of rereading it.
 
 A suffix search (suffix_search.py, suffix_sampling.py) calls its model once per step with every
-open row, and each row is a row of the step before plus one token. Read from its first event,
-a row costs the LSTM and the event features (datetimes, in Python) of every event it holds:
-O(L) per row and step, O(L²) per suffix, and a sampled suffix of a long log (Sepsis: up to 185
+open row, and each row is a row of the step before plus one token. Read from its first event, a
+row costs the LSTM and the event features (datetimes, in Python) of every event it holds: O(L)
+per row and step, O(L²) per suffix, and a sampled suffix of a long log (Sepsis: up to 185
 events) is mostly that. The LSTM's state after a row is all it needs to read one event more, so
 `LSTMCalls` keeps, from one call to the next, each row's state (h, c of every layer), its last
 event's time and its length, and advances a row whose parent (the same row but its last token,
 of the same prefix) the call before held by that one event: its features as `Encoder.features`
-places an appended event (`Encoder.appended_event`, `Encoder.appended_inputs`). A row it does
-not hold (the first call, a prefix given whole) is read whole. Only the last call's rows are
-held: memory is that call's rows × layers × 2 × hidden floats.
+places an appended event (`Encoder.appended_events`, every row at once;
+`Encoder.appended_inputs`). A row it does not hold (the first call, a prefix given whole) is
+read whole. Only the last call's rows are held: memory is that call's rows × layers × 2 × hidden
+floats.
 
 The answer is the whole reading's (`joint_log_probs` without the cache), to float precision:
 tests/test_lstm_calls.py compares the two on random rows, with attributes and inputs.
@@ -19,13 +20,13 @@ tests/test_lstm_calls.py compares the two on random rows, with attributes and in
 from __future__ import annotations
 
 from collections.abc import Sequence
-from datetime import datetime, timedelta
+from datetime import datetime
 
 import numpy as np
 import torch
 
 from tleaf_cli.tasks.next_activity.batch import CaseBatch
-from tleaf_cli.tasks.next_activity.encoding import Encoder
+from tleaf_cli.tasks.next_activity.encoding import Encoder, clock
 from tleaf_cli.tasks.next_activity.model import NextActivityLSTM
 from tleaf_cli.tasks.next_activity.suffix_search import Rows
 
@@ -56,7 +57,9 @@ class LSTMCalls:
         self.scores = scores
         self._held: dict[tuple[int, tuple[int, ...]], int] = {}  # (owner, row) -> slot
         self._h = self._c = None  # [layers, held rows, hidden]
-        self._times: list[datetime] = []  # per slot: the row's last event's time
+        self._clocks = np.zeros(0)  # per slot: the row's last event's time (`clock`)
+        self._first = np.array([clock(s[0]) for s in stamps])  # per owner: its first event's
+        self._gaps = np.asarray(encoder.activity_gap, dtype=np.float64)
         self._appended: dict[int, np.ndarray] = {}  # owner -> an appended event's inputs
 
     def __call__(self, rows: Rows) -> np.ndarray:
@@ -71,7 +74,7 @@ class LSTMCalls:
         h = torch.zeros(layers, n, hidden)
         c = torch.zeros(layers, n, hidden)
         last = torch.zeros(n, hidden)
-        times: list[datetime | None] = [None] * n
+        times = np.zeros(n)
         with torch.no_grad():
             for start in range(0, len(whole), WHOLE_CHUNK):
                 part = whole[start : start + WHOLE_CHUNK]
@@ -81,7 +84,7 @@ class LSTMCalls:
                 self._advance(rows, part, [parents[i] for i in part], h, c, last, times)
             out = self.scores(last, n)
         self._held = {(o, row): i for i, (row, o) in enumerate(zip(rows, rows.owners, strict=True))}
-        self._h, self._c, self._times = h, c, times
+        self._h, self._c, self._clocks = h, c, times
         return out
 
     def _read_whole(self, rows: Rows, part, h, c, last, times) -> None:
@@ -104,34 +107,32 @@ class LSTMCalls:
         for i, (activities, _), o in zip(part, decoded, owners, strict=True):
             times[i] = self._last_time(activities.tolist(), o)
 
-    def _last_time(self, activities: list[int], owner: int) -> datetime:
-        """The time `Encoder.features` gives a row's last event."""
+    def _last_time(self, activities: list[int], owner: int) -> float:
+        """The `clock` of the time `Encoder.features` gives a row's last event."""
         stamps = self.stamps[owner]
-        t = stamps[min(len(activities), len(stamps)) - 1]
-        for a in activities[len(stamps) :]:
-            t += timedelta(seconds=self.encoder.activity_gap[a])
-        return t
+        t = clock(stamps[min(len(activities), len(stamps)) - 1])
+        return t + float(self._gaps[activities[len(stamps) :]].sum())
 
     def _advance(self, rows: Rows, part, parents, h, c, last, times) -> None:
         """Rows one event past a row of the last call: that row's state, one LSTM step."""
         activities, values = self.tokens.decode([rows[i][-1] for i in part])
-        features = []
-        for i, a in zip(part, activities.tolist(), strict=True):
-            o = rows.owners[i]
-            parent = parents[len(features)]
-            row, t = self.encoder.appended_event(
-                a, len(rows[i]), self._times[parent], self.stamps[o][0]
-            )
-            times[i] = t
-            if self.encoder.inputs:
-                if o not in self._appended:
-                    known = None if self.inputs is None else self.inputs[o]
-                    self._appended[o] = self.encoder.appended_inputs(known)
-                row = np.concatenate([row, self._appended[o]])
-            features.append(row)
+        owners = [rows.owners[i] for i in part]
+        features, now = self.encoder.appended_events(
+            activities,
+            np.array([len(rows[i]) for i in part]),
+            self._clocks[parents],
+            self._first[owners],
+        )
+        times[part] = now
+        if self.encoder.inputs:
+            for o in set(owners) - set(self._appended):
+                known = None if self.inputs is None else self.inputs[o]
+                self._appended[o] = self.encoder.appended_inputs(known)
+            columns = np.stack([self._appended[o] for o in owners])
+            features = np.concatenate([features, columns], axis=1)
         x = self.model.inputs(
             torch.from_numpy(activities)[:, None],
-            torch.from_numpy(np.stack(features))[:, None],
+            torch.from_numpy(features)[:, None],
             torch.from_numpy(values)[:, None] if self.encoder.attributes else None,
         )
         held = torch.tensor(parents)
