@@ -182,6 +182,23 @@ def page(out: Path, logs: list[str], peers: dict, command: str, inputs: Path | N
         f"- the way chosen on validation at or above the best published approach: {above} of "
         f"{len(summary)} logs.",
         "",
+        "## How to read it",
+        "",
+        "- **Ways** (eval next-activity, docs/event_logs.md): argmax (Tax et al.'s: the most "
+        "probable next activity until the end), beam (width BEAM), MBR (minimum Bayes risk: of "
+        "SAMPLES draws from the model, the one with the highest mean DL similarity to the "
+        'others); "rules": the same under the Declare rules mined on the fold\'s train '
+        'split, a hard filter; "attributes read": the model reads the attributes the CSVs '
+        "drop (INPUTS=1; pipelines/log_attributes.mk), its ways scored alike.",
+        "- **Chosen on val**: per fold, the way (and model) with the best pooled DL similarity "
+        "on the fold's validation cases (the last fifth of its training cases by id), its test "
+        "figure reported; test figures choose nothing. Validation and test disagree on some "
+        "logs (a drift over case ids): the per-fold table shows both.",
+        "- **At the cap**: the share of the chosen way's predicted suffixes that run to the "
+        "cap (a loop) beside the share of true suffixes that long.",
+        "- **Published**: Rama-Maneiro et al.'s per-fold results (their "
+        "suffix_full_results.csv), means over their five folds; their folds are these.",
+        "",
         "## The way chosen on validation, per fold",
         "",
         _table(["log", "fold", "chosen", "val DL per way", "test DL"], details),
