@@ -317,3 +317,21 @@ def test_the_mbr_way_under_the_rules_keeps_them(made, tmp_path):
     assert len(found) > len(rows) // 2
     assert all(keeps(r["prefix"] + r["suffix"]) for r in found)
     assert all(len(r["suffix"]) <= 6 for r in rows)
+
+
+def test_suffixes_that_reach_the_cap_are_counted(made, tmp_path):
+    out = tmp_path / "p.parquet"
+    settings = PredictSettings(prefix_lengths="1-2", max_suffix=1, samples=0, way="argmax")
+    summary = predict_cases(made["run"], made["cases"], out, settings)
+    rows = pq.read_table(out).to_pylist()
+    capped = sum(r["suffix"] is not None and len(r["suffix"]) >= 1 for r in rows)
+    assert 0 < summary["suffixes_at_cap"] == capped
+    assert summary["true_at_cap"] == sum(len(r["true_suffix"]) >= 1 for r in rows)
+    result = runner.invoke(
+        app,
+        ["predict", str(made["run"]), str(made["cases"]), "--prefix-lengths", "1-2",
+         "--max-suffix", "1", "--samples", "0", "--way", "argmax", "-o",
+         str(tmp_path / "q.parquet")],
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert f"{capped} predicted suffixes reach --max-suffix 1" in result.output

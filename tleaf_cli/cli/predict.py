@@ -134,6 +134,15 @@ def predict(
         f"{1000 * summary['seconds'] / max(rows, 1):.1f} ms per prefix",
         quiet,
     )
+    if summary["suffixes_at_cap"]:
+        true = summary["true_at_cap"]
+        ui.summary(
+            f"warning: {summary['suffixes_at_cap']} predicted suffixes reach --max-suffix "
+            f"{settings.max_suffix}, most likely a loop"
+            + ("" if true is None else f" (true suffixes that long: {true})")
+            + "; --way mbr rarely does",
+            quiet,
+        )
 
 
 SHOWN_VIDEOS = 8  # videos the terminal's table shows

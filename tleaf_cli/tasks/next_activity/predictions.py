@@ -106,7 +106,8 @@ def predict_cases(
     """Predict every running case of `cases_path` (or of its `split`; with
     `settings.prefix_lengths`, its cases replayed as running) and write the `predictions`
     artifact to `out`, atomically; a summary: rows, predicted, the rule names, the first
-    predictions, seconds. InputError, nothing written, for a folder that is not a
+    predictions, seconds, the predicted suffixes that reach `max_suffix` (and, replayed, the
+    true ones that long). InputError, nothing written, for a folder that is not a
     next-activity run, cases of another preprocessing of the log, no cases to predict, or
     rules that cannot be read."""
     settings = settings or PredictSettings()
@@ -150,6 +151,13 @@ def predict_cases(
         "unseen": dict(predictor.rules.unseen) if predictor.rules is not None else {},
         "predictions": predictions,
         "seconds": seconds,
+        # a predicted rest of the case that runs to the cap is most likely a loop (eval's at_cap)
+        "suffixes_at_cap": sum(
+            p.suffix is not None and len(p.suffix) >= settings.max_suffix for p in predictions
+        ),
+        "true_at_cap": None
+        if lengths is None
+        else sum(len(case) - len(prefix) >= settings.max_suffix for case, prefix in pairs),
     }
 
 
