@@ -9,16 +9,20 @@ labelled pairs (`formula_from="labels"`, fixed for the run), or the whole knowle
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import torch
 
-from tleaf_cli.embed.embedder import Embedder
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
 from tleaf_cli.losses import logic_loss, pair_log_probs
 from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.settings.action_recognition import TaskSettings
 from tleaf_cli.tasks.action_recognition.activities import UNLABELLED, Activities
 from tleaf_cli.tasks.action_recognition.batch import Batch
+
+if TYPE_CHECKING:  # torch-geometric's 2 s of import only where the tleaf loss loads one
+    from tleaf_cli.embed.embedder import Embedder
 
 GRADIENT_LOSSES = ("tleaf", "exact")  # the losses unlabelled videos can teach through
 

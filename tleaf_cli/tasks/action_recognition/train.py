@@ -49,7 +49,6 @@ import numpy as np
 import torch
 from torch.nn import functional as F
 
-from tleaf_cli.embed.load import load_embedder
 from tleaf_cli.errors import InputError, SettingError
 from tleaf_cli.knowledge.base import read_knowledge_base
 from tleaf_cli.knowledge.rule_sets import KnowledgeRuleSets
@@ -107,6 +106,9 @@ class ActionRecognitionTrainer(TaskTrainer[tuple[Batch, Batch | None, float], Ta
         self.checker_rules = KnowledgeRuleSets(self.kb, vocabulary)
         self.embedder, coverage, recommended = None, None, None
         if settings.logic_loss == "tleaf":
+            # torch-geometric (3.4 s of import) only where the tleaf loss needs the embedder
+            from tleaf_cli.embed.load import load_embedder
+
             self.embedder = load_embedder(self.inputs.embedder)
             coverage = check_q_covers(self.kb, self.embedder.vectors.index, self.inputs.embedder)
             self.embedder.model.to(self.device)

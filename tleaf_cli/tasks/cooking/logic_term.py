@@ -30,12 +30,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import torch
 
 from tleaf_cli.data.compile_dfas import CompileSettings
-from tleaf_cli.embed.embedder import Embedder
 from tleaf_cli.errors import SettingError
 from tleaf_cli.knowledge.base import KnowledgeBase
 from tleaf_cli.knowledge.base import Rule as KbRule
@@ -46,6 +46,9 @@ from tleaf_cli.rule_set import RuleSet
 from tleaf_cli.tasks.cooking.domain import Domain
 from tleaf_cli.tasks.cooking.knowledge import knowledge_base
 from tleaf_cli.tasks.cooking.rules import NUM_SLOTS, ActionCodec, EpisodeRules
+
+if TYPE_CHECKING:  # torch-geometric's 2 s of import only where the tleaf loss loads one
+    from tleaf_cli.embed.embedder import Embedder
 
 GRADIENT_LOSSES = ("tleaf", "exact")
 
