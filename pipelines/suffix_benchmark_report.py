@@ -205,7 +205,8 @@ def page(out: Path, logs: list[str], peers: dict, command: str, inputs: Path | N
         "",
         "## Cost",
         "",
-        "Every command of the log's folds (training, mining, both evaluations), as "
+        "Every command of the log's folds (training, mining, both evaluations; both models where "
+        "the attributes were read too), on 2 cores shared by the runs, as "
         "pipelines/timed-tleaf measured them.",
         "",
         _table(["log", "folds", "wall (min, summed)", "CPU (min)"], costs),
