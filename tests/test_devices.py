@@ -132,6 +132,7 @@ def test_train_task_runs_on_the_device(loss: str, tmp_path: Path, monkeypatch) -
     from typer.testing import CliRunner
 
     from tleaf_cli.cli import app
+    from tleaf_cli.embed import load as embed_load
     from tleaf_cli.tasks.action_recognition import train
 
     data, kb_path = tmp_path / "act.parquet", tmp_path / "kb.ltl"
@@ -143,7 +144,8 @@ def test_train_task_runs_on_the_device(loss: str, tmp_path: Path, monkeypatch) -
     assert result.exit_code == 0, result.output
     activities = read_activities(data)
     vocabulary = pair_vocabulary(activities.actions, activities.ingredients)
-    monkeypatch.setattr(train, "load_embedder", lambda _: monitored_embedder(vocabulary))
+    # train imports load_embedder where the tleaf loss needs it: patched at its source
+    monkeypatch.setattr(embed_load, "load_embedder", lambda _: monitored_embedder(vocabulary))
     settings = train.TaskSettings(
         logic_loss=loss, lam=1.0, hidden=8, head_hidden=4, epochs=2, device=DEVICE,
         decode="constrained", decode_top_k=3,
