@@ -81,18 +81,14 @@ grid = $(or $(GRID_$(1)),$(GRID))
 # the XES's cases under the benchmark CSV's case ids (pipelines/rm_case_ids.py): the folds are
 # the benchmark's, case for case (SMALL: the sample's own ids)
 define LOG
+ifeq ($(SMALL),1)
 $(OUT)/$(1)/xes.parquet: $(call log_xes,$(1))
 	@mkdir -p $$(@D)
 	$(TLEAF) read-log $$< $(call reads,$(1)) -o $$@ -q
-ifeq ($(SMALL),1)
 $(OUT)/$(1)/cases.parquet: $(OUT)/$(1)/xes.parquet
 	cp $$< $$@
 else
-$(OUT)/$(1)/csv.parquet: $(call log_csv,$(1))
-	@mkdir -p $$(@D)
-	$(TLEAF) read-log $$< -o $$@ -q
-$(OUT)/$(1)/cases.parquet: $(OUT)/$(1)/xes.parquet $(OUT)/$(1)/csv.parquet pipelines/rm_case_ids.py
-	$(PYTHON) pipelines/rm_case_ids.py $$(wordlist 1,2,$$^) -o $$@
+$(call XES_CASES,$(OUT)/$(1),$(1))
 endif
 endef
 $(foreach l,$(LOGS),$(eval $(call LOG,$(l))))

@@ -31,3 +31,17 @@ reads = $(if $(EVENT_$(1)),--attributes $(call csv,$(EVENT_$(1)))) \
     $(if $(CASE_$(1)),--case-attributes $(call csv,$(CASE_$(1))))
 inputs = $(if $(INPUTS_$(1)),--inputs $(call csv,$(INPUTS_$(1)))) \
     $(if $(NUMERIC_$(1)),--numeric-inputs $(call csv,$(NUMERIC_$(1))))
+
+# The log $(2)'s XES cases, its attributes kept (`reads`), under the benchmark CSV's case ids
+# (pipelines/rm_case_ids.py: the benchmark's folds, case for case): $(1)/cases.parquet, from
+# $(1)/xes.parquet and $(1)/csv.parquet (the including pipeline defines log_xes and log_csv).
+define XES_CASES
+$(1)/xes.parquet: $(call log_xes,$(2))
+	@mkdir -p $$(@D)
+	$(TLEAF) read-log $$< $(call reads,$(2)) -o $$@ -q
+$(1)/csv.parquet: $(call log_csv,$(2))
+	@mkdir -p $$(@D)
+	$(TLEAF) read-log $$< -o $$@ -q
+$(1)/cases.parquet: $(1)/xes.parquet $(1)/csv.parquet pipelines/rm_case_ids.py
+	$(PYTHON) pipelines/rm_case_ids.py $$(wordlist 1,2,$$^) -o $$@
+endef

@@ -85,14 +85,7 @@ $(OUT)/$(1)/cases.parquet: $(call log_csv,$(1))
 	@mkdir -p $$(@D)
 	$(TLEAF) read-log $$< -o $$@ -q
 else
-$(OUT)/$(1)/xes.parquet: $(call log_xes,$(1))
-	@mkdir -p $$(@D)
-	$(TLEAF) read-log $$< $(call reads,$(1)) -o $$@ -q
-$(OUT)/$(1)/csv.parquet: $(call log_csv,$(1))
-	@mkdir -p $$(@D)
-	$(TLEAF) read-log $$< -o $$@ -q
-$(OUT)/$(1)/cases.parquet: $(OUT)/$(1)/xes.parquet $(OUT)/$(1)/csv.parquet pipelines/rm_case_ids.py
-	$(PYTHON) pipelines/rm_case_ids.py $$(wordlist 1,2,$$^) -o $$@
+$(call XES_CASES,$(OUT)/$(1),$(1))
 endif
 $(OUT)/$(1)/longest.txt: $(OUT)/$(1)/cases.parquet
 	$(PYTHON) $(REPORT) --longest $$< > $$@.tmp && mv $$@.tmp $$@
